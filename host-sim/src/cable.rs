@@ -125,6 +125,7 @@ pub fn cable_force(
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::panic)]
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
@@ -220,7 +221,13 @@ mod tests {
         let p = Vector3::new(1.0, 2.0, 3.0);
         let mut zero_rest = params(f64::INFINITY);
         zero_rest.rest_length_m = 0.0;
-        let f = cable_force(p, Vector3::new(1.0, 0.0, 0.0), p, Vector3::zeros(), &zero_rest);
+        let f = cable_force(
+            p,
+            Vector3::new(1.0, 0.0, 0.0),
+            p,
+            Vector3::zeros(),
+            &zero_rest,
+        );
         assert_eq!(f.tension_n, 0.0);
         assert_eq!(f.on_uav_n, Vector3::zeros());
         assert_eq!(f.length_m, 0.0);
@@ -290,14 +297,14 @@ mod tests {
             0.0..200.0,
             prop_oneof![Just(f64::INFINITY), 0.0..500.0],
         )
-            .prop_map(|(rest_length_m, stiffness_n_per_m, damping_ns_per_m, f_max_n)| {
-                CableParams {
+            .prop_map(
+                |(rest_length_m, stiffness_n_per_m, damping_ns_per_m, f_max_n)| CableParams {
                     rest_length_m,
                     stiffness_n_per_m,
                     damping_ns_per_m,
                     f_max_n,
-                }
-            })
+                },
+            )
     }
 
     proptest! {

@@ -219,7 +219,7 @@ impl Plant {
             if !(p.mass_kg.is_finite() && p.mass_kg > 0.0) {
                 return Err(PlantError::UavMass { index });
             }
-            if !(p.thrust_max_n >= 0.0) {
+            if p.thrust_max_n.is_nan() || p.thrust_max_n < 0.0 {
                 return Err(PlantError::UavThrustMax { index });
             }
             if !(p.thrust_lag_s.is_finite() && p.thrust_lag_s >= 0.0) {
@@ -309,9 +309,7 @@ impl Plant {
         self.uavs
             .iter()
             .zip(&self.cables)
-            .map(|(u, c)| {
-                cable_force(u.pos_m, u.vel_mps, self.load.pos_m, self.load.vel_mps, c)
-            })
+            .map(|(u, c)| cable_force(u.pos_m, u.vel_mps, self.load.pos_m, self.load.vel_mps, c))
             .collect()
     }
 
@@ -474,6 +472,7 @@ impl Plant {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::panic)]
 mod tests {
     use super::*;
     use nalgebra::Matrix3;
@@ -498,10 +497,16 @@ mod tests {
     /// pre-stretched by a little more than its share of the load's weight.
     fn setup(n: usize, k: f64, b: f64, f_max: f64, lag_s: f64) -> Setup {
         let uavs = vec![
-            UavParams { mass_kg: UAV_MASS_KG, thrust_max_n: 1e4, thrust_lag_s: lag_s };
+            UavParams {
+                mass_kg: UAV_MASS_KG,
+                thrust_max_n: 1e4,
+                thrust_lag_s: lag_s
+            };
             n
         ];
-        let load = LoadParams { mass_kg: LOAD_MASS_KG };
+        let load = LoadParams {
+            mass_kg: LOAD_MASS_KG,
+        };
         let stretch_m = 1.1 * LOAD_MASS_KG * GRAVITY_MPS2 / (n as f64 * k);
         let mut cables = Vec::new();
         let mut uav_pos = Vec::new();
@@ -516,9 +521,18 @@ mod tests {
             let th = 2.0 * core::f64::consts::PI * i as f64 / n as f64;
             let len = rest + stretch_m;
             let z = (len * len - CIRCLE_RADIUS_M * CIRCLE_RADIUS_M).sqrt();
-            uav_pos.push(Vector3::new(CIRCLE_RADIUS_M * th.cos(), CIRCLE_RADIUS_M * th.sin(), z));
+            uav_pos.push(Vector3::new(
+                CIRCLE_RADIUS_M * th.cos(),
+                CIRCLE_RADIUS_M * th.sin(),
+                z,
+            ));
         }
-        Setup { uavs, cables, load, uav_pos }
+        Setup {
+            uavs,
+            cables,
+            load,
+            uav_pos,
+        }
     }
 
     fn plant(s: &Setup, load_pos: Vector3<f64>, substeps: usize) -> Plant {
@@ -548,7 +562,14 @@ mod tests {
     fn load_equilibrium(s: &Setup) -> Vector3<f64> {
         let uncapped = Setup {
             uavs: s.uavs.clone(),
-            cables: s.cables.iter().map(|c| CableParams { f_max_n: f64::INFINITY, ..*c }).collect(),
+            cables: s
+                .cables
+                .iter()
+                .map(|c| CableParams {
+                    f_max_n: f64::INFINITY,
+                    ..*c
+                })
+                .collect(),
             load: s.load,
             uav_pos: s.uav_pos.clone(),
         };
@@ -564,7 +585,8 @@ mod tests {
             for j in 0..3 {
                 let mut dp = Vector3::zeros();
                 dp[j] = eps;
-                let col = (load_static_force(s, p + dp) - load_static_force(s, p - dp)) / (2.0 * eps);
+                let col =
+                    (load_static_force(s, p + dp) - load_static_force(s, p - dp)) / (2.0 * eps);
                 jac.set_column(j, &col);
             }
             match jac.lu().solve(&f) {
@@ -632,7 +654,10 @@ mod tests {
         let eq = load_equilibrium(&s);
         assert!(load_static_force(&s, eq).norm() < 1e-9);
         let mut p = plant(&s, eq - Vector3::new(0.0, 0.0, 0.1), 1);
-        assert!(p.tensions_n().iter().all(|t| *t > 0.0), "cables must start taut");
+        assert!(
+            p.tensions_n().iter().all(|t| *t > 0.0),
+            "cables must start taut"
+        );
         for _ in 0..20_000 {
             // Ideal hover recomputed each step: with one sub-step the UAVs' net force is zero,
             // so they stay pinned.
@@ -641,7 +666,11 @@ mod tests {
         }
         assert!(finite_state(&p));
         for (u, q) in p.uavs.iter().zip(&s.uav_pos) {
-            assert!((u.pos_m - q).norm() < 1e-9, "UAV moved: {}", (u.pos_m - q).norm());
+            assert!(
+                (u.pos_m - q).norm() < 1e-9,
+                "UAV moved: {}",
+                (u.pos_m - q).norm()
+            );
         }
         let speed = p.load.vel_mps.norm();
         let err = (p.load.pos_m - eq).norm();
@@ -693,11 +722,18 @@ mod tests {
         // What the integrator does conserve, to O(h^2) (the one-sided cable's kink at the rest
         // length costs a little at each slack/taut transition): drift < 1e-2 J over 10 s for an
         // internal elastic + kinetic energy of tens of J.
-        assert!(max_shadow_drift_j < 1e-2, "shadow energy drift {max_shadow_drift_j} J");
+        assert!(
+            max_shadow_drift_j < 1e-2,
+            "shadow energy drift {max_shadow_drift_j} J"
+        );
         // The true energy falls only by the scheme's known gravity bias, -g^2 h^2/2 per kg per step.
         let bias_j = 0.5 * GRAVITY_MPS2 * GRAVITY_MPS2 * DT_S * DT_S * 24.0 * 10_000.0;
         let e = p.mechanical_energy_j();
-        assert!((e0 - e - bias_j).abs() < 1e-1, "E fell {} J, bias {bias_j} J", e0 - e);
+        assert!(
+            (e0 - e - bias_j).abs() < 1e-1,
+            "E fell {} J, bias {bias_j} J",
+            e0 - e
+        );
     }
 
     #[test]
@@ -711,14 +747,23 @@ mod tests {
             for _ in 0..10_000 {
                 p.step(&zero, &[], Vector3::zeros(), DT_S);
                 let e = p.mechanical_energy_j();
-                assert!(e <= e_prev + 1e-9 * e_prev.abs(), "spin {spin}: E rose {e_prev} -> {e}");
+                assert!(
+                    e <= e_prev + 1e-9 * e_prev.abs(),
+                    "spin {spin}: E rose {e_prev} -> {e}"
+                );
                 // The modified energy too, with an O(h^2) allowance (observed <= 1e-6 J).
                 let sh = shadow_energy_j(&p, DT_S);
-                assert!(sh <= s_prev + 1e-5, "spin {spin}: shadow rose {s_prev} -> {sh}");
+                assert!(
+                    sh <= s_prev + 1e-5,
+                    "spin {spin}: shadow rose {s_prev} -> {sh}"
+                );
                 e_prev = e;
                 s_prev = sh;
             }
-            assert!(s_prev < s0 - 1.0, "spin {spin}: damping dissipated too little");
+            assert!(
+                s_prev < s0 - 1.0,
+                "spin {spin}: damping dissipated too little"
+            );
         }
     }
 
@@ -726,7 +771,11 @@ mod tests {
     fn cable_forces_conserve_total_momentum() {
         let mut p = free_falling_spinning(B_NS_PER_M, 2.0);
         let momentum = |p: &Plant| -> Vector3<f64> {
-            p.uavs.iter().zip(&p.uav_params).map(|(u, q)| q.mass_kg * u.vel_mps).sum::<Vector3<f64>>()
+            p.uavs
+                .iter()
+                .zip(&p.uav_params)
+                .map(|(u, q)| q.mass_kg * u.vel_mps)
+                .sum::<Vector3<f64>>()
                 + p.load_params.mass_kg * p.load.vel_mps
         };
         let m0 = momentum(&p);
@@ -735,7 +784,11 @@ mod tests {
             p.step(&zero, &[], Vector3::zeros(), DT_S);
         }
         let expected = m0 + 24.0 * gravity_vec_mps2() * 1.0;
-        assert!((momentum(&p) - expected).norm() < 1e-9, "{}", (momentum(&p) - expected).norm());
+        assert!(
+            (momentum(&p) - expected).norm() < 1e-9,
+            "{}",
+            (momentum(&p) - expected).norm()
+        );
     }
 
     #[test]
@@ -790,7 +843,11 @@ mod tests {
 
     fn single_uav(thrust_max_n: f64, lag_s: f64) -> Plant {
         // Slack cable: rest length 10 m, UAV 1 m above the load.
-        let uav = UavParams { mass_kg: UAV_MASS_KG, thrust_max_n, thrust_lag_s: lag_s };
+        let uav = UavParams {
+            mass_kg: UAV_MASS_KG,
+            thrust_max_n,
+            thrust_lag_s: lag_s,
+        };
         let cable = CableParams {
             rest_length_m: 10.0,
             stiffness_n_per_m: K_N_PER_M,
@@ -800,7 +857,9 @@ mod tests {
         match Plant::new(
             vec![uav],
             vec![cable],
-            LoadParams { mass_kg: LOAD_MASS_KG },
+            LoadParams {
+                mass_kg: LOAD_MASS_KG,
+            },
             &[Vector3::new(0.0, 0.0, 1.0)],
             Vector3::zeros(),
             2,
@@ -821,7 +880,12 @@ mod tests {
         let expected = dir * 50.0 / UAV_MASS_KG + gravity_vec_mps2();
         assert!((a - expected).norm() < 1e-9);
         // Overflowing-norm command is still limited, direction kept.
-        p.step(&[Vector3::new(1e300, 0.0, 1e300)], &[], Vector3::zeros(), DT_S);
+        p.step(
+            &[Vector3::new(1e300, 0.0, 1e300)],
+            &[],
+            Vector3::zeros(),
+            DT_S,
+        );
         let t = p.uavs[0].thrust_n;
         assert!((t.norm() - 50.0).abs() < 1e-9 && (t.x - t.z).abs() < 1e-9);
     }
@@ -850,7 +914,12 @@ mod tests {
             assert!(finite_state(&p));
         }
         // Missing command, non-finite external forces, bad dt: defined and finite.
-        p.step(&[], &[Vector3::new(f64::NAN, 0.0, 0.0)], Vector3::new(0.0, f64::INFINITY, 0.0), DT_S);
+        p.step(
+            &[],
+            &[Vector3::new(f64::NAN, 0.0, 0.0)],
+            Vector3::new(0.0, f64::INFINITY, 0.0),
+            DT_S,
+        );
         assert_eq!(p.uavs[0].thrust_n, held);
         assert!(finite_state(&p));
         let before = p.clone();
@@ -889,41 +958,88 @@ mod tests {
     #[test]
     fn new_rejects_invalid_input_and_names_it() {
         let s = setup(3, K_N_PER_M, B_NS_PER_M, 20.0, 0.0);
-        let try_new = |u: Vec<UavParams>, c: Vec<CableParams>, l: LoadParams, pos: &[Vector3<f64>], lp: Vector3<f64>, n: usize| {
-            Plant::new(u, c, l, pos, lp, n).err()
-        };
+        let try_new = |u: Vec<UavParams>,
+                       c: Vec<CableParams>,
+                       l: LoadParams,
+                       pos: &[Vector3<f64>],
+                       lp: Vector3<f64>,
+                       n: usize| { Plant::new(u, c, l, pos, lp, n).err() };
         let z = Vector3::zeros();
         assert_eq!(
-            try_new(s.uavs.clone(), s.cables[..2].to_vec(), s.load, &s.uav_pos, z, 1),
-            Some(PlantError::CountMismatch { uavs: 3, cables: 2, positions: 3 })
+            try_new(
+                s.uavs.clone(),
+                s.cables[..2].to_vec(),
+                s.load,
+                &s.uav_pos,
+                z,
+                1
+            ),
+            Some(PlantError::CountMismatch {
+                uavs: 3,
+                cables: 2,
+                positions: 3
+            })
         );
         let mut u = s.uavs.clone();
         u[1].mass_kg = 0.0;
-        assert_eq!(try_new(u, s.cables.clone(), s.load, &s.uav_pos, z, 1), Some(PlantError::UavMass { index: 1 }));
+        assert_eq!(
+            try_new(u, s.cables.clone(), s.load, &s.uav_pos, z, 1),
+            Some(PlantError::UavMass { index: 1 })
+        );
         let mut u = s.uavs.clone();
         u[2].thrust_max_n = f64::NAN;
-        assert_eq!(try_new(u, s.cables.clone(), s.load, &s.uav_pos, z, 1), Some(PlantError::UavThrustMax { index: 2 }));
+        assert_eq!(
+            try_new(u, s.cables.clone(), s.load, &s.uav_pos, z, 1),
+            Some(PlantError::UavThrustMax { index: 2 })
+        );
         let mut u = s.uavs.clone();
         u[0].thrust_lag_s = -0.1;
-        assert_eq!(try_new(u, s.cables.clone(), s.load, &s.uav_pos, z, 1), Some(PlantError::UavThrustLag { index: 0 }));
         assert_eq!(
-            try_new(s.uavs.clone(), s.cables.clone(), LoadParams { mass_kg: f64::INFINITY }, &s.uav_pos, z, 1),
+            try_new(u, s.cables.clone(), s.load, &s.uav_pos, z, 1),
+            Some(PlantError::UavThrustLag { index: 0 })
+        );
+        assert_eq!(
+            try_new(
+                s.uavs.clone(),
+                s.cables.clone(),
+                LoadParams {
+                    mass_kg: f64::INFINITY
+                },
+                &s.uav_pos,
+                z,
+                1
+            ),
             Some(PlantError::LoadMass)
         );
         let mut c = s.cables.clone();
         c[1].stiffness_n_per_m = f64::NAN;
-        assert_eq!(try_new(s.uavs.clone(), c, s.load, &s.uav_pos, z, 1), Some(PlantError::Cable { index: 1 }));
+        assert_eq!(
+            try_new(s.uavs.clone(), c, s.load, &s.uav_pos, z, 1),
+            Some(PlantError::Cable { index: 1 })
+        );
         let mut pos = s.uav_pos.clone();
         pos[2].y = f64::NAN;
-        assert_eq!(try_new(s.uavs.clone(), s.cables.clone(), s.load, &pos, z, 1), Some(PlantError::UavPosition { index: 2 }));
         assert_eq!(
-            try_new(s.uavs.clone(), s.cables.clone(), s.load, &s.uav_pos, Vector3::new(f64::NAN, 0.0, 0.0), 1),
+            try_new(s.uavs.clone(), s.cables.clone(), s.load, &pos, z, 1),
+            Some(PlantError::UavPosition { index: 2 })
+        );
+        assert_eq!(
+            try_new(
+                s.uavs.clone(),
+                s.cables.clone(),
+                s.load,
+                &s.uav_pos,
+                Vector3::new(f64::NAN, 0.0, 0.0),
+                1
+            ),
             Some(PlantError::LoadPosition)
         );
         let err = try_new(s.uavs.clone(), s.cables.clone(), s.load, &s.uav_pos, z, 0);
         assert_eq!(err, Some(PlantError::ZeroSubsteps));
         assert!(PlantError::ZeroSubsteps.to_string().contains("substeps"));
-        assert!(PlantError::UavMass { index: 1 }.to_string().contains("UAV 1"));
+        assert!(PlantError::UavMass { index: 1 }
+            .to_string()
+            .contains("UAV 1"));
         // Unlimited thrust and cable cap are accepted.
         let mut u = s.uavs.clone();
         u[0].thrust_max_n = f64::INFINITY;

@@ -1,23 +1,29 @@
 //! PNG plots of a run (and of two runs side by side), drawn with `plotters`.
 //!
-//! Text is rendered with DejaVu Sans embedded in the binary (crate `dejavu`) through
-//! plotters' `ab_glyph` backend, so no system fonts, fontconfig or freetype are needed.
-//! Non-finite samples are skipped (lines are broken there); empty records give plots
-//! with empty axes and a "no samples" note.
+//! Fonts: DejaVu Sans is embedded in the binary (crate `dejavu`), so nothing is needed from
+//! the machine (no system fonts, fontconfig or freetype). It is registered with plotters'
+//! `ab_glyph` backend, but all visible text is rasterised here with `ab_glyph` directly
+//! ([`Label`]): plotters 0.3.7's `ab_glyph` text path drops each glyph's left side bearing,
+//! which gives visibly uneven letter spacing.
+//!
+//! Non-finite samples are skipped (lines are broken there); empty records give plots with
+//! empty axes and a "no samples recorded" note.
 
 use std::error::Error;
 use std::fmt;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use ab_glyph::{point, Font, FontRef, Glyph, PxScale, ScaleFont};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
 use crate::record::{RunRecord, SceneGeometry};
 
-/// Font family name under which the embedded font is registered.
+/// Font family name under which the embedded font is registered with plotters.
 const FONT: &str = "sans-serif";
 /// Safety floor drawn on the distance plot, m.
 const SAFETY_FLOOR_M: f64 = 0.4;
@@ -29,6 +35,11 @@ const N_SNAPSHOTS: usize = 6;
 const LEGEND_W: u32 = 230;
 /// Pixel size of a time-series panel (without the legend column).
 const TS_PANEL: (u32, u32) = (1180, 620);
+/// Text sizes, px.
+const TITLE_PX: f32 = 26.0;
+const SUPTITLE_PX: f32 = 30.0;
+const TICK_PX: f32 = 16.0;
+const DESC_PX: f32 = 20.0;
 
 /// A plot could not be written.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -41,13 +52,21 @@ pub struct PlotError {
 
 impl PlotError {
     fn new(path: &Path, message: impl Into<String>) -> Self {
-        Self { path: path.to_path_buf(), message: message.into() }
+        Self {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
     }
 }
 
 impl fmt::Display for PlotError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "cannot write plot {}: {}", self.path.display(), self.message)
+        write!(
+            f,
+            "cannot write plot {}: {}",
+            self.path.display(),
+            self.message
+        )
     }
 }
 
@@ -55,8 +74,10 @@ impl Error for PlotError {}
 
 type DynResult<T> = Result<T, Box<dyn Error>>;
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Chart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-/// Registers the embedded font once; later calls return the first outcome.
+/// Registers the embedded font with plotters once; later calls return the first outcome.
 fn ensure_fonts() -> Result<(), String> {
     static FONTS: OnceLock<Result<(), String>> = OnceLock::new();
     FONTS
@@ -65,7 +86,9 @@ fn ensure_fonts() -> Result<(), String> {
                 .map_err(|_| "embedded DejaVu Sans font is invalid".to_string())?;
             register_font(FONT, FontStyle::Bold, dejavu::sans::bold())
                 .map_err(|_| "embedded DejaVu Sans Bold font is invalid".to_string())?;
-            Ok(())
+            face(false)
+                .map(|_| ())
+                .ok_or_else(|| "embedded DejaVu Sans font is invalid".to_string())
         })
         .clone()
 }
@@ -81,52 +104,52 @@ pub fn write_run_plots(
     let mut out = Vec::with_capacity(4);
 
     let path = dir.join("top_view.png");
-    render(&path, top_view_size(&top_view_bounds(scene, &[rec]), 1), |root| {
-        let (panel, legend) = root.split_horizontally(root.dim_in_pixel().0.saturating_sub(LEGEND_W));
-        let title = format!("Top view - scenario: {}, controller: {}", rec.scenario, rec.controller);
-        draw_top_panel(&panel, scene, rec, &top_view_bounds(scene, &[rec]), &title)?;
+    let bounds = top_view_bounds(scene, &[rec]);
+    render(&path, top_view_size(&bounds, 1), |root| {
+        let (panel, legend) =
+            root.split_horizontally(root.dim_in_pixel().0.saturating_sub(LEGEND_W));
+        let title = format!(
+            "Top view - scenario: {}, controller: {}",
+            rec.scenario, rec.controller
+        );
+        draw_top_panel(&panel, scene, rec, &bounds, &title)?;
         draw_legend(&legend, &top_view_legend(scene, rec), 60)
     })?;
     out.push(path);
 
-    let path = dir.join("tensions.png");
-    render(&path, (TS_PANEL.0 + LEGEND_W, TS_PANEL.1), |root| {
-        let (panel, legend) = root.split_horizontally(TS_PANEL.0);
-        let plot = tension_plot(rec);
-        let (xr, yr) = plot.ranges(&[]);
-        let title = format!("Cable tensions - {} / {}", rec.scenario, rec.controller);
-        draw_time_panel(&panel, &title, &plot, xr, yr)?;
-        draw_legend(&legend, &plot.legend(), 60)
-    })?;
-    out.push(path);
-
-    let path = dir.join("distances.png");
-    render(&path, (TS_PANEL.0 + LEGEND_W, TS_PANEL.1), |root| {
-        let (panel, legend) = root.split_horizontally(TS_PANEL.0);
-        let plot = distance_plot(rec);
-        let (xr, yr) = plot.ranges(&[]);
-        let title = format!("Clearances - {} / {}", rec.scenario, rec.controller);
-        draw_time_panel(&panel, &title, &plot, xr, yr)?;
-        draw_legend(&legend, &plot.legend(), 60)
-    })?;
-    out.push(path);
-
-    let path = dir.join("load_altitude.png");
-    render(&path, (TS_PANEL.0 + LEGEND_W, TS_PANEL.1), |root| {
-        let (panel, legend) = root.split_horizontally(TS_PANEL.0);
-        let plot = altitude_plot(rec);
-        let (xr, yr) = plot.ranges(&[]);
-        let title = format!("Load altitude - {} / {}", rec.scenario, rec.controller);
-        draw_time_panel(&panel, &title, &plot, xr, yr)?;
-        draw_legend(&legend, &plot.legend(), 60)
-    })?;
-    out.push(path);
-
+    let (scenario, controller) = (&rec.scenario, &rec.controller);
+    let time_plots = [
+        (
+            "tensions.png",
+            format!("Cable tensions - {scenario} / {controller}"),
+            tension_plot(rec),
+        ),
+        (
+            "distances.png",
+            format!("Clearances - {scenario} / {controller}"),
+            distance_plot(rec),
+        ),
+        (
+            "load_altitude.png",
+            format!("Load altitude - {scenario} / {controller}"),
+            altitude_plot(rec),
+        ),
+    ];
+    for (name, title, plot) in &time_plots {
+        let path = dir.join(name);
+        render(&path, (TS_PANEL.0 + LEGEND_W, TS_PANEL.1), |root| {
+            let (panel, legend) = root.split_horizontally(TS_PANEL.0);
+            let (xr, yr) = plot.ranges(&[]);
+            draw_time_panel(&panel, title, plot, xr, yr)?;
+            draw_legend(&legend, &plot.legend(), 60)
+        })?;
+        out.push(path);
+    }
     Ok(out)
 }
 
 /// Writes `compare_top_view.png` and `compare_tensions.png` into `dir` (created if missing):
-/// runs `a` (left) and `b` (right) on identical axes. Returns the paths.
+/// runs `a` (left panel) and `b` (right panel) on identical axes. Returns the paths.
 pub fn write_comparison_plots(
     dir: &Path,
     scene: &SceneGeometry,
@@ -145,35 +168,57 @@ pub fn write_comparison_plots(
     let bounds = top_view_bounds(scene, &[a, b]);
     render(&path, top_view_size(&bounds, 2), |root| {
         let (w, _) = root.dim_in_pixel();
-        let body = root.titled(
-            &format!("Top view - scenario: {scenario}: {} vs {}", a.controller, b.controller),
-            (FONT, 30).into_font().style(FontStyle::Bold),
-        )?;
+        let title = format!(
+            "Top view - scenario: {scenario} - {} vs {}",
+            a.controller, b.controller
+        );
+        let body = titled(root, &title, SUPTITLE_PX)?;
         let (panels, legend) = body.split_horizontally(w.saturating_sub(LEGEND_W));
-        let halves = panels.split_evenly((1, 2));
-        for (half, rec) in halves.iter().zip([a, b]) {
-            draw_top_panel(half, scene, rec, &bounds, &format!("controller: {}", rec.controller))?;
+        for (half, rec) in panels.split_evenly((1, 2)).iter().zip([a, b]) {
+            draw_top_panel(
+                half,
+                scene,
+                rec,
+                &bounds,
+                &format!("controller: {}", rec.controller),
+            )?;
         }
-        draw_legend(&legend, &top_view_legend(scene, a), 40)
+        let widest = if n_uavs(b) > n_uavs(a) { b } else { a };
+        draw_legend(&legend, &top_view_legend(scene, widest), 40)
     })?;
     out.push(path);
 
     let path = dir.join("compare_tensions.png");
-    let plots = [tension_plot(a), tension_plot(b)];
-    let (xr, yr) = plots[0].ranges(&plots[1..]);
+    let (pa, pb) = (tension_plot(a), tension_plot(b));
+    let (xr, yr) = pa.ranges(std::slice::from_ref(&pb));
     let panel_w = 1000u32;
     render(&path, (2 * panel_w + LEGEND_W, TS_PANEL.1 + 50), |root| {
-        let body = root.titled(
-            &format!("Cable tensions - scenario: {scenario}: {} vs {}", a.controller, b.controller),
-            (FONT, 30).into_font().style(FontStyle::Bold),
-        )?;
+        let title = format!(
+            "Cable tensions - scenario: {scenario} - {} vs {}",
+            a.controller, b.controller
+        );
+        let body = titled(root, &title, SUPTITLE_PX)?;
         let (panels, legend) = body.split_horizontally(2 * panel_w);
-        let halves = panels.split_evenly((1, 2));
-        for ((half, plot), rec) in halves.iter().zip(&plots).zip([a, b]) {
-            draw_time_panel(half, &format!("controller: {}", rec.controller), plot, xr.clone(), yr.clone())?;
+        for ((half, plot), rec) in panels
+            .split_evenly((1, 2))
+            .iter()
+            .zip([&pa, &pb])
+            .zip([a, b])
+        {
+            draw_time_panel(
+                half,
+                &format!("controller: {}", rec.controller),
+                plot,
+                xr.clone(),
+                yr.clone(),
+            )?;
         }
-        let longer = if plots[1].series.len() > plots[0].series.len() { &plots[1] } else { &plots[0] };
-        draw_legend(&legend, &longer.legend(), 40)
+        let widest = if pb.series.len() > pa.series.len() {
+            &pb
+        } else {
+            &pa
+        };
+        draw_legend(&legend, &widest.legend(), 40)
     })?;
     out.push(path);
 
@@ -201,6 +246,321 @@ fn render(
     res.map_err(|e| PlotError::new(path, e.to_string()))
 }
 
+// ---------------------------------------------------------------- text
+
+/// Embedded DejaVu Sans (regular or bold), parsed once.
+fn face(bold: bool) -> Option<&'static FontRef<'static>> {
+    static FACES: OnceLock<(Option<FontRef<'static>>, Option<FontRef<'static>>)> = OnceLock::new();
+    let (regular, heavy) = FACES.get_or_init(|| {
+        (
+            FontRef::try_from_slice(dejavu::sans::regular()).ok(),
+            FontRef::try_from_slice(dejavu::sans::bold()).ok(),
+        )
+    });
+    if bold {
+        heavy.as_ref().or(regular.as_ref())
+    } else {
+        regular.as_ref()
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum HAlign {
+    Left,
+    Center,
+    Right,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum VAlign {
+    Top,
+    Center,
+    Bottom,
+}
+
+/// How a [`Label`] looks and where its anchor sits on the text box.
+#[derive(Debug, Clone, Copy)]
+struct Txt {
+    size: f32,
+    bold: bool,
+    color: RGBColor,
+    h: HAlign,
+    v: VAlign,
+    /// Rotated 90 degrees counter-clockwise (reads bottom to top).
+    vertical: bool,
+    /// White outline, for text drawn over data.
+    halo: bool,
+}
+
+impl Txt {
+    fn new(size: f32, h: HAlign, v: VAlign) -> Self {
+        Self {
+            size,
+            bold: false,
+            color: BLACK,
+            h,
+            v,
+            vertical: false,
+            halo: false,
+        }
+    }
+    fn bold(self) -> Self {
+        Self { bold: true, ..self }
+    }
+    fn color(self, color: RGBColor) -> Self {
+        Self { color, ..self }
+    }
+    fn vertical(self) -> Self {
+        Self {
+            vertical: true,
+            ..self
+        }
+    }
+    fn halo(self) -> Self {
+        Self { halo: true, ..self }
+    }
+}
+
+/// Text laid out on a baseline at y = 0, starting at x = 0.
+struct Laid {
+    glyphs: Vec<Glyph>,
+    width: f32,
+    ascent: f32,
+    descent: f32,
+}
+
+fn lay_out(font: &FontRef<'static>, size: f32, text: &str) -> Laid {
+    let scale = PxScale::from(size);
+    let sf = font.as_scaled(scale);
+    let mut caret = 0.0f32;
+    let mut prev = None;
+    let mut glyphs = Vec::with_capacity(text.len());
+    for c in text.chars() {
+        let id = sf.glyph_id(c);
+        if let Some(p) = prev {
+            caret += sf.kern(p, id);
+        }
+        glyphs.push(id.with_scale_and_position(scale, point(caret, 0.0)));
+        caret += sf.h_advance(id);
+        prev = Some(id);
+    }
+    Laid {
+        glyphs,
+        width: caret,
+        ascent: sf.ascent(),
+        descent: sf.descent(),
+    }
+}
+
+/// Advance width of `text` in pixels.
+fn text_width(text: &str, st: &Txt) -> i32 {
+    face(st.bold).map_or(0, |f| lay_out(f, st.size, text).width.ceil() as i32)
+}
+
+/// A line of text, anchored at `pos` (pixel coordinates of the area it is drawn on).
+struct Label {
+    text: String,
+    pos: (i32, i32),
+    st: Txt,
+}
+
+impl Label {
+    fn new(text: impl Into<String>, pos: (i32, i32), st: Txt) -> Self {
+        Self {
+            text: text.into(),
+            pos,
+            st,
+        }
+    }
+}
+
+impl Label {
+    /// Rasterises the text onto `area` (anti-aliased, blended).
+    fn draw_on(&self, area: &Area<'_>) -> DynResult<()> {
+        let Some(font) = face(self.st.bold) else {
+            return Ok(());
+        };
+        let (ax, ay) = self.pos;
+        let laid = lay_out(font, self.st.size, &self.text);
+        let dx = match self.st.h {
+            HAlign::Left => 0.0,
+            HAlign::Center => -laid.width / 2.0,
+            HAlign::Right => -laid.width,
+        };
+        let dy = match self.st.v {
+            VAlign::Top => laid.ascent,
+            VAlign::Center => (laid.ascent + laid.descent) / 2.0,
+            VAlign::Bottom => laid.descent,
+        };
+        // Coverage per pixel in text-local coordinates (x along the text, y down).
+        let mut pixels: Vec<(i32, i32, f32)> = Vec::new();
+        for g in laid.glyphs {
+            if let Some(og) = font.outline_glyph(g) {
+                let b = og.px_bounds();
+                let (x0, y0) = ((b.min.x + dx).round() as i32, (b.min.y + dy).round() as i32);
+                og.draw(|gx, gy, c| {
+                    if c > 0.02 {
+                        let (gx, gy) = (
+                            i32::try_from(gx).unwrap_or(0),
+                            i32::try_from(gy).unwrap_or(0),
+                        );
+                        pixels.push((x0 + gx, y0 + gy, c.min(1.0)));
+                    }
+                });
+            }
+        }
+        let to_screen = |x: i32, y: i32| {
+            if self.st.vertical {
+                (ax + y, ay - x)
+            } else {
+                (ax + x, ay + y)
+            }
+        };
+        if self.st.halo {
+            for &(x, y, c) in &pixels {
+                if c > 0.3 {
+                    for (ox, oy) in [
+                        (-2, 0),
+                        (2, 0),
+                        (0, -2),
+                        (0, 2),
+                        (-1, -1),
+                        (1, -1),
+                        (-1, 1),
+                        (1, 1),
+                    ] {
+                        area.draw_pixel(to_screen(x + ox, y + oy), &WHITE)?;
+                    }
+                }
+            }
+        }
+        for (x, y, c) in pixels {
+            area.draw_pixel(to_screen(x, y), &self.st.color.mix(f64::from(c)))?;
+        }
+        Ok(())
+    }
+}
+
+/// Draws `text` centred at the top of `area`; returns the area below it.
+fn titled<'a>(area: &Area<'a>, text: &str, size: f32) -> DynResult<Area<'a>> {
+    let (w, _) = area.dim_in_pixel();
+    let w = i32::try_from(w).unwrap_or(i32::MAX);
+    Label::new(
+        text,
+        (w / 2, 8),
+        Txt::new(size, HAlign::Center, VAlign::Top).bold(),
+    )
+    .draw_on(area)?;
+    let h = (size * 1.25).ceil() as u32 + 14;
+    Ok(area.split_vertically(h).1)
+}
+
+/// Nice tick values of `range` (the same ones plotters' mesh uses for `n` labels) and their text.
+fn ticks(range: &Range<f64>, n: usize) -> Vec<(f64, String)> {
+    let values: Vec<f64> = RangedCoordf64::from(range.clone()).key_points(n);
+    let step = values
+        .windows(2)
+        .filter_map(|w| match w {
+            [a, b] => Some((b - a).abs()),
+            _ => None,
+        })
+        .fold(f64::INFINITY, f64::min);
+    let decimals = if step.is_finite() && step > 0.0 {
+        (0..=6usize)
+            .find(|&d| {
+                let s = step * 10f64.powi(d as i32);
+                (s - s.round()).abs() < 1e-6 * s.max(1.0)
+            })
+            .unwrap_or(6)
+    } else {
+        1
+    };
+    values
+        .into_iter()
+        .map(|v| {
+            let v = if v.abs() < step * 1e-9 { 0.0 } else { v };
+            (v, format!("{v:.decimals$}"))
+        })
+        .collect()
+}
+
+/// Space to reserve left of the plot for y tick labels and the y axis title.
+fn y_label_area(yr: &Range<f64>, n: usize) -> u32 {
+    let st = Txt::new(TICK_PX, HAlign::Right, VAlign::Center);
+    let widest = ticks(yr, n)
+        .iter()
+        .map(|(_, s)| text_width(s, &st))
+        .max()
+        .unwrap_or(0);
+    u32::try_from(widest.max(0)).unwrap_or(0) + 14 + DESC_PX as u32 + 16
+}
+
+/// Grid, tick marks, tick labels and axis titles of `chart`, which was built on `area`.
+fn draw_axes(
+    area: &Area<'_>,
+    chart: &mut Chart<'_, '_>,
+    (nx, ny): (usize, usize),
+    x_desc: &str,
+    y_desc: &str,
+) -> DynResult<()> {
+    chart
+        .configure_mesh()
+        .x_labels(nx)
+        .y_labels(ny)
+        // Tick text is drawn below with `Label`; plotters only draws grid and tick marks.
+        .x_label_formatter(&|_| String::new())
+        .y_label_formatter(&|_| String::new())
+        .label_style((FONT, TICK_PX))
+        .bold_line_style(RGBColor(220, 220, 220))
+        .light_line_style(RGBColor(244, 244, 244))
+        .axis_style(BLACK.stroke_width(1))
+        .draw()?;
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let (base_x, base_y) = area.get_base_pixel();
+    let (px, py) = chart.plotting_area().get_pixel_range();
+    let local = |p: (i32, i32)| (p.0 - base_x, p.1 - base_y);
+    let (left, bottom) = local((px.start, py.end));
+    let (right, top) = local((px.end, py.start));
+
+    let tick_st = Txt::new(TICK_PX, HAlign::Center, VAlign::Top);
+    for (v, s) in ticks(&xr, nx) {
+        let (x, _) = local(chart.backend_coord(&(v, yr.start)));
+        Label::new(s, (x, bottom + 9), tick_st).draw_on(area)?;
+    }
+    let tick_st = Txt::new(TICK_PX, HAlign::Right, VAlign::Center);
+    let mut widest = 0;
+    for (v, s) in ticks(&yr, ny) {
+        let (_, y) = local(chart.backend_coord(&(xr.start, v)));
+        widest = widest.max(text_width(&s, &tick_st));
+        Label::new(s, (left - 9, y), tick_st).draw_on(area)?;
+    }
+    let desc = Txt::new(DESC_PX, HAlign::Center, VAlign::Top);
+    Label::new(
+        x_desc,
+        ((left + right) / 2, bottom + 12 + TICK_PX as i32 + 6),
+        desc,
+    )
+    .draw_on(area)?;
+    let desc = Txt::new(DESC_PX, HAlign::Center, VAlign::Bottom).vertical();
+    Label::new(y_desc, (left - 9 - widest - 10, (top + bottom) / 2), desc).draw_on(area)?;
+    Ok(())
+}
+
+/// "no samples recorded" in the middle of the plotting area.
+fn draw_no_data(area: &Area<'_>, chart: &Chart<'_, '_>) -> DynResult<()> {
+    let (base_x, base_y) = area.get_base_pixel();
+    let (px, py) = chart.plotting_area().get_pixel_range();
+    let c = (
+        (px.start + px.end) / 2 - base_x,
+        (py.start + py.end) / 2 - base_y,
+    );
+    let st = Txt::new(24.0, HAlign::Center, VAlign::Center)
+        .color(RGBColor(200, 30, 30))
+        .bold();
+    Label::new("no samples recorded", c, st).draw_on(area)?;
+    Ok(())
+}
+
 // ---------------------------------------------------------------- geometry helpers
 
 /// Axis-aligned box accumulated from finite points.
@@ -214,7 +574,12 @@ struct Bounds {
 
 impl Bounds {
     fn empty() -> Self {
-        Self { x0: f64::INFINITY, x1: f64::NEG_INFINITY, y0: f64::INFINITY, y1: f64::NEG_INFINITY }
+        Self {
+            x0: f64::INFINITY,
+            x1: f64::NEG_INFINITY,
+            y0: f64::INFINITY,
+            y1: f64::NEG_INFINITY,
+        }
     }
     fn add(&mut self, x: f64, y: f64) {
         if x.is_finite() && y.is_finite() {
@@ -227,13 +592,23 @@ impl Bounds {
     fn is_valid(&self) -> bool {
         self.x0.is_finite() && self.x1.is_finite() && self.y0.is_finite() && self.y1.is_finite()
     }
-    /// Pads by `frac` of the larger side (at least `min_pad`); a degenerate/empty box becomes usable.
+    /// Pads by `frac` of the larger side (at least `min_pad`); an empty box becomes [-1, 1]^2.
     fn padded(&self, frac: f64, min_pad: f64) -> Self {
         if !self.is_valid() {
-            return Self { x0: -1.0, x1: 1.0, y0: -1.0, y1: 1.0 };
+            return Self {
+                x0: -1.0,
+                x1: 1.0,
+                y0: -1.0,
+                y1: 1.0,
+            };
         }
         let p = ((self.x1 - self.x0).max(self.y1 - self.y0) * frac).max(min_pad);
-        Self { x0: self.x0 - p, x1: self.x1 + p, y0: self.y0 - p, y1: self.y1 + p }
+        Self {
+            x0: self.x0 - p,
+            x1: self.x1 + p,
+            y0: self.y0 - p,
+            y1: self.y1 + p,
+        }
     }
     /// Grows the short side so that a `pw` x `ph` pixel area has the same metres per pixel in x and y.
     fn fit_aspect(&self, pw: u32, ph: u32) -> Self {
@@ -242,7 +617,12 @@ impl Bounds {
         let scale = (dx / pw).max(dy / ph);
         let (cx, cy) = ((self.x0 + self.x1) / 2.0, (self.y0 + self.y1) / 2.0);
         let (hx, hy) = (scale * pw / 2.0, scale * ph / 2.0);
-        Self { x0: cx - hx, x1: cx + hx, y0: cy - hy, y1: cy + hy }
+        Self {
+            x0: cx - hx,
+            x1: cx + hx,
+            y0: cy - hy,
+            y1: cy + hy,
+        }
     }
 }
 
@@ -253,8 +633,12 @@ fn top_view_bounds(scene: &SceneGeometry, recs: &[&RunRecord]) -> Bounds {
         b.add(bx0, by0);
         b.add(bx1, by1);
     }
-    for line in [&scene.centerline, &scene.left_boundary, &scene.right_boundary] {
-        for p in line.iter() {
+    for line in [
+        &scene.centerline,
+        &scene.left_boundary,
+        &scene.right_boundary,
+    ] {
+        for p in line {
             b.add(p[0], p[1]);
         }
     }
@@ -268,23 +652,23 @@ fn top_view_bounds(scene: &SceneGeometry, recs: &[&RunRecord]) -> Bounds {
         for p in &rec.load_pos_m {
             b.add(p[0], p[1]);
         }
-        for row in &rec.uav_pos_m {
-            for p in row {
-                b.add(p[0], p[1]);
-            }
+        for p in rec.uav_pos_m.iter().flatten() {
+            b.add(p[0], p[1]);
         }
     }
     b.padded(0.02, 0.5)
 }
 
-/// Figure size for `panels` top views side by side: height follows the scene's aspect ratio.
+/// Figure size for `panels` top views side by side: the height follows the scene's aspect ratio.
 fn top_view_size(b: &Bounds, panels: u32) -> (u32, u32) {
-    let plot_w: f64 = if panels <= 1 { 1270.0 } else { 1040.0 };
+    let (w, plot_w, overhead) = if panels <= 1 {
+        (1600, 1250.0, 150.0)
+    } else {
+        (2 * 1150 + LEGEND_W, 1030.0, 210.0)
+    };
     let aspect = ((b.y1 - b.y0) / (b.x1 - b.x0).max(1e-9)).clamp(0.05, 20.0);
-    let overhead = if panels <= 1 { 150.0 } else { 200.0 };
-    // Saturating float-to-int cast; clamped to a sane range first.
+    // Clamped to a sane range before the (saturating) float-to-int cast.
     let h = (plot_w * aspect + overhead).clamp(450.0, 1500.0) as u32;
-    let w = if panels <= 1 { 1600 } else { 2 * 1150 + LEGEND_W };
     (w, h)
 }
 
@@ -305,10 +689,29 @@ fn finite_runs(points: impl IntoIterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f6
     runs
 }
 
+/// Drops points closer than `min_step` to the previously kept one (keeps the last point);
+/// avoids ragged thick lines from many sub-pixel segments.
+fn thin_out(run: Vec<(f64, f64)>, min_step: f64) -> Vec<(f64, f64)> {
+    let last = run.last().copied();
+    let mut out: Vec<(f64, f64)> = Vec::with_capacity(run.len());
+    for p in run {
+        match out.last() {
+            Some(q) if (p.0 - q.0).hypot(p.1 - q.1) < min_step => {}
+            _ => out.push(p),
+        }
+    }
+    if let (Some(l), Some(q)) = (last, out.last()) {
+        if *q != l {
+            out.push(l);
+        }
+    }
+    out
+}
+
 fn circle_points(c: [f64; 2], r: f64) -> Vec<(f64, f64)> {
-    (0..64)
+    (0..72)
         .map(|k| {
-            let a = f64::from(k) * std::f64::consts::TAU / 64.0;
+            let a = f64::from(k) * std::f64::consts::TAU / 72.0;
             (c[0] + r * a.cos(), c[1] + r * a.sin())
         })
         .collect()
@@ -320,7 +723,7 @@ fn n_uavs(rec: &RunRecord) -> usize {
     pos.max(ten)
 }
 
-/// Distinct colour for UAV `i` (tab10, then evenly spread hues).
+/// Distinct colour for UAV `i` (tab10, then a golden-ratio hue walk).
 fn uav_color(i: usize) -> RGBColor {
     const TAB10: [RGBColor; 10] = [
         RGBColor(31, 119, 180),
@@ -337,7 +740,6 @@ fn uav_color(i: usize) -> RGBColor {
     match TAB10.get(i) {
         Some(c) => *c,
         None => {
-            // Golden-ratio hue walk for larger teams.
             let h = (i as f64 * 0.618_033_988_75).fract();
             let c = HSLColor(h, 0.7, 0.45).to_backend_color();
             RGBColor(c.rgb.0, c.rgb.1, c.rgb.2)
@@ -360,95 +762,132 @@ fn draw_top_panel(
     bounds: &Bounds,
     title: &str,
 ) -> DynResult<()> {
-    let inner = area.titled(title, (FONT, 26).into_font().style(FontStyle::Bold))?;
-    let builder = |b: &Bounds| -> DynResult<_> {
+    let inner = titled(area, title, TITLE_PX)?;
+    // Tick labels depend on the range only through its magnitude; measure with the padded bounds.
+    let y_area = y_label_area(&(bounds.y0..bounds.y1), 8);
+    let builder = |b: &Bounds| -> DynResult<Chart<'_, '_>> {
         Ok(ChartBuilder::on(&inner)
             .margin_left(10)
             .margin_right(25)
             .margin_top(10)
             .margin_bottom(10)
-            .x_label_area_size(55)
-            .y_label_area_size(70)
+            .x_label_area_size(60)
+            .y_label_area_size(y_area + 10)
             .build_cartesian_2d(b.x0..b.x1, b.y0..b.y1)?)
     };
-    // Measure the plotting area first, then rebuild with equal metres-per-pixel on both axes.
+    // Measure the plotting area first, then rebuild with equal metres per pixel on both axes.
     let (pw, ph) = builder(bounds)?.plotting_area().dim_in_pixel();
     let fitted = bounds.fit_aspect(pw, ph);
     let mut chart = builder(&fitted)?;
-    chart
-        .configure_mesh()
-        .x_desc("x (east) [m]")
-        .y_desc("y (north) [m]")
-        .x_labels((pw / 90).max(3) as usize)
-        .y_labels((ph / 90).max(3) as usize)
-        .label_style((FONT, 16))
-        .axis_desc_style((FONT, 20))
-        .bold_line_style(RGBColor(225, 225, 225))
-        .light_line_style(RGBColor(245, 245, 245))
-        .draw()?;
+    let n_ticks = (((pw / 90).max(3)) as usize, ((ph / 70).max(3)) as usize);
+    draw_axes(&inner, &mut chart, n_ticks, "x (east) [m]", "y (north) [m]")?;
+    let m_per_px = (fitted.x1 - fitted.x0) / f64::from(pw.max(1));
 
     // Obstacles.
     for o in &scene.obstacles {
-        let ok = o.center_m.iter().all(|v| v.is_finite()) && o.radius_m.is_finite() && o.radius_m > 0.0;
+        let ok =
+            o.center_m.iter().all(|v| v.is_finite()) && o.radius_m.is_finite() && o.radius_m > 0.0;
         if ok {
             let pts = circle_points(o.center_m, o.radius_m);
-            chart.draw_series(std::iter::once(Polygon::new(pts.clone(), OBSTACLE_FILL.filled())))?;
+            chart.draw_series(std::iter::once(Polygon::new(
+                pts.clone(),
+                OBSTACLE_FILL.filled(),
+            )))?;
             let mut ring = pts;
             if let Some(first) = ring.first().copied() {
                 ring.push(first);
             }
-            chart.draw_series(std::iter::once(PathElement::new(ring, OBSTACLE_EDGE.stroke_width(1))))?;
+            chart.draw_series(std::iter::once(PathElement::new(
+                ring,
+                OBSTACLE_EDGE.stroke_width(1),
+            )))?;
         }
     }
 
-    // Tube: centreline dashed, boundaries dark.
+    // Tube: centreline dashed and light, boundaries dark.
     for run in finite_runs(scene.centerline.iter().map(|p| (p[0], p[1]))) {
-        chart.draw_series(DashedLineSeries::new(run, 12, 8, CENTERLINE_COLOR.stroke_width(2)))?;
+        chart.draw_series(DashedLineSeries::new(
+            run,
+            12,
+            8,
+            CENTERLINE_COLOR.stroke_width(2),
+        ))?;
     }
     for line in [&scene.left_boundary, &scene.right_boundary] {
         for run in finite_runs(line.iter().map(|p| (p[0], p[1]))) {
-            chart.draw_series(LineSeries::new(run, BOUNDARY_COLOR.stroke_width(3)))?;
+            chart.draw_series(LineSeries::new(
+                thin_out(run, 6.0 * m_per_px),
+                BOUNDARY_COLOR.stroke_width(3),
+            ))?;
         }
     }
 
     // Paths: UAVs thin, load thick on top.
     for i in 0..n_uavs(rec) {
-        let pts = rec.uav_pos_m.iter().map(|row| row.get(i).map_or((f64::NAN, f64::NAN), |p| (p[0], p[1])));
+        let pts = rec
+            .uav_pos_m
+            .iter()
+            .map(|row| row.get(i).map_or((f64::NAN, f64::NAN), |p| (p[0], p[1])));
         for run in finite_runs(pts) {
-            chart.draw_series(LineSeries::new(run, uav_color(i).mix(0.75).stroke_width(1)))?;
+            chart.draw_series(LineSeries::new(
+                thin_out(run, 3.0 * m_per_px),
+                uav_color(i).stroke_width(1),
+            ))?;
         }
     }
     for run in finite_runs(rec.load_pos_m.iter().map(|p| (p[0], p[1]))) {
-        chart.draw_series(LineSeries::new(run, LOAD_COLOR.stroke_width(4)))?;
+        chart.draw_series(LineSeries::new(
+            thin_out(run, 6.0 * m_per_px),
+            LOAD_COLOR.stroke_width(4),
+        ))?;
     }
 
     // Formation snapshots.
+    let (base_x, base_y) = inner.get_base_pixel();
     for k in snapshot_indices(rec) {
-        let Some(row) = rec.uav_pos_m.get(k) else { continue };
-        let uavs: Vec<(usize, (f64, f64))> = row
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (i, (p[0], p[1])))
-            .filter(|(_, (x, y))| x.is_finite() && y.is_finite())
-            .collect();
-        let load = rec.load_pos_m.get(k).map(|p| (p[0], p[1])).filter(|(x, y)| x.is_finite() && y.is_finite());
+        let uavs: Vec<(usize, (f64, f64))> = rec
+            .uav_pos_m
+            .get(k)
+            .map(|row| {
+                row.iter()
+                    .enumerate()
+                    .map(|(i, p)| (i, (p[0], p[1])))
+                    .filter(|(_, (x, y))| x.is_finite() && y.is_finite())
+                    .collect()
+            })
+            .unwrap_or_default();
+        let load = rec
+            .load_pos_m
+            .get(k)
+            .map(|p| (p[0], p[1]))
+            .filter(|(x, y)| x.is_finite() && y.is_finite());
         if uavs.is_empty() && load.is_none() {
             continue;
         }
-        // Order the vertices by angle around their centroid so the polygon is simple.
+        // Vertices ordered by angle around their centroid, so the polygon is simple.
         let n = uavs.len().max(1) as f64;
         let cx = uavs.iter().map(|(_, p)| p.0).sum::<f64>() / n;
         let cy = uavs.iter().map(|(_, p)| p.1).sum::<f64>() / n;
         let mut ring: Vec<(f64, f64)> = uavs.iter().map(|(_, p)| *p).collect();
-        ring.sort_by(|a, b| (a.1 - cy).atan2(a.0 - cx).total_cmp(&(b.1 - cy).atan2(b.0 - cx)));
+        ring.sort_by(|a, b| {
+            (a.1 - cy)
+                .atan2(a.0 - cx)
+                .total_cmp(&(b.1 - cy).atan2(b.0 - cx))
+        });
         if ring.len() >= 3 {
-            chart.draw_series(std::iter::once(Polygon::new(ring.clone(), BLACK.mix(0.08).filled())))?;
+            chart.draw_series(std::iter::once(Polygon::new(
+                ring.clone(),
+                BLACK.mix(0.08).filled(),
+            )))?;
         }
         if let Some(first) = ring.first().copied() {
             ring.push(first);
         }
-        if ring.len() >= 2 {
-            chart.draw_series(std::iter::once(PathElement::new(ring, BLACK.stroke_width(2))))?;
+        if ring.len() >= 3 {
+            chart.draw_series(std::iter::once(PathElement::new(
+                ring,
+                BLACK.stroke_width(2),
+            )))?;
         }
         for (i, p) in &uavs {
             chart.draw_series(std::iter::once(Circle::new(*p, 5, uav_color(*i).filled())))?;
@@ -456,46 +895,79 @@ fn draw_top_panel(
         }
         if let Some(l) = load {
             chart.draw_series(std::iter::once(Circle::new(l, 7, WHITE.filled())))?;
-            chart.draw_series(std::iter::once(Circle::new(l, 7, LOAD_COLOR.stroke_width(3))))?;
+            chart.draw_series(std::iter::once(Circle::new(
+                l,
+                7,
+                LOAD_COLOR.stroke_width(3),
+            )))?;
         }
-        // Time tag above the formation.
-        let top = uavs
+        // Time tag just above the formation.
+        let top_y = uavs
             .iter()
-            .map(|(_, p)| *p)
-            .chain(load)
-            .fold(None::<(f64, f64)>, |acc, p| match acc {
-                Some(a) if a.1 >= p.1 => Some(a),
-                _ => Some(p),
-            });
-        if let (Some(t), Some(top)) = (rec.time_s.get(k).filter(|t| t.is_finite()), top) {
-            let anchor = (load.map_or(cx, |l| l.0), top.1);
-            let style = TextStyle::from((FONT, 17).into_font().style(FontStyle::Bold))
-                .pos(Pos::new(HPos::Center, VPos::Bottom));
-            chart.draw_series(std::iter::once(
-                EmptyElement::at(anchor) + Text::new(format!("t = {t:.1} s"), (0, -10), style),
-            ))?;
+            .map(|(_, p)| p.1)
+            .chain(load.map(|l| l.1))
+            .fold(f64::NEG_INFINITY, f64::max);
+        if let Some(t) = rec.time_s.get(k).filter(|t| t.is_finite()) {
+            let (x, y) = chart.backend_coord(&(load.map_or(cx, |l| l.0), top_y));
+            let st = Txt::new(17.0, HAlign::Center, VAlign::Bottom).bold().halo();
+            Label::new(format!("t = {t:.1} s"), (x - base_x, y - base_y - 9), st)
+                .draw_on(&inner)?;
         }
     }
 
     if rec.load_pos_m.is_empty() && rec.uav_pos_m.is_empty() {
-        let (x, y) = ((fitted.x0 + fitted.x1) / 2.0, (fitted.y0 + fitted.y1) / 2.0);
-        let style = TextStyle::from((FONT, 24)).pos(Pos::new(HPos::Center, VPos::Center)).color(&RED);
-        chart.draw_series(std::iter::once(Text::new("no samples recorded", (x, y), style)))?;
+        draw_no_data(&inner, &chart)?;
     }
     Ok(())
 }
 
-/// Up to `N_SNAPSHOTS` sample indices evenly spread over the run.
+/// Formation snapshot sample indices: first, last and the narrowest moment (smallest
+/// load-boundary distance, else UAV-boundary distance, so the flattened formation is always
+/// shown), with the others spread as evenly as possible in between; `N_SNAPSHOTS` in all
+/// (one more when the narrowest moment is known).
 fn snapshot_indices(rec: &RunRecord) -> Vec<usize> {
     let n = rec.uav_pos_m.len().max(rec.load_pos_m.len());
     if n == 0 {
         return Vec::new();
     }
-    let count = N_SNAPSHOTS.min(n);
-    if count == 1 {
-        return vec![0];
+    let argmin = |v: &[f64]| {
+        v.iter()
+            .take(n)
+            .enumerate()
+            .filter(|(_, d)| d.is_finite())
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(k, _)| k)
+    };
+    let mut fixed = vec![0, n - 1];
+    fixed.extend(argmin(&rec.min_load_boundary_m).or_else(|| argmin(&rec.min_uav_boundary_m)));
+    fixed.sort_unstable();
+    fixed.dedup();
+    // Share the remaining snapshots among the gaps so that sub-gaps come out as equal as possible.
+    let mut gaps: Vec<(usize, usize, usize)> = fixed
+        .windows(2)
+        .filter_map(|w| {
+            if let [a, b] = w {
+                Some((*a, *b, 0))
+            } else {
+                None
+            }
+        })
+        .collect();
+    for _ in 0..N_SNAPSHOTS.saturating_sub(2) {
+        let widest = gaps
+            .iter_mut()
+            .filter(|(a, b, m)| b - a > *m + 1)
+            .max_by(|x, y| ((x.1 - x.0) * (y.2 + 1)).cmp(&((y.1 - y.0) * (x.2 + 1))));
+        match widest {
+            Some(g) => g.2 += 1,
+            None => break,
+        }
     }
-    let mut idx: Vec<usize> = (0..count).map(|k| k * (n - 1) / (count - 1)).collect();
+    let mut idx = fixed;
+    for (a, b, m) in gaps {
+        idx.extend((1..=m).map(|q| a + (b - a) * q / (m + 1)));
+    }
+    idx.sort_unstable();
     idx.dedup();
     idx
 }
@@ -506,17 +978,36 @@ fn top_view_legend(scene: &SceneGeometry, rec: &RunRecord) -> Vec<LegendEntry> {
         e.push(LegendEntry::line("tube boundary", BOUNDARY_COLOR, 3, false));
     }
     if !scene.centerline.is_empty() {
-        e.push(LegendEntry::line("tube centreline", CENTERLINE_COLOR, 2, true));
+        e.push(LegendEntry::line(
+            "tube centreline",
+            CENTERLINE_COLOR,
+            2,
+            true,
+        ));
     }
     if !scene.obstacles.is_empty() {
-        e.push(LegendEntry { label: "obstacle".into(), swatch: Swatch::Fill(OBSTACLE_FILL, OBSTACLE_EDGE) });
+        e.push(LegendEntry {
+            label: "obstacle".into(),
+            swatch: Swatch::Fill(OBSTACLE_FILL, OBSTACLE_EDGE),
+        });
     }
     e.push(LegendEntry::line("load path", LOAD_COLOR, 4, false));
     for i in 0..n_uavs(rec) {
-        e.push(LegendEntry::line(&format!("UAV {}", i + 1), uav_color(i), 2, false));
+        e.push(LegendEntry::line(
+            &format!("UAV {} path", i + 1),
+            uav_color(i),
+            2,
+            false,
+        ));
     }
-    e.push(LegendEntry { label: "formation snapshot".into(), swatch: Swatch::Formation });
-    e.push(LegendEntry { label: "load at snapshot".into(), swatch: Swatch::Ring(LOAD_COLOR) });
+    e.push(LegendEntry {
+        label: "formation snapshot".into(),
+        swatch: Swatch::Formation,
+    });
+    e.push(LegendEntry {
+        label: "load at snapshot".into(),
+        swatch: Swatch::Ring(LOAD_COLOR),
+    });
     e
 }
 
@@ -526,7 +1017,6 @@ struct Series {
     label: String,
     color: RGBColor,
     width: u32,
-    dashed: bool,
     points: Vec<(f64, f64)>,
 }
 
@@ -544,49 +1034,63 @@ struct TimePlot {
     hlines: Vec<HLine>,
     /// Shaded horizontal band `(lo, hi, label)`.
     band: Option<(f64, f64, String)>,
-    /// Values the y range must include (e.g. 0).
+    /// Values the y range must include (e.g. 0); a bound equal to one of them gets no padding.
     y_include: Vec<f64>,
 }
 
-const BAND_COLOR: RGBColor = RGBColor(100, 150, 230);
+const BAND_FILL: RGBColor = RGBColor(222, 232, 250);
+const BAND_EDGE: RGBColor = RGBColor(100, 150, 230);
 
 impl TimePlot {
     /// Common axis ranges covering `self` and `others`.
-    fn ranges(&self, others: &[TimePlot]) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
+    fn ranges(&self, others: &[TimePlot]) -> (Range<f64>, Range<f64>) {
         let mut b = Bounds::empty();
-        let mut y_extra = Bounds::empty();
+        let mut y_lo = f64::INFINITY;
+        let mut y_hi = f64::NEG_INFINITY;
+        let mut extra = |y: f64| {
+            if y.is_finite() {
+                y_lo = y_lo.min(y);
+                y_hi = y_hi.max(y);
+            }
+        };
         for p in std::iter::once(self).chain(others) {
-            for s in &p.series {
-                for &(x, y) in &s.points {
-                    b.add(x, y);
-                }
+            for &(x, y) in p.series.iter().flat_map(|s| &s.points) {
+                b.add(x, y);
             }
-            for h in &p.hlines {
-                y_extra.add(0.0, h.y);
-            }
+            p.hlines.iter().for_each(|h| extra(h.y));
             if let Some((lo, hi, _)) = &p.band {
-                y_extra.add(0.0, *lo);
-                y_extra.add(0.0, *hi);
+                extra(*lo);
+                extra(*hi);
             }
-            for &y in &p.y_include {
-                y_extra.add(0.0, y);
-            }
+            p.y_include.iter().for_each(|&y| extra(y));
         }
-        let (mut x0, mut x1) = if b.is_valid() { (b.x0, b.x1) } else { (0.0, 1.0) };
+        let (mut x0, mut x1) = if b.is_valid() {
+            (b.x0, b.x1)
+        } else {
+            (0.0, 1.0)
+        };
         if x1 - x0 <= 1e-9 {
             x0 -= 0.5;
             x1 += 0.5;
         }
-        let (mut y0, mut y1) = if b.is_valid() { (b.y0, b.y1) } else { (f64::INFINITY, f64::NEG_INFINITY) };
-        if y_extra.is_valid() {
-            y0 = y0.min(y_extra.y0);
-            y1 = y1.max(y_extra.y1);
-        }
+        let (mut y0, mut y1) = if b.is_valid() {
+            (b.y0.min(y_lo), b.y1.max(y_hi))
+        } else {
+            (y_lo, y_hi)
+        };
         if !(y0.is_finite() && y1.is_finite()) {
             (y0, y1) = (0.0, 1.0);
         }
-        let pad = ((y1 - y0) * 0.06).max(0.05);
-        let lo_pad = if self.y_include.iter().any(|&v| v == y0) { 0.0 } else { pad };
+        if y1 - y0 < 1e-6 {
+            y0 -= 0.5;
+            y1 += 0.5;
+        }
+        let pad = (y1 - y0) * 0.06;
+        let lo_pad = if self.y_include.contains(&y0) {
+            0.0
+        } else {
+            pad
+        };
         (x0..x1, (y0 - lo_pad)..(y1 + pad))
     }
 
@@ -594,26 +1098,20 @@ impl TimePlot {
         let mut e: Vec<LegendEntry> = self
             .series
             .iter()
-            .map(|s| LegendEntry::line(&s.label, s.color, s.width.max(2), s.dashed))
+            .map(|s| LegendEntry::line(&s.label, s.color, s.width.max(2), false))
             .collect();
-        e.extend(self.hlines.iter().map(|h| LegendEntry::line(&h.label, h.color, h.width, h.dashed)));
+        e.extend(
+            self.hlines
+                .iter()
+                .map(|h| LegendEntry::line(&h.label, h.color, h.width, h.dashed)),
+        );
         if let Some((_, _, label)) = &self.band {
-            e.push(LegendEntry { label: label.clone(), swatch: Swatch::Fill(BAND_COLOR.mix(0.2).opaque(), BAND_COLOR) });
+            e.push(LegendEntry {
+                label: label.clone(),
+                swatch: Swatch::Fill(BAND_FILL, BAND_EDGE),
+            });
         }
         e
-    }
-}
-
-/// Helper trait: opaque RGB of a colour (for legend swatches).
-trait Opaque {
-    fn opaque(&self) -> RGBColor;
-}
-impl Opaque for RGBAColor {
-    fn opaque(&self) -> RGBColor {
-        // Blend on white, as drawn.
-        let a = self.3.clamp(0.0, 1.0);
-        let f = |c: u8| (f64::from(c) * a + 255.0 * (1.0 - a)).round().clamp(0.0, 255.0) as u8;
-        RGBColor(f(self.0), f(self.1), f(self.2))
     }
 }
 
@@ -627,16 +1125,32 @@ fn tension_plot(rec: &RunRecord) -> TimePlot {
             label: format!("UAV {}", i + 1),
             color: uav_color(i),
             width: 2,
-            dashed: false,
-            points: time_series(&rec.time_s, rec.tension_n.iter().map(|row| row.get(i).copied().unwrap_or(f64::NAN))),
+            points: time_series(
+                &rec.time_s,
+                rec.tension_n
+                    .iter()
+                    .map(|row| row.get(i).copied().unwrap_or(f64::NAN)),
+            ),
         })
         .collect();
-    let hlines = if rec.f_max_n.is_finite() {
-        vec![HLine { label: format!("f_max = {:.1} N", rec.f_max_n), y: rec.f_max_n, color: RED, width: 2, dashed: true }]
+    let hlines = if rec.f_max_n.is_finite() && rec.f_max_n > 0.0 {
+        vec![HLine {
+            label: format!("f_max = {:.1} N", rec.f_max_n),
+            y: rec.f_max_n,
+            color: RED,
+            width: 2,
+            dashed: true,
+        }]
     } else {
         Vec::new()
     };
-    TimePlot { y_desc: "cable tension [N]", series, hlines, band: None, y_include: vec![0.0] }
+    TimePlot {
+        y_desc: "cable tension [N]",
+        series,
+        hlines,
+        band: None,
+        y_include: vec![0.0],
+    }
 }
 
 fn distance_plot(rec: &RunRecord) -> TimePlot {
@@ -644,14 +1158,21 @@ fn distance_plot(rec: &RunRecord) -> TimePlot {
         label: label.into(),
         color,
         width: 2,
-        dashed: false,
         points: time_series(&rec.time_s, v.iter().copied()),
     };
     TimePlot {
         y_desc: "distance [m]",
         series: vec![
-            s("min UAV-boundary", RGBColor(31, 119, 180), &rec.min_uav_boundary_m),
-            s("load-boundary", RGBColor(44, 160, 44), &rec.min_load_boundary_m),
+            s(
+                "min UAV-boundary",
+                RGBColor(31, 119, 180),
+                &rec.min_uav_boundary_m,
+            ),
+            s(
+                "load-boundary",
+                RGBColor(44, 160, 44),
+                &rec.min_load_boundary_m,
+            ),
             s("min UAV-UAV", RGBColor(148, 103, 189), &rec.min_uav_uav_m),
         ],
         hlines: vec![HLine {
@@ -670,8 +1191,18 @@ fn altitude_plot(rec: &RunRecord) -> TimePlot {
     let z = rec.load_altitude_ref_m;
     let (hlines, band) = if z.is_finite() {
         (
-            vec![HLine { label: format!("reference {z:.1} m"), y: z, color: BLACK, width: 2, dashed: false }],
-            Some((z - ALTITUDE_BAND_M, z + ALTITUDE_BAND_M, format!("reference +/- {ALTITUDE_BAND_M:.0} m"))),
+            vec![HLine {
+                label: format!("reference {z:.1} m"),
+                y: z,
+                color: BLACK,
+                width: 2,
+                dashed: false,
+            }],
+            Some((
+                z - ALTITUDE_BAND_M,
+                z + ALTITUDE_BAND_M,
+                format!("reference +/- {ALTITUDE_BAND_M:.0} m"),
+            )),
         )
     } else {
         (Vec::new(), None)
@@ -681,8 +1212,7 @@ fn altitude_plot(rec: &RunRecord) -> TimePlot {
         series: vec![Series {
             label: "load altitude".into(),
             color: RGBColor(31, 119, 180),
-            width: 3,
-            dashed: false,
+            width: 2,
             points: time_series(&rec.time_s, rec.load_pos_m.iter().map(|p| p[2])),
         }],
         hlines,
@@ -695,56 +1225,60 @@ fn draw_time_panel(
     area: &Area<'_>,
     title: &str,
     plot: &TimePlot,
-    xr: std::ops::Range<f64>,
-    yr: std::ops::Range<f64>,
+    xr: Range<f64>,
+    yr: Range<f64>,
 ) -> DynResult<()> {
     let (x0, x1) = (xr.start, xr.end);
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, (FONT, 26).into_font().style(FontStyle::Bold))
+    let inner = titled(area, title, TITLE_PX)?;
+    let (ny, nx) = (8, 12);
+    let mut chart = ChartBuilder::on(&inner)
         .margin_left(10)
         .margin_right(30)
         .margin_top(10)
         .margin_bottom(10)
-        .x_label_area_size(55)
-        .y_label_area_size(75)
+        .x_label_area_size(60)
+        .y_label_area_size(y_label_area(&yr, ny) + 10)
         .build_cartesian_2d(xr, yr)?;
-    chart
-        .configure_mesh()
-        .x_desc("time [s]")
-        .y_desc(plot.y_desc)
-        .label_style((FONT, 16))
-        .axis_desc_style((FONT, 20))
-        .bold_line_style(RGBColor(225, 225, 225))
-        .light_line_style(RGBColor(245, 245, 245))
-        .draw()?;
+    draw_axes(&inner, &mut chart, (nx, ny), "time [s]", plot.y_desc)?;
 
     if let Some((lo, hi, _)) = &plot.band {
-        chart.draw_series(std::iter::once(Rectangle::new([(x0, *lo), (x1, *hi)], BAND_COLOR.mix(0.2).filled())))?;
+        chart.draw_series(std::iter::once(Rectangle::new(
+            [(x0, *lo), (x1, *hi)],
+            BAND_FILL.filled(),
+        )))?;
         for y in [*lo, *hi] {
-            chart.draw_series(DashedLineSeries::new(vec![(x0, y), (x1, y)], 10, 6, BAND_COLOR.stroke_width(1)))?;
+            chart.draw_series(DashedLineSeries::new(
+                vec![(x0, y), (x1, y)],
+                10,
+                6,
+                BAND_EDGE.stroke_width(1),
+            ))?;
         }
     }
     for s in &plot.series {
         for run in finite_runs(s.points.iter().copied()) {
-            if s.dashed {
-                chart.draw_series(DashedLineSeries::new(run, 10, 6, s.color.stroke_width(s.width)))?;
-            } else {
-                chart.draw_series(LineSeries::new(run, s.color.stroke_width(s.width)))?;
-            }
+            chart.draw_series(LineSeries::new(run, s.color.stroke_width(s.width)))?;
         }
     }
     for h in &plot.hlines {
         let pts = vec![(x0, h.y), (x1, h.y)];
         if h.dashed {
-            chart.draw_series(DashedLineSeries::new(pts, 12, 8, h.color.stroke_width(h.width)))?;
+            chart.draw_series(DashedLineSeries::new(
+                pts,
+                12,
+                8,
+                h.color.stroke_width(h.width),
+            ))?;
         } else {
             chart.draw_series(LineSeries::new(pts, h.color.stroke_width(h.width)))?;
         }
     }
-    if plot.series.iter().all(|s| s.points.iter().all(|(x, y)| !(x.is_finite() && y.is_finite()))) {
-        let (ya, yb) = (chart.y_range().start, chart.y_range().end);
-        let style = TextStyle::from((FONT, 24)).pos(Pos::new(HPos::Center, VPos::Center)).color(&RED);
-        chart.draw_series(std::iter::once(Text::new("no samples recorded", ((x0 + x1) / 2.0, (ya + yb) / 2.0), style)))?;
+    if plot.series.iter().all(|s| {
+        s.points
+            .iter()
+            .all(|(x, y)| !(x.is_finite() && y.is_finite()))
+    }) {
+        draw_no_data(&inner, &chart)?;
     }
     Ok(())
 }
@@ -752,7 +1286,11 @@ fn draw_time_panel(
 // ---------------------------------------------------------------- legend column
 
 enum Swatch {
-    Line { color: RGBColor, width: u32, dashed: bool },
+    Line {
+        color: RGBColor,
+        width: u32,
+        dashed: bool,
+    },
     Fill(RGBColor, RGBColor),
     Formation,
     Ring(RGBColor),
@@ -765,31 +1303,46 @@ struct LegendEntry {
 
 impl LegendEntry {
     fn line(label: &str, color: RGBColor, width: u32, dashed: bool) -> Self {
-        Self { label: label.into(), swatch: Swatch::Line { color, width, dashed } }
+        Self {
+            label: label.into(),
+            swatch: Swatch::Line {
+                color,
+                width,
+                dashed,
+            },
+        }
     }
 }
 
-/// Draws `entries` as a framed list in `area` (pixel coordinates), starting `top` px down.
+/// Draws `entries` as a framed list in `area` (its own pixel coordinates), starting `top` px down.
 fn draw_legend(area: &Area<'_>, entries: &[LegendEntry], top: i32) -> DynResult<()> {
     if entries.is_empty() {
         return Ok(());
     }
     let (w, h) = area.dim_in_pixel();
-    let (w, h) = (i32::try_from(w).unwrap_or(i32::MAX), i32::try_from(h).unwrap_or(i32::MAX));
+    let (w, h) = (
+        i32::try_from(w).unwrap_or(i32::MAX),
+        i32::try_from(h).unwrap_or(i32::MAX),
+    );
     let n = i32::try_from(entries.len()).unwrap_or(i32::MAX);
     let row = ((h - top - 20) / n.max(1)).clamp(14, 26);
-    let font = (row - 8).clamp(11, 17);
+    let font = (row - 8).clamp(11, 17) as f32;
+    let shown = n.min((h - top - 12) / row).max(0);
     let (x0, x1, tx) = (16, 50, 60);
-    let height = row * n + 12;
-    area.draw(&Rectangle::new([(4, top), (w - 8, top + height)], WHITE.filled()))?;
-    area.draw(&Rectangle::new([(4, top), (w - 8, top + height)], RGBColor(160, 160, 160).stroke_width(1)))?;
-    for (k, e) in (0..).zip(entries) {
+    let frame = [(4, top), (w - 8, top + row * shown + 12)];
+    area.draw(&Rectangle::new(frame, WHITE.filled()))?;
+    area.draw(&Rectangle::new(
+        frame,
+        RGBColor(160, 160, 160).stroke_width(1),
+    ))?;
+    for (k, e) in (0..shown).zip(entries) {
         let y = top + 6 + row * k + row / 2;
-        if y > h - 4 {
-            break;
-        }
         match e.swatch {
-            Swatch::Line { color, width, dashed } => {
+            Swatch::Line {
+                color,
+                width,
+                dashed,
+            } => {
                 let style = color.stroke_width(width);
                 if dashed {
                     for s in [x0, x0 + 13, x0 + 26] {
@@ -806,10 +1359,18 @@ fn draw_legend(area: &Area<'_>, entries: &[LegendEntry], top: i32) -> DynResult<
             }
             Swatch::Formation => {
                 let d = row / 3;
-                let pts = vec![(x0 + 2, y), ((x0 + x1) / 2, y - d), (x1 - 2, y), ((x0 + x1) / 2, y + d), (x0 + 2, y)];
+                let mid = (x0 + x1) / 2;
+                let pts = vec![
+                    (x0 + 3, y),
+                    (mid, y - d),
+                    (x1 - 3, y),
+                    (mid, y + d),
+                    (x0 + 3, y),
+                ];
+                area.draw(&Polygon::new(pts.clone(), BLACK.mix(0.08).filled()))?;
                 area.draw(&PathElement::new(pts.clone(), BLACK.stroke_width(2)))?;
-                for p in pts.iter().take(4) {
-                    area.draw(&Circle::new(*p, 3, uav_color(0).filled()))?;
+                for (j, p) in pts.iter().take(4).enumerate() {
+                    area.draw(&Circle::new(*p, 3, uav_color(j).filled()))?;
                     area.draw(&Circle::new(*p, 3, BLACK.stroke_width(1)))?;
                 }
             }
@@ -819,15 +1380,33 @@ fn draw_legend(area: &Area<'_>, entries: &[LegendEntry], top: i32) -> DynResult<
                 area.draw(&Circle::new(c, 6, color.stroke_width(3)))?;
             }
         }
-        let style = TextStyle::from((FONT, font)).pos(Pos::new(HPos::Left, VPos::Center));
-        area.draw(&Text::new(e.label.clone(), (tx, y), style))?;
+        Label::new(
+            e.label.as_str(),
+            (tx, y),
+            Txt::new(font, HAlign::Left, VAlign::Center),
+        )
+        .draw_on(area)?;
+    }
+    if shown < n {
+        let st = Txt::new(font, HAlign::Left, VAlign::Top).color(RGBColor(120, 120, 120));
+        Label::new(
+            format!("(+{} more)", n - shown),
+            (tx, top + row * shown + 16),
+            st,
+        )
+        .draw_on(area)?;
     }
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+    #![allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )]
 
     use super::*;
     use crate::record::Obstacle;
@@ -854,7 +1433,9 @@ mod tests {
             let w = half_width(u);
             scene.centerline.push(g);
             scene.left_boundary.push([g[0] + w * n[0], g[1] + w * n[1]]);
-            scene.right_boundary.push([g[0] - w * n[0], g[1] - w * n[1]]);
+            scene
+                .right_boundary
+                .push([g[0] - w * n[0], g[1] - w * n[1]]);
         }
         for j in 0..11 {
             let u = 0.05 + 0.9 * f64::from(j) / 10.0;
@@ -862,7 +1443,10 @@ mod tests {
             let side = if j % 2 == 0 { 1.0 } else { -1.0 };
             let r = 0.8 + 0.3 * f64::from(j % 3);
             let d = side * (half_width(u) + r + 0.3);
-            scene.obstacles.push(Obstacle { center_m: [g[0] + d * n[0], g[1] + d * n[1]], radius_m: r });
+            scene.obstacles.push(Obstacle {
+                center_m: [g[0] + d * n[0], g[1] + d * n[1]],
+                radius_m: r,
+            });
         }
         scene.bounds_m = [-5.0, 65.0, -16.0, 16.0];
 
@@ -876,7 +1460,9 @@ mod tests {
         let n_uav = 10;
         let mut seed = 12345u64;
         let mut noise = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
         };
         for k in 0..=600 {
@@ -897,14 +1483,20 @@ mod tests {
             for i in 0..n_uav {
                 let phi = std::f64::consts::TAU * f64::from(i) / f64::from(n_uav);
                 let (ct, cn) = (a * phi.cos(), b * phi.sin());
-                pos.push([g[0] + ct * tang[0] + cn * n[0], g[1] + ct * tang[1] + cn * n[1], z + 3.0]);
+                pos.push([
+                    g[0] + ct * tang[0] + cn * n[0],
+                    g[1] + ct * tang[1] + cn * n[1],
+                    z + 3.0,
+                ]);
                 ten.push(17.0 + 1.5 * noise() + 2.0 * (1.0 - squeeze) * phi.cos());
             }
             rec.uav_pos_m.push(pos);
             rec.tension_n.push(ten);
-            rec.min_uav_boundary_m.push(half_width(u) - b - 0.1 * noise().abs());
+            rec.min_uav_boundary_m
+                .push(half_width(u) - b - 0.1 * noise().abs());
             rec.min_load_boundary_m.push(half_width(u));
-            rec.min_uav_uav_m.push(2.0 * a * (std::f64::consts::PI / 10.0).sin() * squeeze.max(0.4));
+            rec.min_uav_uav_m
+                .push(2.0 * a * (std::f64::consts::PI / 10.0).sin() * squeeze.max(0.4));
         }
         (scene, rec)
     }
@@ -914,13 +1506,26 @@ mod tests {
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_nanos())
             .unwrap_or(0);
-        std::env::temp_dir().join(format!("host-sim-plots-{tag}-{}-{nanos}", std::process::id()))
+        std::env::temp_dir().join(format!(
+            "host-sim-plots-{tag}-{}-{nanos}",
+            std::process::id()
+        ))
     }
 
     fn assert_png(p: &Path) {
         let bytes = std::fs::read(p).unwrap();
-        assert!(bytes.len() > 10_000, "{} is only {} bytes", p.display(), bytes.len());
-        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{} is not a PNG", p.display());
+        assert!(
+            bytes.len() > 10_000,
+            "{} is only {} bytes",
+            p.display(),
+            bytes.len()
+        );
+        assert_eq!(
+            &bytes[..8],
+            b"\x89PNG\r\n\x1a\n",
+            "{} is not a PNG",
+            p.display()
+        );
     }
 
     #[test]
@@ -940,8 +1545,19 @@ mod tests {
 
         let dir = temp_dir("synthetic");
         let files = write_run_plots(&dir, &scene, &rec).unwrap();
-        let names: Vec<_> = files.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
-        assert_eq!(names, ["top_view.png", "tensions.png", "distances.png", "load_altitude.png"]);
+        let names: Vec<_> = files
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "top_view.png",
+                "tensions.png",
+                "distances.png",
+                "load_altitude.png"
+            ]
+        );
         let cmp = write_comparison_plots(&dir, &scene, &rec, &other).unwrap();
         assert_eq!(cmp.len(), 2);
         for p in files.iter().chain(&cmp) {
@@ -958,7 +1574,11 @@ mod tests {
     #[test]
     fn empty_and_nan_records_do_not_panic() {
         let dir = temp_dir("empty");
-        let empty = RunRecord { f_max_n: f64::INFINITY, load_altitude_ref_m: f64::NAN, ..RunRecord::default() };
+        let empty = RunRecord {
+            f_max_n: f64::INFINITY,
+            load_altitude_ref_m: f64::NAN,
+            ..RunRecord::default()
+        };
         let files = write_run_plots(&dir, &SceneGeometry::default(), &empty).unwrap();
         assert_eq!(files.len(), 4);
         let nan = RunRecord {
@@ -971,12 +1591,25 @@ mod tests {
         };
         let files = write_comparison_plots(&dir, &SceneGeometry::default(), &empty, &nan).unwrap();
         assert_eq!(files.len(), 2);
-        std::fs::remove_dir_all(&dir).unwrap();
+        for p in &files {
+            assert!(std::fs::metadata(p).unwrap().len() > 0);
+        }
+        if std::env::var_os("KEEP_PLOTS").is_none() {
+            std::fs::remove_dir_all(&dir).unwrap();
+        } else {
+            eprintln!("plots kept in {}", dir.display());
+        }
     }
 
     #[test]
     fn equal_aspect_fit() {
-        let b = Bounds { x0: 0.0, x1: 60.0, y0: -10.0, y1: 10.0 }.fit_aspect(1200, 300);
+        let b = Bounds {
+            x0: 0.0,
+            x1: 60.0,
+            y0: -10.0,
+            y1: 10.0,
+        }
+        .fit_aspect(1200, 300);
         let sx = (b.x1 - b.x0) / 1200.0;
         let sy = (b.y1 - b.y0) / 300.0;
         assert!((sx - sy).abs() < 1e-12);

@@ -89,7 +89,9 @@ mod tests {
     #[test]
     fn display_names_the_bad_parameter() {
         assert!(CfoError::InvalidMass.to_string().contains("mass_kg"));
-        assert!(CfoError::InvalidKd { axis: 2 }.to_string().contains("kd[2]"));
+        assert!(CfoError::InvalidKd { axis: 2 }
+            .to_string()
+            .contains("kd[2]"));
         assert!(CfoError::BandwidthTooHighForPeriod { mu_h: 0.8 }
             .to_string()
             .contains("bandwidth_rad_s * period_s"));

@@ -236,7 +236,11 @@ impl Cfo {
             // First measurement since new()/reset(), or the first after skipped steps.
             let after_skip = self.status == Status::InvalidInput;
             self.seed(v_meas_mps, thrust_applied_n);
-            self.status = if after_skip { Status::ObserverReset } else { Status::Ok };
+            self.status = if after_skip {
+                Status::ObserverReset
+            } else {
+                Status::Ok
+            };
             return self.estimate_n();
         }
         if dt_s > self.params.max_step_s() {
@@ -360,17 +364,32 @@ mod tests {
 
     #[test]
     fn params_reject_non_positive_or_non_finite_values() {
-        assert_eq!(CfoParams::new(0.0, MASS_KG, DT_S), Err(CfoError::InvalidBandwidth));
-        assert_eq!(CfoParams::new(f32::NAN, MASS_KG, DT_S), Err(CfoError::InvalidBandwidth));
+        assert_eq!(
+            CfoParams::new(0.0, MASS_KG, DT_S),
+            Err(CfoError::InvalidBandwidth)
+        );
+        assert_eq!(
+            CfoParams::new(f32::NAN, MASS_KG, DT_S),
+            Err(CfoError::InvalidBandwidth)
+        );
         assert_eq!(CfoParams::new(15.0, -1.0, DT_S), Err(CfoError::InvalidMass));
-        assert_eq!(CfoParams::new(15.0, f32::INFINITY, DT_S), Err(CfoError::InvalidMass));
-        assert_eq!(CfoParams::new(15.0, MASS_KG, 0.0), Err(CfoError::InvalidPeriod));
+        assert_eq!(
+            CfoParams::new(15.0, f32::INFINITY, DT_S),
+            Err(CfoError::InvalidMass)
+        );
+        assert_eq!(
+            CfoParams::new(15.0, MASS_KG, 0.0),
+            Err(CfoError::InvalidPeriod)
+        );
     }
 
     #[test]
     fn default_params_are_valid() {
         let d = CfoParams::default();
-        assert_eq!(CfoParams::new(d.bandwidth_rad_s(), d.mass_kg(), d.period_s()), Ok(d));
+        assert_eq!(
+            CfoParams::new(d.bandwidth_rad_s(), d.mass_kg(), d.period_s()),
+            Ok(d)
+        );
     }
 
     #[test]
@@ -390,7 +409,11 @@ mod tests {
         for _ in 0..100 {
             c.update(Vector3::zeros(), hover, DT_S);
         }
-        assert_relative_eq!(c.acceleration_estimate_mps2(), Vector3::zeros(), epsilon = 1e-5);
+        assert_relative_eq!(
+            c.acceleration_estimate_mps2(),
+            Vector3::zeros(),
+            epsilon = 1e-5
+        );
         assert_relative_eq!(c.estimate_n(), Vector3::zeros(), epsilon = 1e-5);
     }
 

@@ -29,7 +29,10 @@ mod tests {
         assert!(Status::Ok < Status::Saturated);
         assert!(Status::Saturated < Status::ObserverReset);
         assert!(Status::ObserverReset < Status::InvalidInput);
-        assert_eq!(core::cmp::max(Status::Saturated, Status::Ok), Status::Saturated);
+        assert_eq!(
+            core::cmp::max(Status::Saturated, Status::Ok),
+            Status::Saturated
+        );
         assert_eq!(Status::default(), Status::Ok);
     }
 }

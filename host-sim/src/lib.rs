@@ -1,0 +1,15 @@
+//! Software-in-the-loop simulator for the virtual-tube cooperative-transport controller:
+//! the f64 plant of REFERENCE §1, the crates' controllers (one instance per UAV), scenarios,
+//! metrics and reports. A thin composition: no control law lives here.
+#![forbid(unsafe_code)]
+
+pub mod cable;
+pub mod link;
+pub mod plant;
+#[path = "/tmp/plots_stub.rs"]
+pub mod plots;
+pub mod record;
+pub mod report;
+pub mod scenario;
+pub mod sim;
+pub mod summary;

@@ -1,0 +1,595 @@
+//! Scenario files: TOML, parsed with serde, validated with errors that name the field and
+//! its line. The paper's 10-UAV mission is compiled in as the default.
+
+use serde::Deserialize;
+use std::fmt;
+use std::path::Path;
+use vt_tube::{Tube, Waypoint};
+
+/// The paper's simulation scenario, compiled in (also at `scenarios/paper-10uav.toml`).
+pub const PAPER_10UAV: &str = include_str!("../../scenarios/paper-10uav.toml");
+/// Name shown for the compiled-in default.
+pub const DEFAULT_SCENARIO_NAME: &str = "scenarios/paper-10uav.toml (built in)";
+
+/// Arc-length table size of the simulated tube (the firmware uses the same).
+pub const TUBE_SAMPLES: usize = vt_tube::DEFAULT_SAMPLES;
+/// The tube type every controller in the simulator uses.
+pub type SimTube = Tube<TUBE_SAMPLES>;
+
+/// A scenario error: what is wrong, where, and (when known) the line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenarioError {
+    /// File name or description of the source.
+    pub source_name: String,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// Dotted field path (`load.mass_kg`), when known.
+    pub field: Option<String>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.source_name)?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        write!(f, ": ")?;
+        if let Some(field) = &self.field {
+            write!(f, "`{field}`: ")?;
+        }
+        write!(f, "{}", self.message)
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+/// A whole scenario.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name.
+    pub name: String,
+    /// One-paragraph description.
+    #[serde(default)]
+    pub description: String,
+    /// Default random seed (link drops and, later, disturbances).
+    #[serde(default)]
+    pub seed: u64,
+    /// Space and obstacles.
+    pub world: World,
+    /// The virtual tube.
+    pub tube: TubeSpec,
+    /// The load.
+    pub load: LoadSpec,
+    /// The UAVs.
+    pub uavs: UavSpec,
+    /// The cables.
+    pub cables: CableSpec,
+    /// High-level dissipative controller.
+    pub controller: ControllerSpec,
+    /// Baseline (traditional virtual tube) controller; published parameters by default.
+    #[serde(default)]
+    pub baseline: BaselineSpec,
+    /// Low-level velocity loop and CFO.
+    pub velocity_loop: VelocityLoopSpec,
+    /// Loop rates.
+    pub rates: Rates,
+    /// Link between UAVs.
+    #[serde(default)]
+    pub link: LinkSpec,
+    /// Mission limits and success criteria.
+    pub mission: MissionSpec,
+}
+
+/// The flight space.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct World {
+    /// `[x_min, x_max, y_min, y_max]`, m.
+    pub bounds_m: [f64; 4],
+    /// Ceiling, m.
+    #[serde(default = "default_ceiling")]
+    pub ceiling_m: f64,
+    /// Vertical cylindrical obstacles.
+    #[serde(default)]
+    pub obstacles: Vec<ObstacleSpec>,
+}
+
+fn default_ceiling() -> f64 {
+    20.0
+}
+
+/// One obstacle.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    /// Centre `[x, y]`, m.
+    pub center_m: [f64; 2],
+    /// Radius, m.
+    pub radius_m: f64,
+}
+
+/// The tube: waypoints `[x, y, w_left, w_right]` in metres.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TubeSpec {
+    /// Waypoints `[x_m, y_m, w_left_m, w_right_m]`.
+    pub waypoints: Vec<[f64; 4]>,
+}
+
+/// The load.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Altitude reference (and start altitude), m.
+    pub altitude_m: f64,
+    /// Start: arc length along the tube where the load starts, m.
+    #[serde(default = "default_start_s")]
+    pub start_s_m: f64,
+}
+
+fn default_start_s() -> f64 {
+    4.0
+}
+
+/// The UAVs (all alike except for their cables).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UavSpec {
+    /// Mass of each UAV, kg.
+    pub mass_kg: f64,
+    /// Maximum thrust of each UAV, N.
+    pub thrust_max_n: f64,
+    /// First-order thrust lag, s (0 = none).
+    #[serde(default)]
+    pub thrust_lag_s: f64,
+    /// Maximum tilt, degrees.
+    #[serde(default = "default_tilt")]
+    pub tilt_max_deg: f64,
+    /// Radius of the take-off node circle on the tray, m.
+    pub formation_radius_m: f64,
+}
+
+fn default_tilt() -> f64 {
+    35.0
+}
+
+/// The cables, one per UAV.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CableSpec {
+    /// Unstretched length of each cable, m (one entry per UAV: defines the team size).
+    pub lengths_m: Vec<f64>,
+    /// Stiffness, N/m.
+    pub stiffness_n_per_m: f64,
+    /// Damping, N s/m.
+    pub damping_ns_per_m: f64,
+    /// Capacity `f_max` (tension cap), N.
+    pub f_max_n: f64,
+}
+
+/// High-level controller parameters (paper Table II, REFERENCE §5).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSpec {
+    /// Passing gain.
+    pub k1: f64,
+    /// Spring gain.
+    pub k2: f64,
+    /// Tube barrier gain.
+    pub k3: f64,
+    /// Velocity limit, m/s.
+    pub v_max_mps: f64,
+    /// Tube barrier safety radius, m.
+    pub r_safe_m: f64,
+    /// Tube barrier activation radius, m.
+    pub r_active_m: f64,
+    /// Tray height above the load, m.
+    pub tray_height_m: f64,
+    /// Altitude gain, 1/s.
+    #[serde(default = "one")]
+    pub kz_per_s: f64,
+    /// Vertical speed limit, m/s.
+    #[serde(default = "one")]
+    pub vz_max_mps: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Baseline controller parameters (REFERENCE §2; published values by default).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaselineSpec {
+    /// Passing gain, m/s.
+    pub k1: f64,
+    /// Robot barrier gain.
+    pub k2: f64,
+    /// Tube barrier gain.
+    pub k3: f64,
+    /// Velocity limit, m/s.
+    pub v_max_mps: f64,
+    /// Safety radius, m.
+    pub r_safe_m: f64,
+    /// Activation radius, m.
+    pub r_active_m: f64,
+}
+
+impl Default for BaselineSpec {
+    fn default() -> Self {
+        Self { k1: 2.0, k2: 1.0, k3: 1.0, v_max_mps: 3.0, r_safe_m: 0.5, r_active_m: 0.7 }
+    }
+}
+
+/// Velocity loop (eq:2-3) and CFO (REFERENCE §4).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VelocityLoopSpec {
+    /// Proportional gains per axis, 1/s.
+    pub kp: [f64; 3],
+    /// Integral gains per axis, 1/s^2.
+    pub ki: [f64; 3],
+    /// Derivative gains per axis.
+    pub kd: [f64; 3],
+    /// CFO bandwidth `mu`, rad/s.
+    pub cfo_bandwidth_rad_s: f64,
+}
+
+/// Loop rates, Hz. The plant rate must be a multiple of the others.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rates {
+    /// Plant integration rate.
+    pub plant_hz: u32,
+    /// Plant sub-steps per plant step (stiff cables).
+    #[serde(default = "one_u32")]
+    pub plant_substeps: u32,
+    /// Velocity loop + CFO rate.
+    pub low_level_hz: u32,
+    /// Tube + springs rate.
+    pub high_level_hz: u32,
+    /// Trajectory record rate.
+    pub record_hz: u32,
+}
+
+fn one_u32() -> u32 {
+    1
+}
+
+/// Link model for neighbour positions.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkSpec {
+    /// Delivery delay, s (rounded to high-level periods).
+    pub delay_s: f64,
+    /// Probability that one message is lost.
+    pub drop_probability: f64,
+    /// Age after which a neighbour is dropped from the spring set, s.
+    pub stale_timeout_s: f64,
+}
+
+impl Default for LinkSpec {
+    fn default() -> Self {
+        Self { delay_s: 0.0, drop_probability: 0.0, stale_timeout_s: 0.5 }
+    }
+}
+
+/// Mission limits and success criteria.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionSpec {
+    /// Time limit, s.
+    pub time_limit_s: f64,
+    /// The load has arrived when its section is within this of the end, m.
+    #[serde(default = "one")]
+    pub end_tolerance_m: f64,
+    /// Time flown on after arrival (formation recovery is judged at the end), s.
+    #[serde(default = "default_post")]
+    pub post_arrival_s: f64,
+    /// Take-off settling excluded from the load-altitude criterion, s.
+    #[serde(default = "default_settle")]
+    pub settle_time_s: f64,
+    /// Safety floor for UAV-boundary and UAV-UAV distances, m.
+    #[serde(default = "default_floor")]
+    pub safety_distance_m: f64,
+    /// Allowed load altitude error after settling, m.
+    #[serde(default = "one")]
+    pub altitude_tolerance_m: f64,
+}
+
+fn default_post() -> f64 {
+    5.0
+}
+fn default_settle() -> f64 {
+    3.0
+}
+fn default_floor() -> f64 {
+    0.4
+}
+
+/// A scenario with its source (for error locations).
+#[derive(Debug, Clone)]
+pub struct LoadedScenario {
+    /// The parsed scenario.
+    pub scenario: Scenario,
+    /// Where it came from.
+    pub source_name: String,
+    /// The validated tube.
+    pub tube: SimTube,
+}
+
+/// Loads a scenario file, or the built-in paper scenario when `path` is `None`.
+///
+/// # Errors
+/// Unreadable file, TOML syntax/type errors (with line), or a failed validation naming the field.
+pub fn load(path: Option<&Path>) -> Result<LoadedScenario, ScenarioError> {
+    match path {
+        None => parse(PAPER_10UAV, DEFAULT_SCENARIO_NAME),
+        Some(p) => {
+            let name = p.display().to_string();
+            let text = std::fs::read_to_string(p).map_err(|e| ScenarioError {
+                source_name: name.clone(),
+                line: None,
+                field: None,
+                message: format!("cannot read: {e}"),
+            })?;
+            parse(&text, &name)
+        }
+    }
+}
+
+/// Parses and validates scenario text.
+///
+/// # Errors
+/// As [`load`].
+pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioError> {
+    let scenario: Scenario = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| line_of_offset(text, s.start));
+        ScenarioError { source_name: source_name.into(), line, field: None, message: e.message().trim().to_string() }
+    })?;
+    let v = Validator { text, source_name };
+    let tube = v.check(&scenario)?;
+    Ok(LoadedScenario { scenario, source_name: source_name.into(), tube })
+}
+
+fn line_of_offset(text: &str, offset: usize) -> usize {
+    text.get(..offset.min(text.len())).map_or(0, |t| t.matches('\n').count()) + 1
+}
+
+/// Finds the 1-based line of `key` inside table `table` (`""` for the top level).
+fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
+    let mut current = String::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if line.starts_with('[') {
+            current = line.trim_matches(|c| c == '[' || c == ']').trim().to_string();
+            continue;
+        }
+        if current == table {
+            if let Some((k, _)) = line.split_once('=') {
+                if k.trim() == key {
+                    return Some(i + 1);
+                }
+            }
+        }
+    }
+    // Arrays of tables and inline keys: fall back to the table header.
+    text.lines().position(|l| l.trim().trim_matches(|c| c == '[' || c == ']').trim() == table).map(|i| i + 1)
+}
+
+struct Validator<'a> {
+    text: &'a str,
+    source_name: &'a str,
+}
+
+impl Validator<'_> {
+    fn err(&self, table: &str, key: &str, message: String) -> ScenarioError {
+        let field = if table.is_empty() { key.to_string() } else { format!("{table}.{key}") };
+        ScenarioError {
+            source_name: self.source_name.into(),
+            line: line_of_key(self.text, table, key),
+            field: Some(field),
+            message,
+        }
+    }
+
+    fn positive(&self, table: &str, key: &str, x: f64) -> Result<(), ScenarioError> {
+        if x.is_finite() && x > 0.0 {
+            Ok(())
+        } else {
+            Err(self.err(table, key, format!("must be a finite number > 0 (got {x})")))
+        }
+    }
+
+    fn non_negative(&self, table: &str, key: &str, x: f64) -> Result<(), ScenarioError> {
+        if x.is_finite() && x >= 0.0 {
+            Ok(())
+        } else {
+            Err(self.err(table, key, format!("must be a finite number >= 0 (got {x})")))
+        }
+    }
+
+    fn check(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
+        // World.
+        let b = s.world.bounds_m;
+        if !(b.iter().all(|x| x.is_finite()) && b[0] < b[1] && b[2] < b[3]) {
+            return Err(self.err("world", "bounds_m", "must be finite [x_min, x_max, y_min, y_max] with min < max".into()));
+        }
+        self.positive("world", "ceiling_m", s.world.ceiling_m)?;
+        for o in &s.world.obstacles {
+            if !(o.center_m.iter().all(|x| x.is_finite())) {
+                return Err(self.err("world.obstacles", "center_m", "must be finite".into()));
+            }
+            self.positive("world.obstacles", "radius_m", o.radius_m)?;
+        }
+        // Masses, thrust, cables.
+        self.positive("load", "mass_kg", s.load.mass_kg)?;
+        self.positive("load", "altitude_m", s.load.altitude_m)?;
+        self.non_negative("load", "start_s_m", s.load.start_s_m)?;
+        self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
+        self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
+        self.non_negative("uavs", "thrust_lag_s", s.uavs.thrust_lag_s)?;
+        if !(s.uavs.tilt_max_deg.is_finite() && s.uavs.tilt_max_deg > 0.0 && s.uavs.tilt_max_deg < 90.0) {
+            return Err(self.err("uavs", "tilt_max_deg", format!("must be in (0, 90) degrees (got {})", s.uavs.tilt_max_deg)));
+        }
+        self.positive("uavs", "formation_radius_m", s.uavs.formation_radius_m)?;
+        let n = s.cables.lengths_m.len();
+        if n == 0 || n > vt_dissipative::MAX_UAVS {
+            return Err(self.err("cables", "lengths_m", format!("needs 1..={} entries, one per UAV (got {n})", vt_dissipative::MAX_UAVS)));
+        }
+        for &l in &s.cables.lengths_m {
+            self.positive("cables", "lengths_m", l)?;
+        }
+        self.positive("cables", "stiffness_n_per_m", s.cables.stiffness_n_per_m)?;
+        self.non_negative("cables", "damping_ns_per_m", s.cables.damping_ns_per_m)?;
+        self.positive("cables", "f_max_n", s.cables.f_max_n)?;
+        // Controller.
+        let c = &s.controller;
+        for (k, v) in [("k1", c.k1), ("k2", c.k2), ("k3", c.k3), ("v_max_mps", c.v_max_mps), ("r_safe_m", c.r_safe_m),
+                       ("tray_height_m", c.tray_height_m), ("kz_per_s", c.kz_per_s), ("vz_max_mps", c.vz_max_mps)] {
+            self.positive("controller", k, v)?;
+        }
+        if !(c.r_active_m.is_finite() && c.r_active_m > c.r_safe_m) {
+            return Err(self.err("controller", "r_active_m", format!("must be > r_safe_m = {} (got {})", c.r_safe_m, c.r_active_m)));
+        }
+        let bl = &s.baseline;
+        for (k, v) in [("k1", bl.k1), ("k2", bl.k2), ("k3", bl.k3), ("v_max_mps", bl.v_max_mps), ("r_safe_m", bl.r_safe_m)] {
+            self.positive("baseline", k, v)?;
+        }
+        if !(bl.r_active_m.is_finite() && bl.r_active_m > bl.r_safe_m) {
+            return Err(self.err("baseline", "r_active_m", "must be > r_safe_m".into()));
+        }
+        let vl = &s.velocity_loop;
+        for (k, arr) in [("kp", vl.kp), ("ki", vl.ki), ("kd", vl.kd)] {
+            if !arr.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                return Err(self.err("velocity_loop", k, "gains must be finite and >= 0".into()));
+            }
+        }
+        self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
+        // Rates.
+        let r = &s.rates;
+        for (k, v) in [("plant_hz", r.plant_hz), ("plant_substeps", r.plant_substeps), ("low_level_hz", r.low_level_hz),
+                       ("high_level_hz", r.high_level_hz), ("record_hz", r.record_hz)] {
+            if v == 0 {
+                return Err(self.err("rates", k, "must be > 0".into()));
+            }
+        }
+        for (k, v) in [("low_level_hz", r.low_level_hz), ("high_level_hz", r.high_level_hz), ("record_hz", r.record_hz)] {
+            if r.plant_hz % v != 0 {
+                return Err(self.err("rates", k, format!("must divide plant_hz = {} evenly (got {v})", r.plant_hz)));
+            }
+        }
+        if r.low_level_hz % r.high_level_hz != 0 {
+            return Err(self.err("rates", "high_level_hz", "must divide low_level_hz evenly".into()));
+        }
+        if vl.cfo_bandwidth_rad_s / f64::from(r.low_level_hz) > 0.5 {
+            return Err(self.err("velocity_loop", "cfo_bandwidth_rad_s", format!(
+                "mu * h = {:.3} > 0.5: the discrete observer would be unstable at low_level_hz = {}",
+                vl.cfo_bandwidth_rad_s / f64::from(r.low_level_hz), r.low_level_hz)));
+        }
+        // Link and mission.
+        self.non_negative("link", "delay_s", s.link.delay_s)?;
+        if !(s.link.drop_probability.is_finite() && (0.0..1.0).contains(&s.link.drop_probability)) {
+            return Err(self.err("link", "drop_probability", "must be in [0, 1)".into()));
+        }
+        self.positive("link", "stale_timeout_s", s.link.stale_timeout_s)?;
+        let m = &s.mission;
+        for (k, v) in [("time_limit_s", m.time_limit_s), ("end_tolerance_m", m.end_tolerance_m),
+                       ("safety_distance_m", m.safety_distance_m), ("altitude_tolerance_m", m.altitude_tolerance_m)] {
+            self.positive("mission", k, v)?;
+        }
+        self.non_negative("mission", "post_arrival_s", m.post_arrival_s)?;
+        self.non_negative("mission", "settle_time_s", m.settle_time_s)?;
+        // Geometry: tube, obstacles, formation, cables.
+        let tube = self.check_tube(s)?;
+        self.check_obstacles(s, &tube)?;
+        self.check_formation(s, &tube)?;
+        Ok(tube)
+    }
+
+    fn check_tube(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
+        let wps: Vec<Waypoint> = s
+            .tube
+            .waypoints
+            .iter()
+            .map(|w| Waypoint::new(w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32))
+            .collect();
+        let tube = SimTube::from_waypoints(&wps).map_err(|e| self.err("tube", "waypoints", e.to_string()))?;
+        // The narrowest section must hold a UAV with its safety margin on both sides.
+        let need = s.mission.safety_distance_m + s.controller.r_safe_m;
+        if f64::from(tube.min_half_width_m()) <= need {
+            return Err(self.err("tube", "waypoints", format!(
+                "narrowest half-width {:.2} m cannot hold a UAV: needs > r_safe_m + safety_distance_m = {need:.2} m",
+                tube.min_half_width_m())));
+        }
+        Ok(tube)
+    }
+
+    fn check_obstacles(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
+        const RIM_POINTS: usize = 72;
+        for (i, o) in s.world.obstacles.iter().enumerate() {
+            let c = vt_tube::Vec2::new(o.center_m[0] as f32, o.center_m[1] as f32);
+            let r = o.radius_m as f32;
+            let inside = |p: vt_tube::Vec2| tube.locate(p, 0).is_some_and(|sec| sec.boundary_distance_m(p) > 0.0);
+            let rim_hit = (0..RIM_POINTS).any(|k| {
+                let a = k as f32 / RIM_POINTS as f32 * core::f32::consts::TAU;
+                inside(c + vt_tube::Vec2::new(a.cos(), a.sin()) * r)
+            });
+            let boundary_hit = tube.samples().iter().any(|smp| {
+                (smp.left_boundary_m() - c).norm() < r || (smp.right_boundary_m() - c).norm() < r
+            });
+            if inside(c) || rim_hit || boundary_hit {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_line(self.text, "world.obstacles", i),
+                    field: Some(format!("world.obstacles[{i}]")),
+                    message: format!("obstacle at ({:.2}, {:.2}) r = {:.2} m intrudes into the tube", o.center_m[0], o.center_m[1], o.radius_m),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn check_formation(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
+        let h = s.controller.tray_height_m;
+        let r = s.uavs.formation_radius_m;
+        for (i, &len) in s.cables.lengths_m.iter().enumerate() {
+            // Taut cable with its node on the take-off circle: height above the load.
+            let height = len / (1.0 + (r / h).powi(2)).sqrt();
+            if height < 1.0 {
+                return Err(self.err("cables", "lengths_m", format!(
+                    "cable {i} ({len} m) is too short for the formation: the UAV would be {height:.2} m above the load")));
+            }
+            if s.load.altitude_m + height + 0.5 > s.world.ceiling_m {
+                return Err(self.err("load", "altitude_m", format!(
+                    "UAV {i} would fly at {:.1} m, above the ceiling {} m", s.load.altitude_m + height, s.world.ceiling_m)));
+            }
+        }
+        let start = tube.locate(vt_tube::Vec2::zeros(), 0);
+        let _ = start;
+        let s0 = s.load.start_s_m as f32;
+        if s0 >= tube.length_m() {
+            return Err(self.err("load", "start_s_m", format!("beyond the tube end ({:.1} m)", tube.length_m())));
+        }
+        let k = ((s0 / tube.ds_m()) as usize).min(TUBE_SAMPLES - 1);
+        let smp = tube.samples().get(k).copied().ok_or_else(|| self.err("load", "start_s_m", "out of range".into()))?;
+        let half = 0.5 * (smp.w_left_m + smp.w_right_m);
+        if f64::from(half) <= r + s.controller.r_safe_m {
+            return Err(self.err("uavs", "formation_radius_m", format!(
+                "take-off formation (radius {r} m + r_safe {} m) does not fit the tube at the start (half-width {half:.2} m)",
+                s.controller.r_safe_m)));
+        }
+        Ok(())
+    }
+}
+
+/// Line of the `index`-th `[[table]]` header.
+fn nth_table_line(text: &str, table: &str, index: usize) -> Option<usize> {
+    let header = format!("[[{table}]]");
+    text.lines().enumerate().filter(|(_, l)| l.trim() == header).nth(index).map(|(i, _)| i + 1)
+}

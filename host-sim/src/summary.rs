@@ -1,0 +1,90 @@
+//! Mission metrics and the `summary.json` contract.
+
+use serde::Serialize;
+
+/// The run summary written to `summary.json` (a contract other tools read).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Summary {
+    /// Scenario name.
+    pub scenario: String,
+    /// `dissipative` or `baseline`.
+    pub controller: String,
+    /// Seed of the run.
+    pub seed: u64,
+    /// All success criteria hold.
+    pub success: bool,
+    /// Why not, one entry per failed criterion.
+    pub failures: Vec<String>,
+    /// The load reached the end terminal.
+    pub reached_end: bool,
+    /// Time the load reached the end terminal, s (`null` if never).
+    pub completion_time_s: Option<f64>,
+    /// Minimum UAV distance to the tube boundary (horizontal), m.
+    pub min_uav_boundary_m: f64,
+    /// Minimum load distance to the tube boundary (horizontal), m.
+    pub min_load_boundary_m: f64,
+    /// Minimum UAV-UAV distance (3-D), m.
+    pub min_uav_uav_m: f64,
+    /// Maximum cable tension, N.
+    pub max_tension_n: f64,
+    /// Mean cable tension over time and cables, N.
+    pub mean_tension_n: f64,
+    /// Time-mean of std/mean over taut cables.
+    pub tension_cv_mean: f64,
+    /// Fraction of cable-time spent at the `f_max` cap.
+    pub time_at_cap_fraction: f64,
+    /// Maximum load altitude error after take-off settling, m.
+    pub max_load_altitude_error_m: f64,
+    /// Maximum thrust over thrust limit.
+    pub max_thrust_fraction: f64,
+    /// RMS over UAV node pairs of |current - rest length| at the end of the run, m.
+    pub formation_error_end_m: f64,
+    /// Vertical capacity of the capped cables at the take-off lean over the load's weight.
+    pub capacity_margin: f64,
+    /// Simulated time, s.
+    pub sim_time_s: f64,
+    /// Wall-clock time of the simulation loop, s.
+    pub wall_time_s: f64,
+    /// Simulated seconds per wall second.
+    pub realtime_factor: f64,
+    /// Number of UAVs.
+    pub n_uavs: usize,
+    /// Cable capacity, N.
+    pub f_max_n: f64,
+    /// Load mass, kg.
+    pub load_mass_kg: f64,
+    /// A non-finite value appeared in the plant state.
+    pub nonfinite: bool,
+    /// High-level commands that fell back to hold (invalid input or non-finite synthesis).
+    pub invalid_commands: u64,
+}
+
+impl Summary {
+    /// Rows for the terminal table: (label, value).
+    pub fn table_rows(&self) -> Vec<(&'static str, String)> {
+        let opt = |x: Option<f64>| x.map_or_else(|| "-".to_string(), |v| format!("{v:.1} s"));
+        vec![
+            ("scenario", self.scenario.clone()),
+            ("controller", self.controller.clone()),
+            ("success", if self.success { "yes".into() } else { format!("NO ({})", self.failures.join("; ")) }),
+            ("completion time", opt(self.completion_time_s)),
+            ("min UAV-boundary", format!("{:.3} m", self.min_uav_boundary_m)),
+            ("min load-boundary", format!("{:.3} m", self.min_load_boundary_m)),
+            ("min UAV-UAV", format!("{:.3} m", self.min_uav_uav_m)),
+            ("max / mean tension", format!("{:.1} / {:.1} N (f_max {:.0} N)", self.max_tension_n, self.mean_tension_n, self.f_max_n)),
+            ("tension std/mean", format!("{:.3}", self.tension_cv_mean)),
+            ("time at cap", format!("{:.1} %", 100.0 * self.time_at_cap_fraction)),
+            ("max load alt. error", format!("{:.3} m", self.max_load_altitude_error_m)),
+            ("max thrust fraction", format!("{:.2}", self.max_thrust_fraction)),
+            ("formation error end", format!("{:.3} m", self.formation_error_end_m)),
+            ("capacity margin", format!("{:+.1} %", 100.0 * (self.capacity_margin - 1.0))),
+            ("sim / wall time", format!("{:.1} s / {:.2} s ({:.0}x real time)", self.sim_time_s, self.wall_time_s, self.realtime_factor)),
+        ]
+    }
+
+    /// The table as text.
+    pub fn table(&self) -> String {
+        let w = self.table_rows().iter().map(|r| r.0.len()).max().unwrap_or(0);
+        self.table_rows().iter().map(|(k, v)| format!("  {k:<w$}  {v}\n")).collect()
+    }
+}
