@@ -6,7 +6,6 @@
 pub mod cable;
 pub mod link;
 pub mod plant;
-#[path = "/tmp/plots_stub.rs"]
 pub mod plots;
 pub mod record;
 pub mod report;

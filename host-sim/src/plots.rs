@@ -723,6 +723,49 @@ fn n_uavs(rec: &RunRecord) -> usize {
     pos.max(ten)
 }
 
+/// For long time series: keeps, per x bucket (`buckets` over `xr`), the first, lowest, highest
+/// and last point in their original order, so peaks stay visible while drawing stays cheap.
+fn min_max_decimate(run: Vec<(f64, f64)>, xr: Range<f64>, buckets: usize) -> Vec<(f64, f64)> {
+    let width = xr.end - xr.start;
+    if run.len() <= 4 * buckets || width.is_nan() || width <= 0.0 {
+        return run;
+    }
+    let bucket_of = |x: f64| ((x - xr.start) / width * buckets as f64).floor() as i64;
+    let mut out = Vec::with_capacity(4 * buckets + 4);
+    let mut group: Vec<(usize, (f64, f64))> = Vec::with_capacity(4);
+    let mut current = None;
+    let flush = |group: &mut Vec<(usize, (f64, f64))>, out: &mut Vec<(f64, f64)>| {
+        group.sort_by_key(|(k, _)| *k);
+        group.dedup_by_key(|(k, _)| *k);
+        out.extend(group.drain(..).map(|(_, p)| p));
+    };
+    let (mut lo, mut hi, mut last) = ((0, (0.0, 0.0)), (0, (0.0, 0.0)), (0, (0.0, 0.0)));
+    for (k, p) in run.into_iter().enumerate() {
+        let b = bucket_of(p.0);
+        if current != Some(b) {
+            if current.is_some() {
+                group.extend([lo, hi, last]);
+                flush(&mut group, &mut out);
+            }
+            current = Some(b);
+            group.push((k, p));
+            (lo, hi) = ((k, p), (k, p));
+        }
+        if p.1 < lo.1 .1 {
+            lo = (k, p);
+        }
+        if p.1 > hi.1 .1 {
+            hi = (k, p);
+        }
+        last = (k, p);
+    }
+    if current.is_some() {
+        group.extend([lo, hi, last]);
+        flush(&mut group, &mut out);
+    }
+    out
+}
+
 /// Distinct colour for UAV `i` (tab10, then a golden-ratio hue walk).
 fn uav_color(i: usize) -> RGBColor {
     const TAB10: [RGBColor; 10] = [
@@ -1257,6 +1300,7 @@ fn draw_time_panel(
     }
     for s in &plot.series {
         for run in finite_runs(s.points.iter().copied()) {
+            let run = min_max_decimate(run, x0..x1, 2 * TS_PANEL.0 as usize);
             chart.draw_series(LineSeries::new(run, s.color.stroke_width(s.width)))?;
         }
     }
@@ -1599,6 +1643,22 @@ mod tests {
         } else {
             eprintln!("plots kept in {}", dir.display());
         }
+    }
+
+    #[test]
+    fn decimation_keeps_extremes_and_order() {
+        let run: Vec<(f64, f64)> = (0..100_000)
+            .map(|k| {
+                let t = f64::from(k) * 1e-3;
+                (t, if k == 54_321 { 99.0 } else { (t * 3.0).sin() })
+            })
+            .collect();
+        let out = min_max_decimate(run, 0.0..100.0, 1000);
+        assert!(out.len() <= 4 * 1000 + 4, "{}", out.len());
+        assert!(out.iter().any(|p| p.1 == 99.0));
+        assert!(out.windows(2).all(|w| w[0].0 <= w[1].0));
+        assert_eq!(out.first().unwrap().0, 0.0);
+        assert!((out.last().unwrap().0 - 99.999).abs() < 1e-9);
     }
 
     #[test]

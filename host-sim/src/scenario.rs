@@ -196,6 +196,15 @@ pub struct ControllerSpec {
     /// Vertical speed limit, m/s.
     #[serde(default = "one")]
     pub vz_max_mps: f64,
+    /// Load-sharing gain k_T, (m/s)/N (0 disables load sharing).
+    #[serde(default)]
+    pub share_gain_mps_per_n: f64,
+    /// Load-altitude gain k_L of the sharing integrator, 1/s.
+    #[serde(default)]
+    pub load_altitude_gain_per_s: f64,
+    /// Bound on the sharing altitude offset, m.
+    #[serde(default)]
+    pub share_offset_max_m: f64,
 }
 
 fn one() -> f64 {
@@ -453,6 +462,10 @@ impl Validator<'_> {
         for (k, v) in [("k1", c.k1), ("k2", c.k2), ("k3", c.k3), ("v_max_mps", c.v_max_mps), ("r_safe_m", c.r_safe_m),
                        ("tray_height_m", c.tray_height_m), ("kz_per_s", c.kz_per_s), ("vz_max_mps", c.vz_max_mps)] {
             self.positive("controller", k, v)?;
+        }
+        for (k, v) in [("share_gain_mps_per_n", c.share_gain_mps_per_n), ("load_altitude_gain_per_s", c.load_altitude_gain_per_s),
+                       ("share_offset_max_m", c.share_offset_max_m)] {
+            self.non_negative("controller", k, v)?;
         }
         if !(c.r_active_m.is_finite() && c.r_active_m > c.r_safe_m) {
             return Err(self.err("controller", "r_active_m", format!("must be > r_safe_m = {} (got {})", c.r_safe_m, c.r_active_m)));

@@ -97,6 +97,8 @@ pub struct Takeoff {
     pub load_pos_m: V3,
     /// Static stretch of each cable under an equal share, m.
     pub stretch_m: f64,
+    /// Equal share of the load's weight along each cable at the take-off lean, N.
+    pub share_n: f64,
     /// Vertical capacity of the capped cables at the take-off lean / load weight.
     pub capacity_margin: f64,
 }
@@ -129,11 +131,17 @@ pub fn takeoff(s: &Scenario, tube: &SimTube, f_max_n: f64) -> Takeoff {
             load + V3::new(offset * a.cos(), offset * a.sin(), height)
         })
         .collect();
-    Takeoff { uav_pos_m, load_pos_m: load, stretch_m, capacity_margin }
+    Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin }
 }
 
-fn vertical_params(s: &Scenario, cable_m: f64, stretch_m: f64) -> VerticalParams {
+fn vertical_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> VerticalParams {
+    let stretch_m = to.stretch_m;
+    let c = &s.controller;
     VerticalParams {
+        tension_share_n: to.share_n as f32,
+        share_gain_mps_per_n: c.share_gain_mps_per_n as f32,
+        load_altitude_gain_per_s: c.load_altitude_gain_per_s as f32,
+        share_offset_max_m: c.share_offset_max_m as f32,
         load_altitude_ref_m: s.load.altitude_m as f32,
         cable_length_m: cable_m as f32,
         cable_stretch_m: stretch_m as f32,
@@ -224,7 +232,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                         r_safe_m: c.r_safe_m as f32,
                         r_active_m: c.r_active_m as f32,
                         tray,
-                        vertical: vertical_params(s, s.cables.lengths_m[i], to.stretch_m),
+                        vertical: vertical_params(s, s.cables.lengths_m[i], &to),
                     };
                     DissipativeController::new(i, p, &formation).map_err(|e| SimError(format!("controller: {e}")))
                 })
@@ -241,7 +249,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                         v_max_mps: b.v_max_mps as f32,
                         r_safe_m: b.r_safe_m as f32,
                         r_active_m: b.r_active_m as f32,
-                        vertical: vertical_params(s, s.cables.lengths_m[i], to.stretch_m),
+                        vertical: vertical_params(s, s.cables.lengths_m[i], &to),
                     };
                     BaselineController::new(i, n, p).map_err(|e| SimError(format!("baseline: {e}")))
                 })
@@ -278,6 +286,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     };
     let mut vel_cmd = vec![V3f::zeros(); n];
     let mut thrust_cmd = vec![V3::zeros(); n];
+    let mut f_hat = vec![V3f::zeros(); n];
     let mut view: Vec<Option<V3f>> = Vec::with_capacity(n);
     let mut uav_hints = vec![0usize; n];
     let mut load_hint = 0usize;
@@ -297,10 +306,16 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
             let load_vel = v3f(&plant.load.vel_mps);
             for i in 0..n {
                 link.view(i, hl_step, own[i], &mut view);
-                let m = Measurements { own_pos_m: own[i], load_pos_m: load_pos, load_vel_mps: load_vel, neighbours_m: &view };
+                let m = Measurements {
+                    own_pos_m: own[i],
+                    load_pos_m: load_pos,
+                    load_vel_mps: load_vel,
+                    neighbours_m: &view,
+                    own_cable_force_n: Some(f_hat[i]),
+                };
                 let cmd: Command = match &mut high {
                     HighLevel::Dissipative(c) => c[i].update(tube, &m, hl_dt),
-                    HighLevel::Baseline(c) => c[i].update(tube, &m),
+                    HighLevel::Baseline(c) => c[i].update(tube, &m, hl_dt),
                 };
                 metrics.invalid_commands += u64::from(cmd.status.invalid_input || cmd.status.nonfinite_command);
                 vel_cmd[i] = cmd.vel_mps;
@@ -315,6 +330,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
             for i in 0..n {
                 let out = vloops[i].update(vel_cmd[i], v3f(&plant.uavs[i].vel_mps), ll_dt);
                 thrust_cmd[i] = v3d(&out.thrust_n);
+                f_hat[i] = out.f_hat_n;
                 metrics.max_thrust_fraction = metrics.max_thrust_fraction.max(out.thrust_n.norm() as f64 / s.uavs.thrust_max_n);
             }
         }

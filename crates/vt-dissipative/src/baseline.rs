@@ -6,7 +6,7 @@
 
 use crate::controller::{finite3, hold_command, Command, Measurements};
 use crate::keeping::keeping_velocity;
-use crate::vertical::VerticalParams;
+use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
 
@@ -70,6 +70,7 @@ pub struct BaselineController {
     tube_barrier: BarrierParams,
     robot_barrier: BarrierParams,
     hint: usize,
+    vertical: VerticalLoop,
 }
 
 impl BaselineController {
@@ -89,20 +90,21 @@ impl BaselineController {
             tube_barrier: BarrierParams::tube(params.k3, params.r_safe_m, params.r_active_m),
             robot_barrier: BarrierParams::robot(params.k2, params.r_safe_m, params.r_active_m),
             hint: 0,
+            vertical: VerticalLoop::new(params.vertical),
         })
     }
 
     /// One step: own velocity command. Same failure handling as the dissipative controller.
-    pub fn update<const S: usize>(&mut self, tube: &Tube<S>, m: &Measurements<'_>) -> Command {
+    pub fn update<const S: usize>(&mut self, tube: &Tube<S>, m: &Measurements<'_>, dt_s: f32) -> Command {
         let mut status = Status::default();
         if !(finite3(&m.own_pos_m) && finite3(&m.load_pos_m)) {
             status.invalid_input = true;
-            return hold_command(&self.params.vertical, m, Vec2::zeros(), status);
+            return hold_command(&self.params.vertical, self.vertical.offset_m(), m, Vec2::zeros(), status);
         }
         let q = m.own_pos_m.xy();
         let Some(sec) = tube.locate(q, self.hint) else {
             status.invalid_input = true;
-            return hold_command(&self.params.vertical, m, Vec2::zeros(), status);
+            return hold_command(&self.params.vertical, self.vertical.offset_m(), m, Vec2::zeros(), status);
         };
         self.hint = sec.segment;
         let u1 = sec.tangent * self.params.k1;
@@ -130,12 +132,11 @@ impl BaselineController {
         let (u3, d_t) = keeping_velocity(&sec, &q, &self.tube_barrier);
         status.outside_tube = d_t <= 0.0;
         let w = sat(u1 + u2 + u3, self.params.v_max_mps);
-        let offset = (q - m.load_pos_m.xy()).norm();
-        let v_z = self.params.vertical.vertical_velocity_mps(m.own_pos_m.z, offset);
+        let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(w.x, w.y, v_z);
         if !finite3(&vel) {
             status.nonfinite_command = true;
-            return hold_command(&self.params.vertical, m, Vec2::zeros(), status);
+            return hold_command(&self.params.vertical, self.vertical.offset_m(), m, Vec2::zeros(), status);
         }
         Command { vel_mps: vel, node_m: q, tray_center_m: Vec2::zeros(), boundary_distance_m: d_t, section_s_m: sec.s_m, status }
     }
@@ -152,14 +153,14 @@ mod tests {
     }
 
     fn m<'a>(own: Vec3, nb: &'a [Option<Vec3>]) -> Measurements<'a> {
-        Measurements { own_pos_m: own, load_pos_m: Vec3::new(own.x, own.y, 0.0), load_vel_mps: Vec3::zeros(), neighbours_m: nb }
+        Measurements { own_pos_m: own, load_pos_m: Vec3::new(own.x, own.y, 0.0), load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: None }
     }
 
     #[test]
     fn alone_on_the_centreline_it_flies_k1_along_the_tube() {
         let mut c = BaselineController::new(0, 1, BaselineParams::default()).unwrap();
         let own = Vec3::new(10.0, 0.0, 8.0);
-        let cmd = c.update(&straight(), &m(own, &[Some(own)]));
+        let cmd = c.update(&straight(), &m(own, &[Some(own)]), 0.02);
         assert_relative_eq!(cmd.vel_mps.xy(), Vec2::new(2.0, 0.0), epsilon = 1e-5);
     }
 
@@ -168,7 +169,7 @@ mod tests {
         let mut c = BaselineController::new(0, 2, BaselineParams::default()).unwrap();
         let own = Vec3::new(10.0, 0.0, 8.0);
         let other = Vec3::new(10.0, 1.1, 8.0); // inside r_a + r_s = 1.2 m
-        let cmd = c.update(&straight(), &m(own, &[Some(own), Some(other)]));
+        let cmd = c.update(&straight(), &m(own, &[Some(own), Some(other)]), 0.02);
         assert!(cmd.vel_mps.y < 0.0, "must move away from the neighbour: {:?}", cmd.vel_mps);
         assert!(cmd.vel_mps.xy().norm() <= 3.0);
     }
@@ -178,11 +179,11 @@ mod tests {
         let mut c = BaselineController::new(1, 3, BaselineParams::default()).unwrap();
         let own = Vec3::new(10.0, 0.0, 8.0);
         let nb = [Some(own), Some(own), Some(Vec3::new(f32::NAN, 0.0, 0.0))];
-        let cmd = c.update(&straight(), &m(own, &nb));
+        let cmd = c.update(&straight(), &m(own, &nb), 0.02);
         assert!(cmd.status.coincident_nodes);
         assert_eq!(cmd.status.neighbours_dropped, 1);
         assert!(cmd.vel_mps.iter().all(|x| x.is_finite()));
-        let cmd = c.update(&straight(), &m(Vec3::repeat(f32::NAN), &nb));
+        let cmd = c.update(&straight(), &m(Vec3::repeat(f32::NAN), &nb), 0.02);
         assert!(cmd.status.invalid_input && cmd.vel_mps == Vec3::zeros());
     }
 

@@ -16,7 +16,7 @@ use crate::passing::passing_velocity;
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, Formation, NodeId};
 use crate::tray::TrayParams;
-use crate::vertical::VerticalParams;
+use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
 
@@ -104,6 +104,9 @@ pub struct Measurements<'a> {
     pub load_vel_mps: Vec3,
     /// Neighbours' positions by UAV id (own slot ignored); `None` = missing or stale.
     pub neighbours_m: &'a [Option<Vec3>],
+    /// The velocity loop's estimate of the cable force on this UAV (`f_hat`, REFERENCE §4), N;
+    /// `None` when unavailable (load sharing then holds its offset).
+    pub own_cable_force_n: Option<Vec3>,
 }
 
 /// One UAV's velocity command and what went into it.
@@ -139,6 +142,7 @@ pub struct DissipativeController<const N: usize> {
     center_m: Vec2,
     own_hint: usize,
     center_hint: usize,
+    vertical: VerticalLoop,
 }
 
 impl<const N: usize> DissipativeController<N> {
@@ -170,6 +174,7 @@ impl<const N: usize> DissipativeController<N> {
             center_m: formation.node_m(NodeId::Center),
             own_hint: 0,
             center_hint: 0,
+            vertical: VerticalLoop::new(params.vertical),
         })
     }
 
@@ -248,8 +253,7 @@ impl<const N: usize> DissipativeController<N> {
         // Map back to the UAV (eq:2-20) and saturate (eq:2-21).
         let v_xy = p.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps);
         let v_xy = sat(v_xy, p.v_max_mps);
-        let offset = (m.own_pos_m.xy() - load_xy).norm();
-        let v_z = p.vertical.vertical_velocity_mps(m.own_pos_m.z, offset);
+        let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(v_xy.x, v_xy.y, v_z);
         if !finite3(&vel) {
             status.nonfinite_command = true;
@@ -289,15 +293,15 @@ impl<const N: usize> DissipativeController<N> {
 
     /// Hold: zero horizontal velocity, altitude law if possible.
     fn hold(&self, m: &Measurements<'_>, status: Status) -> Command {
-        hold_command(&self.params.vertical, m, self.center_m, status)
+        hold_command(&self.params.vertical, self.vertical.offset_m(), m, self.center_m, status)
     }
 }
 
 /// Hold command shared by both controllers: zero horizontal velocity; the altitude law when
 /// own altitude and load position are finite, else zero vertical velocity.
-pub(crate) fn hold_command(vertical: &VerticalParams, m: &Measurements<'_>, center_m: Vec2, status: Status) -> Command {
-    let v_z = if m.own_pos_m.z.is_finite() && finite3(&m.load_pos_m) && finite3(&m.own_pos_m) {
-        vertical.vertical_velocity_mps(m.own_pos_m.z, (m.own_pos_m.xy() - m.load_pos_m.xy()).norm())
+pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measurements<'_>, center_m: Vec2, status: Status) -> Command {
+    let v_z = if finite3(&m.load_pos_m) && finite3(&m.own_pos_m) {
+        vertical.vertical_velocity_mps(m.own_pos_m.z - offset_m, (m.own_pos_m.xy() - m.load_pos_m.xy()).norm())
     } else {
         0.0
     };
@@ -380,7 +384,7 @@ mod tests {
             (uavs[0], Vec3::new(0.0, f32::INFINITY, 5.0)),
             (Vec3::repeat(f32::NAN), load),
         ] {
-            let m = Measurements { own_pos_m: own, load_pos_m: l, load_vel_mps: Vec3::zeros(), neighbours_m: &nb };
+            let m = Measurements { own_pos_m: own, load_pos_m: l, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
             let c = ctl[0].update(&t, &m, DT_S);
             assert!(c.status.invalid_input);
             assert_eq!(c.vel_mps.xy(), Vec2::zeros());
@@ -393,7 +397,7 @@ mod tests {
         let (uavs, load) = takeoff(4, 5.0);
         let mut ctl = team(4, &uavs, &load);
         let nb = [Some(uavs[0]), None, Some(Vec3::new(f32::NAN, 0.0, 1.0)), Some(uavs[3])];
-        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb };
+        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
         let c = ctl[0].update(&tube(), &m, DT_S);
         assert_eq!(c.status.neighbours_dropped, 2);
         assert!(!c.status.invalid_input);
@@ -410,7 +414,7 @@ mod tests {
         uavs[1] = uavs[0];
         let nb = neighbours(&uavs);
         let t = tube();
-        let mk = |own| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb };
+        let mk = |own| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
         let c0 = ctl[0].update(&t, &mk(uavs[0]), DT_S);
         let c1 = ctl[1].update(&t, &mk(uavs[1]), DT_S);
         assert!(c0.status.coincident_nodes && c1.status.coincident_nodes);
@@ -424,7 +428,7 @@ mod tests {
         let mut ctl = team(4, &uavs, &load);
         uavs[0].z = LOAD_Z_M - 3.0;
         let nb = neighbours(&uavs);
-        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb };
+        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
         let c = ctl[0].update(&tube(), &m, DT_S);
         assert!(c.status.projection_floored);
         assert!(c.vel_mps.xy().norm() <= params().v_max_mps);
@@ -437,7 +441,7 @@ mod tests {
         let mut ctl = team(4, &uavs, &load);
         uavs[2].z = LOAD_Z_M + params().tray.height_above_load_m;
         let nb = neighbours(&uavs);
-        let m = Measurements { own_pos_m: uavs[2], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb };
+        let m = Measurements { own_pos_m: uavs[2], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
         let c = ctl[2].update(&tube(), &m, DT_S);
         assert!(!c.status.projection_floored);
         assert_relative_eq!(c.node_m, uavs[2].xy(), epsilon = 1e-5);
@@ -455,7 +459,7 @@ mod tests {
             .iter_mut()
             .zip(uavs.iter())
             .map(|(c, u)| {
-                c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb }, DT_S)
+                c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S)
             })
             .collect();
         for c in &cmds {
@@ -475,7 +479,7 @@ mod tests {
         let t = tube();
         for _ in 0..50 {
             for (c, u) in ctl.iter_mut().zip(uavs.iter()) {
-                c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb }, DT_S);
+                c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S);
             }
         }
         for c in &ctl {
@@ -498,7 +502,7 @@ mod tests {
                 .iter_mut()
                 .zip(uavs.iter())
                 .map(|(c, u)| {
-                    let m = Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb };
+                    let m = Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
                     let cmd = c.update(&t, &m, DT_S);
                     assert!(cmd.status.neighbours_dropped == 0 && !cmd.status.invalid_input);
                     min_dt = min_dt.min(cmd.boundary_distance_m);
@@ -545,7 +549,7 @@ mod tests {
             if poison < 3 { uavs[(k + 1) % 4].x = special[poison]; }
             let load = Vec3::new(lx, ly, lz);
             let nb = neighbours(&uavs);
-            let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::new(vl, -vl, 0.0), neighbours_m: &nb };
+            let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::new(vl, -vl, 0.0), neighbours_m: &nb, own_cable_force_n: None };
             let c = ctl[0].update(&tube(), &m, DT_S);
             prop_assert!(c.vel_mps.iter().all(|x| x.is_finite()));
             prop_assert!(c.vel_mps.xy().norm() <= params().v_max_mps);

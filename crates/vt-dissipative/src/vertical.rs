@@ -7,6 +7,16 @@
 //! vertical velocity command for the velocity loop: `v_z = clamp(k_z (z_ref - z), +-v_z,max)`.
 //! When the formation flattens in a narrow passage, `r` changes and every UAV climbs or sinks
 //! so that its cable stays taut instead of going slack (which would drop the load).
+//!
+//! # Load sharing (beyond the paper)
+//! Ten stiff cables on one 3-DOF load over-constrain it: centimetre altitude errors move
+//! newtons of tension between cables. [`VerticalLoop`] adds an altitude offset `dz` per UAV,
+//! integrated from the UAV's own cable-tension estimate `T_hat = f_hat . u` (the CFO's force
+//! estimate along the cable, REFERENCE §4) and the load's altitude error:
+//! `dz' = -k_T (T_hat - T_share) + k_L (z_l,ref - z_l)`, `|dz| <= dz_max`.
+//! At equilibrium every UAV sees `k_T (T_hat_i - T_share) = k_L e_l`: all cables carry the same
+//! tension, and the common mode (all UAVs up or down together, which tension cannot see) is
+//! fixed by the load altitude error `e_l`. Only own and load data are used (Remark 2).
 
 use crate::ControlError;
 
@@ -25,6 +35,14 @@ pub struct VerticalParams {
     pub vz_max_mps: f32,
     /// Smallest height of the UAV above the load reference, m.
     pub min_height_m: f32,
+    /// Nominal tension share `T_share` of this cable, N (0 disables load sharing).
+    pub tension_share_n: f32,
+    /// Load-sharing gain `k_T`, (m/s)/N.
+    pub share_gain_mps_per_n: f32,
+    /// Load-altitude gain `k_L` of the sharing integrator, 1/s.
+    pub load_altitude_gain_per_s: f32,
+    /// Bound on the sharing offset `|dz|`, m.
+    pub share_offset_max_m: f32,
 }
 
 impl Default for VerticalParams {
@@ -37,6 +55,10 @@ impl Default for VerticalParams {
             kz_per_s: 1.0,
             vz_max_mps: 1.0,
             min_height_m: 1.0,
+            tension_share_n: 0.0,
+            share_gain_mps_per_n: 0.0,
+            load_altitude_gain_per_s: 0.0,
+            share_offset_max_m: 0.0,
         }
     }
 }
@@ -47,7 +69,8 @@ impl VerticalParams {
     /// # Errors
     /// [`ControlError::InvalidParameter`] naming the bad field.
     pub fn validate(&self) -> Result<(), ControlError> {
-        let checks: [(bool, &'static str); 6] = [
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let checks: [(bool, &'static str); 10] = [
             (self.load_altitude_ref_m.is_finite(), "vertical.load_altitude_ref_m"),
             (self.cable_length_m.is_finite() && self.cable_length_m > 0.0, "vertical.cable_length_m"),
             (self.cable_stretch_m.is_finite() && self.cable_stretch_m >= 0.0, "vertical.cable_stretch_m"),
@@ -57,6 +80,10 @@ impl VerticalParams {
                 self.min_height_m.is_finite() && self.min_height_m > 0.0 && self.min_height_m < self.cable_length_m,
                 "vertical.min_height_m",
             ),
+            (nonneg(self.tension_share_n), "vertical.tension_share_n"),
+            (nonneg(self.share_gain_mps_per_n), "vertical.share_gain_mps_per_n"),
+            (nonneg(self.load_altitude_gain_per_s), "vertical.load_altitude_gain_per_s"),
+            (nonneg(self.share_offset_max_m), "vertical.share_offset_max_m"),
         ];
         for (ok, name) in checks {
             if !ok {
@@ -81,6 +108,56 @@ impl VerticalParams {
     }
 }
 
+/// The altitude law with its load-sharing integrator (one per UAV).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VerticalLoop {
+    params: VerticalParams,
+    offset_m: f32,
+}
+
+impl VerticalLoop {
+    /// A loop with zero sharing offset.
+    pub fn new(params: VerticalParams) -> Self {
+        Self { params, offset_m: 0.0 }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &VerticalParams {
+        &self.params
+    }
+
+    /// Current load-sharing offset `dz`, m.
+    pub fn offset_m(&self) -> f32 {
+        self.offset_m
+    }
+
+    /// Vertical velocity command, m/s: the taut-cable altitude law plus the sharing offset.
+    ///
+    /// `uav_m`/`load_m` are own and load positions (finite; the caller checks), `force_n` the
+    /// CFO's estimate of the cable force on this UAV (`None` or non-finite: the integrator
+    /// holds). `dt_s` is the step (non-finite or <= 0: the integrator holds).
+    pub fn update(&mut self, uav_m: &crate::Vec3, load_m: &crate::Vec3, force_n: Option<crate::Vec3>, dt_s: f32) -> f32 {
+        let p = &self.params;
+        let d = uav_m - load_m;
+        let offset = libm::sqrtf(d.x * d.x + d.y * d.y);
+        let sharing = p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
+        if let (true, Some(f), true) = (sharing, force_n, dt_s.is_finite() && dt_s > 0.0) {
+            let len = libm::sqrtf(d.norm_squared());
+            if f.iter().all(|x| x.is_finite()) && len > 0.0 {
+                let tension = f.dot(&d) / len;
+                let rate = -p.share_gain_mps_per_n * (tension - p.tension_share_n)
+                    + p.load_altitude_gain_per_s * (p.load_altitude_ref_m - load_m.z);
+                let next = (self.offset_m + rate * dt_s).clamp(-p.share_offset_max_m, p.share_offset_max_m);
+                if next.is_finite() {
+                    self.offset_m = next;
+                }
+            }
+        }
+        let z_ref = p.altitude_ref_m(offset) + self.offset_m;
+        (p.kz_per_s * (z_ref - uav_m.z)).clamp(-p.vz_max_mps, p.vz_max_mps)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,6 +172,48 @@ mod tests {
         assert_relative_eq!(p.vertical_velocity_mps(0.0, 3.0), 1.0);
         // Offset beyond the cable: floor at min_height.
         assert_relative_eq!(p.altitude_ref_m(10.0), 3.0, epsilon = 1e-6);
+    }
+
+    fn sharing() -> VerticalParams {
+        VerticalParams {
+            cable_length_m: 5.0,
+            load_altitude_ref_m: 2.0,
+            tension_share_n: 10.0,
+            share_gain_mps_per_n: 0.01,
+            load_altitude_gain_per_s: 0.5,
+            share_offset_max_m: 0.3,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn overloaded_cable_lowers_its_uav() {
+        let mut v = VerticalLoop::new(sharing());
+        let load = crate::Vec3::new(0.0, 0.0, 2.0);
+        let uav = crate::Vec3::new(3.0, 0.0, 6.0); // on its reference: 3-4-5
+        // Cable force 15 N along the cable (share 10 N): the offset integrates downwards.
+        let f = (uav - load).normalize() * 15.0;
+        for _ in 0..10 {
+            v.update(&uav, &load, Some(f), 0.1);
+        }
+        assert_relative_eq!(v.offset_m(), -0.05, epsilon = 1e-5);
+        assert!(v.update(&uav, &load, Some(f), 0.1) < 0.0);
+    }
+
+    #[test]
+    fn low_load_raises_everyone_and_offset_is_bounded() {
+        let mut v = VerticalLoop::new(sharing());
+        let load = crate::Vec3::new(0.0, 0.0, 1.0); // 1 m below its reference
+        let uav = crate::Vec3::new(3.0, 0.0, 6.0);
+        let f = (uav - load).normalize() * 10.0;
+        for _ in 0..100 {
+            v.update(&uav, &load, Some(f), 0.1);
+        }
+        assert_relative_eq!(v.offset_m(), 0.3, epsilon = 1e-6);
+        // Missing or NaN estimate: the integrator holds.
+        v.update(&uav, &load, None, 0.1);
+        v.update(&uav, &load, Some(crate::Vec3::repeat(f32::NAN)), 0.1);
+        assert_relative_eq!(v.offset_m(), 0.3, epsilon = 1e-6);
     }
 
     #[test]

@@ -1,0 +1,115 @@
+//! Bad scenario files get a message naming the field and line, and exit code 2.
+
+use std::process::Command;
+
+/// Runs `host-sim run FILE` on `text` and returns (exit code, stderr).
+fn run_with(text: &str, name: &str) -> (Option<i32>, String) {
+    let dir = std::env::temp_dir().join(format!("vt-scenario-errors-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write scenario");
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["run", path.to_str().expect("utf-8 path"), "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .expect("host-sim runs");
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn paper() -> String {
+    host_sim::scenario::PAPER_10UAV.to_string()
+}
+
+/// Line number (1-based) of the first line containing `needle` in the paper scenario.
+fn line_of(needle: &str) -> usize {
+    paper().lines().position(|l| l.contains(needle)).expect("needle present") + 1
+}
+
+fn expect_error(text: &str, name: &str, must_contain: &[&str]) {
+    let (code, err) = run_with(text, name);
+    assert_eq!(code, Some(2), "{name}: exit code {code:?}, stderr: {err}");
+    assert!(!err.contains("panicked"), "{name}: panicked: {err}");
+    for m in must_contain {
+        assert!(err.contains(m), "{name}: `{m}` not in: {err}");
+    }
+}
+
+#[test]
+fn syntax_error_names_the_line() {
+    let text = paper().replacen("mass_kg = 18.0", "mass_kg = = 18.0", 1);
+    expect_error(&text, "syntax.toml", &[&format!(":{}:", line_of("mass_kg = 18.0"))]);
+}
+
+#[test]
+fn wrong_type_names_the_line() {
+    let text = paper().replacen("mass_kg = 18.0", "mass_kg = \"heavy\"", 1);
+    expect_error(&text, "type.toml", &[&format!(":{}:", line_of("mass_kg = 18.0"))]);
+}
+
+#[test]
+fn missing_field_is_named() {
+    let text = paper().replacen("thrust_max_n = 50.0\n", "", 1);
+    expect_error(&text, "missing.toml", &["thrust_max_n"]);
+}
+
+#[test]
+fn unknown_field_is_named() {
+    let text = paper().replacen("mass_kg = 18.0", "mass_kg = 18.0\nmas_kg = 1.0", 1);
+    expect_error(&text, "unknown.toml", &["mas_kg"]);
+}
+
+#[test]
+fn negative_mass_names_field_and_line() {
+    let text = paper().replacen("mass_kg = 18.0", "mass_kg = -18.0", 1);
+    expect_error(&text, "neg.toml", &["load.mass_kg", &format!(":{}:", line_of("mass_kg = 18.0"))]);
+}
+
+#[test]
+fn nan_and_infinite_values_are_rejected() {
+    let text = paper().replacen("stiffness_n_per_m = 500.0", "stiffness_n_per_m = nan", 1);
+    expect_error(&text, "nan.toml", &["cables.stiffness_n_per_m"]);
+    let text = paper().replacen("altitude_m = 6.0", "altitude_m = inf", 1);
+    expect_error(&text, "inf.toml", &["load.altitude_m"]);
+}
+
+#[test]
+fn zero_and_uneven_rates_are_rejected() {
+    let text = paper().replacen("high_level_hz = 50", "high_level_hz = 0", 1);
+    expect_error(&text, "zero.toml", &["rates.high_level_hz"]);
+    let text = paper().replacen("low_level_hz = 500", "low_level_hz = 300", 1);
+    expect_error(&text, "uneven.toml", &["rates.low_level_hz", "divide"]);
+}
+
+#[test]
+fn obstacle_inside_the_tube_is_rejected() {
+    let text = paper().replacen("center_m = [16.0, 6.6]", "center_m = [16.0, 2.0]", 1);
+    expect_error(&text, "obstacle.toml", &["world.obstacles[0]", "intrudes", &format!(":{}:", line_of("[[world.obstacles]]"))]);
+}
+
+#[test]
+fn tube_narrower_than_a_uav_is_rejected() {
+    let text = paper().replacen("[16.0, 2.0, 2.4, 2.4]", "[16.0, 2.0, 0.5, 0.5]", 1);
+    expect_error(&text, "narrow.toml", &["tube.waypoints", "cannot hold a UAV"]);
+}
+
+#[test]
+fn folding_tube_is_rejected() {
+    let text = paper().replacen("[16.0, 2.0, 2.4, 2.4]", "[12.0, 9.0, 2.4, 2.4]", 1);
+    expect_error(&text, "fold.toml", &["tube.waypoints"]);
+}
+
+#[test]
+fn cable_too_short_for_the_formation_is_rejected() {
+    let text = paper().replacen("lengths_m = [8.3, 7.0,", "lengths_m = [0.5, 7.0,", 1);
+    expect_error(&text, "short.toml", &["cables.lengths_m", "too short"]);
+}
+
+#[test]
+fn unreadable_file_is_exit_2() {
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["run", "/nonexistent/scenario.toml"])
+        .output()
+        .expect("host-sim runs");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read"));
+}
