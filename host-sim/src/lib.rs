@@ -4,6 +4,8 @@
 #![forbid(unsafe_code)]
 
 pub mod cable;
+pub mod campaign;
+pub mod disturbance;
 pub mod link;
 pub mod plant;
 pub mod plots;

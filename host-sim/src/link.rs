@@ -34,7 +34,9 @@ impl SplitMix64 {
 pub struct Link<T: Copy> {
     n: usize,
     delay_steps: u64,
+    jitter_steps: u64,
     drop_probability: f64,
+    silent: Vec<bool>,
     stale_steps: u64,
     rng: SplitMix64,
     /// In flight, per (receiver, sender): (delivery step, stamp step, payload).
@@ -49,11 +51,26 @@ impl<T: Copy> Link<T> {
         Self {
             n,
             delay_steps,
+            jitter_steps: 0,
             drop_probability,
+            silent: vec![false; n],
             stale_steps,
             rng: SplitMix64::new(seed ^ 0x4C49_4E4B),
             queues: vec![VecDeque::new(); n * n],
             latest: vec![None; n * n],
+        }
+    }
+
+    /// Adds a random extra delay, uniform in `0..=jitter_steps`, to every message.
+    pub fn with_jitter(mut self, jitter_steps: u64) -> Self {
+        self.jitter_steps = jitter_steps;
+        self
+    }
+
+    /// UAV `tx` stops transmitting (fault): nothing it sends arrives from now on.
+    pub fn silence(&mut self, tx: usize) {
+        if let Some(s) = self.silent.get_mut(tx) {
+            *s = true;
         }
     }
 
@@ -65,10 +82,15 @@ impl<T: Copy> Link<T> {
                     continue;
                 }
                 let k = rx * self.n + tx;
-                let lost = self.drop_probability > 0.0 && self.rng.next_f64() < self.drop_probability;
+                let silent = self.silent.get(tx).copied().unwrap_or(false);
+                let lost = silent || (self.drop_probability > 0.0 && self.rng.next_f64() < self.drop_probability);
+                let jitter = if self.jitter_steps > 0 { self.rng.next_u64() % (self.jitter_steps + 1) } else { 0 };
                 if let Some(q) = self.queues.get_mut(k) {
                     if !lost {
-                        q.push_back((now + self.delay_steps, now, *p));
+                        // Keep arrival order monotone per sender (a later message never
+                        // overtakes an earlier one on a serial link).
+                        let due = (now + self.delay_steps + jitter).max(q.back().map_or(0, |m| m.0));
+                        q.push_back((due, now, *p));
                     }
                     while q.front().is_some_and(|m| m.0 <= now) {
                         if let (Some((_, stamp, v)), Some(slot)) = (q.pop_front(), self.latest.get_mut(k)) {
@@ -130,6 +152,21 @@ mod tests {
         assert_eq!(v[1], Some(2));
         l2.view(0, 4, 0, &mut v);
         assert_eq!(v[1], None);
+    }
+
+    #[test]
+    fn silenced_sender_goes_stale() {
+        let mut l = Link::new(2, 0, 0.0, 2, 1);
+        let mut v = Vec::new();
+        l.exchange(0, &[1, 2]);
+        l.silence(1);
+        for k in 1..4 {
+            l.exchange(k, &[1, 2]);
+        }
+        l.view(0, 3, 0, &mut v);
+        assert_eq!(v[1], None, "silent UAV must go stale");
+        l.view(1, 3, 0, &mut v);
+        assert_eq!(v[0], Some(1), "the silent UAV still hears the others");
     }
 
     #[test]

@@ -57,6 +57,25 @@ enum Cmd {
         #[arg(long)]
         seed: Option<u64>,
     },
+    /// Fly many seeded runs (a scenario or a campaign under scenarios/campaigns/) in parallel
+    /// and write sweep.csv, sweep.json (success rate, percentiles) and, for campaigns with
+    /// levels, success_rate_vs_level.png.
+    Sweep {
+        /// Scenario or campaign TOML file (default: the built-in paper scenario).
+        scenario: Option<PathBuf>,
+        /// Runs per level (default: the campaign's `runs`, else 20).
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// First seed; runs use seed, seed+1, ... (default: the campaign's `seed`).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Output directory.
+        #[arg(long, default_value = "out/sweep")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -70,6 +89,7 @@ fn main() -> ExitCode {
             run(scenario, kind, f_max, &out, seed)
         }
         Cmd::Compare { scenario, f_max, out, seed } => compare(scenario, f_max, &out, seed),
+        Cmd::Sweep { scenario, runs, jobs, seed, out } => sweep(scenario, runs, jobs, seed, &out),
     }
 }
 
@@ -88,7 +108,7 @@ fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, 
         }
     }
     eprintln!("flying {} with the {} controller ...", ls.source_name, kind.name());
-    sim::run(ls, &RunOptions { controller: kind, f_max_n: f_max, seed, progress: true }).map_err(|e| {
+    sim::run(ls, &RunOptions { controller: kind, f_max_n: f_max, seed, progress: true, record: true }).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(EXIT_BAD_INPUT)
     })
@@ -138,4 +158,76 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
         Ok(ExitCode::SUCCESS)
     })();
     result.unwrap_or_else(|c| c)
+}
+
+fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path) -> ExitCode {
+    use host_sim::campaign;
+    let c = match campaign::load(path.as_deref()) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let runs = runs.unwrap_or(c.runs);
+    if runs == 0 {
+        eprintln!("error: --runs must be > 0");
+        return ExitCode::from(EXIT_BAD_INPUT);
+    }
+    let seed = seed.unwrap_or(c.seed);
+    let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    eprintln!("sweep {}: {} level(s) x {runs} runs from seed {seed} on {jobs} threads ...", c.name, c.levels.len());
+    let wall = std::time::Instant::now();
+    let rows = match campaign::fly(&c, runs, seed, jobs, true) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let rep = campaign::report(&c, seed, &rows);
+    if let Err(e) = write_sweep(out, &rows, &rep) {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_FAILURE);
+    }
+    println!("{} runs, {} successes ({:.1} %) in {:.1} s", rep.runs, rep.successes, 100.0 * rep.success_rate, wall.elapsed().as_secs_f64());
+    for l in &rep.levels {
+        let lv = l.level.map_or_else(|| "-".to_string(), |v| format!("{v}"));
+        let worst = |k: &str, hi: bool| l.percentiles.get(k).map_or(f64::NAN, |p| if hi { p.max } else { p.min });
+        println!(
+            "  level {lv:>6}: {:>4}/{:<4} success {:>5.1} %  worst UAV-bnd {:.2} m  worst UAV-UAV {:.2} m  worst load alt err {:.2} m{}",
+            l.successes,
+            l.runs,
+            100.0 * l.success_rate,
+            worst("min_uav_boundary_m", false),
+            worst("min_uav_uav_m", false),
+            worst("max_load_altitude_error_m", true),
+            if l.failure_reasons.is_empty() { String::new() } else { format!("  failures: {:?}", l.failure_reasons) }
+        );
+    }
+    println!("  wrote {}", out.display());
+    ExitCode::SUCCESS
+}
+
+fn write_sweep(out: &std::path::Path, rows: &[host_sim::campaign::Row], rep: &host_sim::campaign::SweepReport) -> Result<(), String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let csv = out.join("sweep.csv");
+    std::fs::write(&csv, host_sim::campaign::csv(rows)).map_err(|e| format!("{}: {e}", csv.display()))?;
+    let json = out.join("sweep.json");
+    let text = serde_json::to_string_pretty(rep).map_err(|e| e.to_string())?;
+    std::fs::write(&json, text + "\n").map_err(|e| format!("{}: {e}", json.display()))?;
+    if rep.levels.len() > 1 {
+        let pts: Vec<(f64, f64)> = rep.levels.iter().filter_map(|l| l.level.map(|v| (v, 100.0 * l.success_rate))).collect();
+        let key = rep.level_key.clone().unwrap_or_default();
+        host_sim::plots::write_xy_plot(
+            &out.join("success_rate_vs_level.png"),
+            &format!("Success rate - {} (level: {key})", rep.scenario),
+            "disturbance level",
+            "success rate [%]",
+            &[("success rate".to_string(), pts)],
+            &[0.0, 100.0],
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
 }

@@ -273,6 +273,16 @@ impl Plant {
         Ok(plant)
     }
 
+    /// Cuts cable `index` (fault injection): from now on it carries no force.
+    /// An out-of-range index does nothing.
+    pub fn cut_cable(&mut self, index: usize) {
+        if let Some(c) = self.cables.get_mut(index) {
+            c.f_max_n = 0.0;
+            c.stiffness_n_per_m = 0.0;
+            c.damping_ns_per_m = 0.0;
+        }
+    }
+
     /// Number of UAVs.
     #[must_use]
     pub fn n_uavs(&self) -> usize {

@@ -225,6 +225,40 @@ pub fn write_comparison_plots(
     Ok(out)
 }
 
+/// Writes a line plot of `series` (label, points) to `path`: e.g. success rate against
+/// disturbance level for a campaign. `y_include` values are kept inside the y range.
+pub fn write_xy_plot(
+    path: &Path,
+    title: &str,
+    x_desc: &'static str,
+    y_desc: &'static str,
+    series: &[(String, Vec<(f64, f64)>)],
+    y_include: &[f64],
+) -> Result<PathBuf, PlotError> {
+    if let Some(dir) = path.parent() {
+        prepare(dir)?;
+    }
+    let plot = TimePlot {
+        x_desc,
+        y_desc,
+        series: series
+            .iter()
+            .enumerate()
+            .map(|(i, (label, pts))| Series { label: label.clone(), color: uav_color(i), width: 3, points: pts.clone() })
+            .collect(),
+        hlines: Vec::new(),
+        band: None,
+        y_include: y_include.to_vec(),
+    };
+    render(path, (TS_PANEL.0 + LEGEND_W, TS_PANEL.1), |root| {
+        let (panel, legend) = root.split_horizontally(TS_PANEL.0);
+        let (xr, yr) = plot.ranges(&[]);
+        draw_time_panel(&panel, title, &plot, xr, yr)?;
+        draw_legend(&legend, &plot.legend(), 60)
+    })?;
+    Ok(path.to_path_buf())
+}
+
 fn prepare(dir: &Path) -> Result<(), PlotError> {
     ensure_fonts().map_err(|m| PlotError::new(dir, m))?;
     std::fs::create_dir_all(dir).map_err(|e| PlotError::new(dir, e.to_string()))
@@ -1072,6 +1106,7 @@ struct HLine {
 }
 
 struct TimePlot {
+    x_desc: &'static str,
     y_desc: &'static str,
     series: Vec<Series>,
     hlines: Vec<HLine>,
@@ -1188,6 +1223,7 @@ fn tension_plot(rec: &RunRecord) -> TimePlot {
         Vec::new()
     };
     TimePlot {
+        x_desc: "time [s]",
         y_desc: "cable tension [N]",
         series,
         hlines,
@@ -1204,6 +1240,7 @@ fn distance_plot(rec: &RunRecord) -> TimePlot {
         points: time_series(&rec.time_s, v.iter().copied()),
     };
     TimePlot {
+        x_desc: "time [s]",
         y_desc: "distance [m]",
         series: vec![
             s(
@@ -1251,6 +1288,7 @@ fn altitude_plot(rec: &RunRecord) -> TimePlot {
         (Vec::new(), None)
     };
     TimePlot {
+        x_desc: "time [s]",
         y_desc: "load altitude [m]",
         series: vec![Series {
             label: "load altitude".into(),
@@ -1282,7 +1320,7 @@ fn draw_time_panel(
         .x_label_area_size(60)
         .y_label_area_size(y_label_area(&yr, ny) + 10)
         .build_cartesian_2d(xr, yr)?;
-    draw_axes(&inner, &mut chart, (nx, ny), "time [s]", plot.y_desc)?;
+    draw_axes(&inner, &mut chart, (nx, ny), plot.x_desc, plot.y_desc)?;
 
     if let Some((lo, hi, _)) = &plot.band {
         chart.draw_series(std::iter::once(Rectangle::new(

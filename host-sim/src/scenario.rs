@@ -81,6 +81,115 @@ pub struct Scenario {
     pub link: LinkSpec,
     /// Mission limits and success criteria.
     pub mission: MissionSpec,
+    /// Disturbances and uncertainty (all off by default; seeded).
+    #[serde(default)]
+    pub disturbances: DisturbanceSpec,
+    /// Faults injected at given times.
+    #[serde(default)]
+    pub faults: Vec<FaultSpec>,
+}
+
+/// Sensor noise, latency, wind and model uncertainty. Zero means off.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbanceSpec {
+    /// Std. dev. of position noise on own, load and neighbour measurements, m.
+    #[serde(default)]
+    pub position_noise_m: f64,
+    /// Std. dev. of velocity noise on own and load measurements, m/s.
+    #[serde(default)]
+    pub velocity_noise_mps: f64,
+    /// Latency of own and load measurements, s (rounded to low-level periods).
+    #[serde(default)]
+    pub latency_s: f64,
+    /// Extra random link delay per message, uniform in [0, jitter], s.
+    #[serde(default)]
+    pub link_jitter_s: f64,
+    /// Mean wind, m/s (ENU).
+    #[serde(default)]
+    pub wind_mean_mps: [f64; 3],
+    /// Std. dev. of the gust (first-order filtered noise) per horizontal axis, m/s.
+    #[serde(default)]
+    pub gust_std_mps: f64,
+    /// Gust correlation time, s.
+    #[serde(default = "default_gust_tau")]
+    pub gust_tau_s: f64,
+    /// Drag area C_d A of each UAV, m^2.
+    #[serde(default = "default_uav_drag")]
+    pub uav_drag_area_m2: f64,
+    /// Drag area C_d A of the load, m^2.
+    #[serde(default = "default_load_drag")]
+    pub load_drag_area_m2: f64,
+    /// Relative cable length error, uniform in +-this (plant only; controllers use nominal).
+    #[serde(default)]
+    pub cable_length_error: f64,
+    /// Relative cable stiffness error, uniform in +-this.
+    #[serde(default)]
+    pub cable_stiffness_error: f64,
+    /// Relative UAV mass error, uniform in +-this.
+    #[serde(default)]
+    pub uav_mass_error: f64,
+    /// Relative load mass error, uniform in +-this.
+    #[serde(default)]
+    pub load_mass_error: f64,
+    /// Multiplies every noise, wind and error magnitude above (campaign levels).
+    #[serde(default = "one")]
+    pub intensity: f64,
+}
+
+impl Default for DisturbanceSpec {
+    fn default() -> Self {
+        Self {
+            position_noise_m: 0.0,
+            velocity_noise_mps: 0.0,
+            latency_s: 0.0,
+            link_jitter_s: 0.0,
+            wind_mean_mps: [0.0; 3],
+            gust_std_mps: 0.0,
+            gust_tau_s: default_gust_tau(),
+            uav_drag_area_m2: default_uav_drag(),
+            load_drag_area_m2: default_load_drag(),
+            cable_length_error: 0.0,
+            cable_stiffness_error: 0.0,
+            uav_mass_error: 0.0,
+            load_mass_error: 0.0,
+            intensity: 1.0,
+        }
+    }
+}
+
+fn default_gust_tau() -> f64 {
+    2.0
+}
+fn default_uav_drag() -> f64 {
+    0.05
+}
+fn default_load_drag() -> f64 {
+    0.3
+}
+
+/// What goes wrong.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FaultKind {
+    /// The UAV's cable snaps.
+    CableSnap,
+    /// The UAV stops transmitting its position.
+    UavSilent,
+    /// The UAV loses all thrust and falls with its cable attached.
+    ThrustLoss,
+}
+
+/// One fault.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    /// Kind of fault.
+    pub kind: FaultKind,
+    /// Affected UAV (0-based).
+    pub uav: usize,
+    /// Time of the fault, s.
+    pub time_s: f64,
 }
 
 /// The flight space.
@@ -518,6 +627,41 @@ impl Validator<'_> {
         }
         self.non_negative("mission", "post_arrival_s", m.post_arrival_s)?;
         self.non_negative("mission", "settle_time_s", m.settle_time_s)?;
+        let d = &s.disturbances;
+        for (k, v) in [("position_noise_m", d.position_noise_m), ("velocity_noise_mps", d.velocity_noise_mps),
+                       ("latency_s", d.latency_s), ("link_jitter_s", d.link_jitter_s), ("gust_std_mps", d.gust_std_mps),
+                       ("uav_drag_area_m2", d.uav_drag_area_m2), ("load_drag_area_m2", d.load_drag_area_m2),
+                       ("intensity", d.intensity)] {
+            self.non_negative("disturbances", k, v)?;
+        }
+        self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
+        if !d.wind_mean_mps.iter().all(|x| x.is_finite()) {
+            return Err(self.err("disturbances", "wind_mean_mps", "must be finite".into()));
+        }
+        for (k, v) in [("cable_length_error", d.cable_length_error), ("cable_stiffness_error", d.cable_stiffness_error),
+                       ("uav_mass_error", d.uav_mass_error), ("load_mass_error", d.load_mass_error)] {
+            if !(v.is_finite() && (0.0..0.9).contains(&(v * d.intensity))) {
+                return Err(self.err("disturbances", k, format!("relative error x intensity must be in [0, 0.9) (got {})", v * d.intensity)));
+            }
+        }
+        for (i, f) in s.faults.iter().enumerate() {
+            if f.uav >= s.cables.lengths_m.len() {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_line(self.text, "faults", i),
+                    field: Some(format!("faults[{i}].uav")),
+                    message: format!("no UAV {} in a team of {}", f.uav, s.cables.lengths_m.len()),
+                });
+            }
+            if !(f.time_s.is_finite() && f.time_s >= 0.0) {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_line(self.text, "faults", i),
+                    field: Some(format!("faults[{i}].time_s")),
+                    message: "must be a finite time >= 0".into(),
+                });
+            }
+        }
         // Geometry: tube, obstacles, formation, cables.
         let tube = self.check_tube(s)?;
         self.check_obstacles(s, &tube)?;

@@ -3,10 +3,11 @@
 //! neighbours' positions. This file composes; the control laws live in the crates.
 
 use crate::cable::CableParams;
+use crate::disturbance::{drag_n, ParameterDraw, Sensors, Wind};
 use crate::link::Link;
 use crate::plant::{LoadParams, Plant, UavParams, GRAVITY_MPS2};
 use crate::record::{Obstacle, RunRecord, SceneGeometry};
-use crate::scenario::{LoadedScenario, Scenario, SimTube};
+use crate::scenario::{FaultKind, LoadedScenario, Scenario, SimTube};
 use crate::summary::Summary;
 use nalgebra::Vector3;
 use std::time::Instant;
@@ -49,11 +50,13 @@ pub struct RunOptions {
     pub seed: Option<u64>,
     /// Show a progress bar on a terminal.
     pub progress: bool,
+    /// Keep the time histories (off for sweeps: summaries only).
+    pub record: bool,
 }
 
 impl Default for RunOptions {
     fn default() -> Self {
-        Self { controller: ControllerKind::Dissipative, f_max_n: None, seed: None, progress: false }
+        Self { controller: ControllerKind::Dissipative, f_max_n: None, seed: None, progress: false, record: true }
     }
 }
 
@@ -107,6 +110,14 @@ pub struct Takeoff {
 /// and stretched for an equal share of the load (REFERENCE §6).
 pub fn takeoff(s: &Scenario, tube: &SimTube, f_max_n: f64) -> Takeoff {
     let n = s.cables.lengths_m.len();
+    takeoff_with(s, tube, f_max_n, &s.cables.lengths_m, &vec![s.cables.stiffness_n_per_m; n])
+}
+
+/// [`takeoff`] for the plant's true cable lengths and stiffnesses: every cable taut at the
+/// stretch its true stiffness gives under an equal share, so the true plant starts at rest.
+/// `stretch_m` and `share_n` stay the nominal values the controllers assume.
+pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64], stiffness_n_per_m: &[f64]) -> Takeoff {
+    let n = lengths_m.len();
     let h_tray = s.controller.tray_height_m;
     let r = s.uavs.formation_radius_m;
     let cos_lean = h_tray / (h_tray * h_tray + r * r).sqrt();
@@ -118,14 +129,13 @@ pub fn takeoff(s: &Scenario, tube: &SimTube, f_max_n: f64) -> Takeoff {
     let smp = tube.samples().get(k).copied().unwrap_or(tube.samples()[0]);
     let heading = f64::from(smp.tangent.y).atan2(f64::from(smp.tangent.x));
     let load = V3::new(f64::from(smp.pos_m.x), f64::from(smp.pos_m.y), s.load.altitude_m);
-    let uav_pos_m = s
-        .cables
-        .lengths_m
+    let uav_pos_m = lengths_m
         .iter()
+        .zip(stiffness_n_per_m.iter())
         .enumerate()
-        .map(|(i, len)| {
+        .map(|(i, (len, k))| {
             let a = heading + std::f64::consts::TAU * i as f64 / n as f64;
-            let taut = len + stretch_m;
+            let taut = len + share / k;
             let height = taut * cos_lean;
             let offset = r * height / h_tray;
             load + V3::new(offset * a.cos(), offset * a.sin(), height)
@@ -198,27 +208,53 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     let n = s.cables.lengths_m.len();
     let f_max = opts.f_max_n.unwrap_or(s.cables.f_max_n);
     let seed = opts.seed.unwrap_or(s.seed);
-    let to = takeoff(s, tube, f_max);
+    let dist = &s.disturbances;
+    let draw = ParameterDraw::draw(dist, n, seed);
+    let true_len: Vec<f64> = s.cables.lengths_m.iter().zip(&draw.cable_length).map(|(l, k)| l * k).collect();
+    let true_k: Vec<f64> = draw.cable_stiffness.iter().map(|k| s.cables.stiffness_n_per_m * k).collect();
+    let to = takeoff_with(s, tube, f_max, &true_len, &true_k);
 
-    // Plant.
-    let uav_params = vec![UavParams { mass_kg: s.uavs.mass_kg, thrust_max_n: s.uavs.thrust_max_n, thrust_lag_s: s.uavs.thrust_lag_s }; n];
+    // Plant, with its true parameters drawn around the nominal ones (disturbances).
+    let uav_params: Vec<UavParams> = draw
+        .uav_mass
+        .iter()
+        .map(|k| UavParams { mass_kg: s.uavs.mass_kg * k, thrust_max_n: s.uavs.thrust_max_n, thrust_lag_s: s.uavs.thrust_lag_s })
+        .collect();
     let cables: Vec<CableParams> = s
         .cables
         .lengths_m
         .iter()
-        .map(|&l| CableParams { rest_length_m: l, stiffness_n_per_m: s.cables.stiffness_n_per_m, damping_ns_per_m: s.cables.damping_ns_per_m, f_max_n: f_max })
+        .zip(true_len.iter().zip(true_k.iter()))
+        .map(|(_, (&l, &k))| CableParams {
+            rest_length_m: l,
+            stiffness_n_per_m: k,
+            damping_ns_per_m: s.cables.damping_ns_per_m,
+            f_max_n: f_max,
+        })
         .collect();
-    let mut plant = Plant::new(uav_params, cables, LoadParams { mass_kg: s.load.mass_kg }, &to.uav_pos_m, to.load_pos_m, s.rates.plant_substeps as usize)
+    let load_params = LoadParams { mass_kg: s.load.mass_kg * draw.load_mass };
+    let mut plant = Plant::new(uav_params, cables, load_params, &to.uav_pos_m, to.load_pos_m, s.rates.plant_substeps as usize)
         .map_err(|e| SimError(format!("plant: {e}")))?;
     let hover = plant.hover_thrust();
     for (u, t) in plant.uavs.iter_mut().zip(hover.iter()) {
         u.thrust_n = *t;
     }
 
+    // Sensors first: the controllers calibrate from what they measure at take-off.
+    let r = &s.rates;
+    let latency_steps = (dist.latency_s * dist.intensity * f64::from(r.low_level_hz)).round() as usize;
+    let mut sensors = Sensors::new(dist, latency_steps, seed);
+    sensors.sample(&plant);
+    let measured_load = sensors.position(&plant.load.pos_m);
+    let measured_uav: Vec<V3> = to.uav_pos_m.iter().map(|p| sensors.position(p)).collect();
+    // Cable length calibrated at take-off from the taut geometry (see docs/design.md):
+    // measured UAV-load distance less the nominal stretch.
+    let calibrated_len: Vec<f64> = measured_uav.iter().map(|p| (p - measured_load).norm() - to.stretch_m).collect();
+
     // Controllers, one per UAV.
     let tray = tray(s);
-    let uav_f: Vec<V3f> = to.uav_pos_m.iter().map(v3f).collect();
-    let formation = Formation::<MAX_UAVS>::from_takeoff(&uav_f, &v3f(&to.load_pos_m), &tray).map_err(|e| SimError(format!("formation: {e}")))?;
+    let uav_f: Vec<V3f> = measured_uav.iter().map(v3f).collect();
+    let formation = Formation::<MAX_UAVS>::from_takeoff(&uav_f, &v3f(&measured_load), &tray).map_err(|e| SimError(format!("formation: {e}")))?;
     let mut high = match opts.controller {
         ControllerKind::Dissipative => HighLevel::Dissipative(
             (0..n)
@@ -232,7 +268,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                         r_safe_m: c.r_safe_m as f32,
                         r_active_m: c.r_active_m as f32,
                         tray,
-                        vertical: vertical_params(s, s.cables.lengths_m[i], &to),
+                        vertical: vertical_params(s, calibrated_len[i], &to),
                     };
                     DissipativeController::new(i, p, &formation).map_err(|e| SimError(format!("controller: {e}")))
                 })
@@ -249,7 +285,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                         v_max_mps: b.v_max_mps as f32,
                         r_safe_m: b.r_safe_m as f32,
                         r_active_m: b.r_active_m as f32,
-                        vertical: vertical_params(s, s.cables.lengths_m[i], &to),
+                        vertical: vertical_params(s, calibrated_len[i], &to),
                     };
                     BaselineController::new(i, n, p).map_err(|e| SimError(format!("baseline: {e}")))
                 })
@@ -259,7 +295,6 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     let mut vloops: Vec<VelocityLoop> = (0..n).map(|_| velocity_loop(s)).collect::<Result<_, _>>()?;
 
     // Rates.
-    let r = &s.rates;
     let dt = 1.0 / f64::from(r.plant_hz);
     let ll_every = u64::from(r.plant_hz / r.low_level_hz);
     let hl_every = u64::from(r.plant_hz / r.high_level_hz);
@@ -274,7 +309,15 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
         s.link.drop_probability,
         (s.link.stale_timeout_s * hl_hz).round().max(1.0) as u64,
         seed,
-    );
+    )
+    .with_jitter((dist.link_jitter_s * dist.intensity * hl_hz).round() as u64);
+    let mut wind = Wind::new(dist, seed);
+    let mut ext_uav = vec![V3::zeros(); n];
+    let mut faults: Vec<(u64, FaultKind, usize)> =
+        s.faults.iter().map(|f| ((f.time_s * f64::from(r.plant_hz)).round() as u64, f.kind, f.uav)).collect();
+    faults.sort_by_key(|f| f.0);
+    let mut next_fault = 0usize;
+    let mut thrust_lost = vec![false; n];
 
     let mut metrics = Metrics::new(n, f_max, s, tube.length_m());
     let mut record = RunRecord {
@@ -290,7 +333,6 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     let mut view: Vec<Option<V3f>> = Vec::with_capacity(n);
     let mut uav_hints = vec![0usize; n];
     let mut load_hint = 0usize;
-    let no_ext: [V3; 0] = [];
 
     let bar = progress_bar(opts.progress, max_steps);
     let wall = Instant::now();
@@ -300,10 +342,11 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
         let t = step as f64 * dt;
         if step % hl_every == 0 {
             let hl_step = step / hl_every;
-            let own: Vec<V3f> = plant.uavs.iter().map(|u| v3f(&u.pos_m)).collect();
+            let snap = sensors.delayed().clone();
+            let own: Vec<V3f> = snap.uav_pos_m.iter().map(|p| v3f(&sensors.position(p))).collect();
             link.exchange(hl_step, &own);
-            let load_pos = v3f(&plant.load.pos_m);
-            let load_vel = v3f(&plant.load.vel_mps);
+            let load_pos = v3f(&sensors.position(&snap.load_pos_m));
+            let load_vel = v3f(&sensors.velocity(&snap.load_vel_mps));
             for i in 0..n {
                 link.view(i, hl_step, own[i], &mut view);
                 let m = Measurements {
@@ -321,20 +364,48 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                 vel_cmd[i] = cmd.vel_mps;
             }
             // Safety metrics at the high-level rate.
-            metrics.geometry(t, &plant, tube, &mut uav_hints, &mut load_hint);
+            metrics.geometry(t, &plant, tube, &mut uav_hints, &mut load_hint, &thrust_lost);
             if metrics.arrived && arrival_step.is_none() {
                 arrival_step = Some(step);
             }
         }
+        // Faults due at this step.
+        while let Some(&(due, kind, i)) = faults.get(next_fault) {
+            if due > step {
+                break;
+            }
+            match kind {
+                FaultKind::CableSnap => plant.cut_cable(i),
+                FaultKind::UavSilent => link.silence(i),
+                FaultKind::ThrustLoss => {
+                    if let Some(l) = thrust_lost.get_mut(i) {
+                        *l = true;
+                    }
+                }
+            }
+            next_fault += 1;
+        }
         if step % ll_every == 0 {
+            sensors.sample(&plant);
             for i in 0..n {
-                let out = vloops[i].update(vel_cmd[i], v3f(&plant.uavs[i].vel_mps), ll_dt);
-                thrust_cmd[i] = v3d(&out.thrust_n);
+                let v_meas = sensors.velocity(&sensors.delayed().uav_vel_mps[i].clone());
+                let out = vloops[i].update(vel_cmd[i], v3f(&v_meas), ll_dt);
+                thrust_cmd[i] = if thrust_lost[i] { V3::zeros() } else { v3d(&out.thrust_n) };
                 f_hat[i] = out.f_hat_n;
                 metrics.max_thrust_fraction = metrics.max_thrust_fraction.max(out.thrust_n.norm() as f64 / s.uavs.thrust_max_n);
             }
         }
-        plant.step(&thrust_cmd, &no_ext, V3::zeros(), dt);
+        let w = if wind.is_calm() { V3::zeros() } else { wind.step(dt) };
+        let ext_load = if wind.is_calm() {
+            V3::zeros()
+        } else {
+            for (e, u) in ext_uav.iter_mut().zip(plant.uavs.iter()) {
+                *e = drag_n(&w, &u.vel_mps, dist.uav_drag_area_m2);
+            }
+            drag_n(&w, &plant.load.vel_mps, dist.load_drag_area_m2)
+        };
+        plant.step(&thrust_cmd, &ext_uav, ext_load, dt);
+        ground_contact(&mut plant);
         metrics.tensions(plant.tensions_n());
         if step % rec_every == 0 {
             if !plant_finite(&plant) {
@@ -342,7 +413,9 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                 break;
             }
             metrics.tension_sample(plant.tensions_n());
-            push_record(&mut record, t, &plant, &metrics);
+            if opts.record {
+                push_record(&mut record, t, &plant, &metrics);
+            }
         }
         step += 1;
         if let Some(a) = arrival_step {
@@ -376,6 +449,20 @@ fn progress_bar(enabled: bool, len: u64) -> Option<indicatif::ProgressBar> {
         b.set_style(style.progress_chars("=> "));
     }
     Some(b)
+}
+
+/// The ground (z = 0) stops a falling UAV or load: position clamped, velocity zeroed.
+fn ground_contact(p: &mut Plant) {
+    for u in &mut p.uavs {
+        if u.pos_m.z < 0.0 {
+            u.pos_m.z = 0.0;
+            u.vel_mps = V3::zeros();
+        }
+    }
+    if p.load.pos_m.z < 0.0 {
+        p.load.pos_m.z = 0.0;
+        p.load.vel_mps = V3::zeros();
+    }
 }
 
 fn plant_finite(p: &Plant) -> bool {
@@ -468,10 +555,11 @@ impl Metrics {
         }
     }
 
-    fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize) {
+    /// Safety distances at one instant; UAVs that lost thrust (fallen) are left out.
+    fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
         let xy = |v: &V3| vt_tube::Vec2::new(v.x as f32, v.y as f32);
         let mut ub = f64::INFINITY;
-        for (u, h) in plant.uavs.iter().zip(uav_hints.iter_mut()) {
+        for ((u, h), _) in plant.uavs.iter().zip(uav_hints.iter_mut()).zip(lost.iter()).filter(|(_, l)| !**l) {
             let q = xy(&u.pos_m);
             match tube.locate(q, *h) {
                 Some(sec) => {
@@ -495,7 +583,9 @@ impl Metrics {
         let mut uu = f64::INFINITY;
         for i in 0..self.n {
             for j in i + 1..self.n {
-                uu = uu.min((plant.uavs[i].pos_m - plant.uavs[j].pos_m).norm());
+                if !lost[i] && !lost[j] {
+                    uu = uu.min((plant.uavs[i].pos_m - plant.uavs[j].pos_m).norm());
+                }
             }
         }
         self.now_uav_boundary = ub;

@@ -1,0 +1,390 @@
+//! Campaigns: a base scenario plus overrides, flown over many seeds (and optionally over a
+//! list of disturbance levels), in parallel. Results: per-run rows and aggregate statistics.
+//!
+//! A campaign file is TOML with `base` (a scenario path relative to the campaign file, or
+//! `"builtin:paper-10uav"`), optional `runs` and `seed` (first seed), optional
+//! `[levels] key = "disturbances.intensity"`, `values = [...]`, and any scenario tables to
+//! merge over the base (`[disturbances]`, `[[faults]]`, `[load]`, ...). A plain scenario file
+//! is a campaign of itself.
+
+use crate::scenario::{self, LoadedScenario, ScenarioError};
+use crate::sim::{self, RunOptions};
+use crate::summary::Summary;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::Path;
+
+/// Keys of a campaign file that are not scenario fields.
+const CAMPAIGN_KEYS: [&str; 4] = ["base", "runs", "seed", "levels"];
+
+/// A loaded campaign.
+#[derive(Debug, Clone)]
+pub struct Campaign {
+    /// Name (the merged scenario's name).
+    pub name: String,
+    /// Scenario at each level (one entry, level `None`, without `[levels]`).
+    pub levels: Vec<(Option<f64>, LoadedScenario)>,
+    /// Dotted key the levels set.
+    pub level_key: Option<String>,
+    /// Runs per level (default).
+    pub runs: usize,
+    /// First seed.
+    pub seed: u64,
+}
+
+fn err(source: &str, field: Option<&str>, message: String) -> ScenarioError {
+    ScenarioError { source_name: source.into(), line: None, field: field.map(str::to_string), message }
+}
+
+/// Deep-merges `over` into `base` (tables merge; anything else replaces).
+fn merge(base: &mut toml::Table, over: &toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
+fn set_dotted(t: &mut toml::Table, key: &str, value: f64) -> bool {
+    fn set(v: &mut toml::Value, parts: &[&str], value: f64) -> bool {
+        let Some((first, rest)) = parts.split_first() else {
+            // Keep integers integers (e.g. a UAV index), everything else a float.
+            *v = match v {
+                toml::Value::Integer(_) if value.fract() == 0.0 => toml::Value::Integer(value as i64),
+                _ => toml::Value::Float(value),
+            };
+            return true;
+        };
+        match v {
+            toml::Value::Table(t) => {
+                let entry = t.entry(first.to_string()).or_insert_with(|| {
+                    if rest.is_empty() { toml::Value::Float(value) } else { toml::Value::Table(toml::Table::new()) }
+                });
+                set(entry, rest, value)
+            }
+            toml::Value::Array(a) => first.parse::<usize>().ok().and_then(|i| a.get_mut(i)).is_some_and(|e| set(e, rest, value)),
+            _ => false,
+        }
+    }
+    let parts: Vec<&str> = key.split('.').collect();
+    let mut root = toml::Value::Table(std::mem::take(t));
+    let ok = set(&mut root, &parts, value);
+    if let toml::Value::Table(back) = root {
+        *t = back;
+    }
+    ok
+}
+
+/// Loads a campaign file, or a scenario file as a one-level campaign, or the built-in
+/// scenario when `path` is `None`.
+///
+/// # Errors
+/// Unreadable files, TOML errors, unknown campaign structure, and scenario validation errors
+/// (naming the field; lines refer to the file that holds it when it is a plain scenario).
+pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
+    let Some(path) = path else {
+        let ls = scenario::load(None)?;
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1 });
+    };
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| ScenarioError {
+        source_name: name.clone(),
+        line: e.span().map(|s| text.get(..s.start).map_or(0, |t| t.matches('\n').count()) + 1),
+        field: None,
+        message: e.message().trim().to_string(),
+    })?;
+    let Some(base) = table.get("base") else {
+        let ls = scenario::parse(&text, &name)?;
+        let seed = ls.scenario.seed;
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed });
+    };
+    let base = base.as_str().ok_or_else(|| err(&name, Some("base"), "must be a path string".into()))?;
+    let (base_text, base_name) = if base == "builtin:paper-10uav" {
+        (scenario::PAPER_10UAV.to_string(), scenario::DEFAULT_SCENARIO_NAME.to_string())
+    } else {
+        let p = path.parent().unwrap_or(Path::new(".")).join(base);
+        let t = std::fs::read_to_string(&p).map_err(|e| err(&name, Some("base"), format!("cannot read {}: {e}", p.display())))?;
+        (t, p.display().to_string())
+    };
+    let mut merged: toml::Table = toml::from_str(&base_text).map_err(|e| err(&base_name, None, e.message().to_string()))?;
+    let mut over = table.clone();
+    for k in CAMPAIGN_KEYS {
+        over.remove(k);
+    }
+    merge(&mut merged, &over);
+    let runs = match table.get("runs") {
+        None => 20,
+        Some(v) => v.as_integer().filter(|r| *r > 0).ok_or_else(|| err(&name, Some("runs"), "must be an integer > 0".into()))? as usize,
+    };
+    let seed = match table.get("seed") {
+        None => 1,
+        Some(v) => v.as_integer().filter(|r| *r >= 0).ok_or_else(|| err(&name, Some("seed"), "must be an integer >= 0".into()))? as u64,
+    };
+    let source = format!("{name} (over {base_name})");
+    let (level_key, values) = match table.get("levels") {
+        None => (None, vec![None]),
+        Some(toml::Value::Table(l)) => {
+            let key = l.get("key").and_then(|k| k.as_str()).ok_or_else(|| err(&name, Some("levels.key"), "must be a dotted field name".into()))?;
+            let values: Vec<f64> = l
+                .get("values")
+                .and_then(|v| v.as_array())
+                .map(|a| a.iter().filter_map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64))).collect())
+                .filter(|v: &Vec<f64>| !v.is_empty())
+                .ok_or_else(|| err(&name, Some("levels.values"), "must be a non-empty list of numbers".into()))?;
+            (Some(key.to_string()), values.into_iter().map(Some).collect())
+        }
+        Some(_) => return Err(err(&name, Some("levels"), "must be a table".into())),
+    };
+    let mut levels = Vec::new();
+    for v in values {
+        let mut t = merged.clone();
+        if let (Some(k), Some(v)) = (&level_key, v) {
+            if !set_dotted(&mut t, k, v) {
+                return Err(err(&name, Some("levels.key"), format!("`{k}` is not a settable field")));
+            }
+        }
+        let text = toml::to_string(&t).map_err(|e| err(&name, None, e.to_string()))?;
+        // Validation messages name the field; the merged text's lines are not the user's, so
+        // they are dropped.
+        let ls = scenario::parse(&text, &source).map_err(|e| ScenarioError { line: None, ..e })?;
+        levels.push((v, ls));
+    }
+    let name = levels.first().map_or_else(String::new, |(_, l)| l.scenario.name.clone());
+    Ok(Campaign { name, levels, level_key, runs, seed })
+}
+
+/// One run's row of `sweep.csv`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Disturbance level (if the campaign has levels).
+    pub level: Option<f64>,
+    /// The run's summary.
+    pub summary: Summary,
+}
+
+/// Flies `runs` seeds (`seed`, `seed + 1`, ...) at every level on `jobs` threads.
+/// Results come back in (level, seed) order whatever the scheduling.
+///
+/// # Errors
+/// A crate rejecting the scenario (as for a single run).
+pub fn fly(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool) -> Result<Vec<Row>, String> {
+    let work: Vec<(usize, u64)> = (0..c.levels.len()).flat_map(|l| (0..runs as u64).map(move |k| (l, seed + k))).collect();
+    let bar = progress_bar(progress, work.len() as u64);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build().map_err(|e| e.to_string())?;
+    let rows: Result<Vec<Row>, String> = pool.install(|| {
+        work.par_iter()
+            .map(|&(l, s)| {
+                let (level, ls) = &c.levels[l];
+                let out = sim::run(ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?;
+                if let Some(b) = &bar {
+                    b.inc(1);
+                }
+                Ok(Row { level: *level, summary: out.summary })
+            })
+            .collect()
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    rows
+}
+
+fn progress_bar(enabled: bool, len: u64) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    if !enabled || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("sweep [{bar:40}] {pos}/{len} runs {elapsed}") {
+        b.set_style(style.progress_chars("=> "));
+    }
+    Some(b)
+}
+
+/// Percentiles of one metric.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Percentiles {
+    /// Minimum.
+    pub min: f64,
+    /// 5th percentile.
+    pub p5: f64,
+    /// Median.
+    pub p50: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+fn percentiles(mut xs: Vec<f64>) -> Option<Percentiles> {
+    xs.retain(|x| x.is_finite());
+    if xs.is_empty() {
+        return None;
+    }
+    xs.sort_by(f64::total_cmp);
+    let q = |p: f64| xs[((p * (xs.len() - 1) as f64).round() as usize).min(xs.len() - 1)];
+    Some(Percentiles { min: xs[0], p5: q(0.05), p50: q(0.5), p95: q(0.95), max: xs[xs.len() - 1] })
+}
+
+/// Aggregate of one level.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelStats {
+    /// Level value (`null` without levels).
+    pub level: Option<f64>,
+    /// Runs.
+    pub runs: usize,
+    /// Successful runs.
+    pub successes: usize,
+    /// successes / runs.
+    pub success_rate: f64,
+    /// Percentiles of the summary metrics.
+    pub percentiles: std::collections::BTreeMap<&'static str, Percentiles>,
+    /// How often each failure reason occurred (first words of the reason).
+    pub failure_reasons: std::collections::BTreeMap<String, usize>,
+}
+
+/// `sweep.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepReport {
+    /// Campaign or scenario name.
+    pub scenario: String,
+    /// Dotted key the levels set, if any.
+    pub level_key: Option<String>,
+    /// First seed.
+    pub first_seed: u64,
+    /// Total runs.
+    pub runs: usize,
+    /// Total successes.
+    pub successes: usize,
+    /// successes / runs over all levels.
+    pub success_rate: f64,
+    /// Percentiles over all runs.
+    pub percentiles: std::collections::BTreeMap<&'static str, Percentiles>,
+    /// Per level.
+    pub levels: Vec<LevelStats>,
+}
+
+fn metric_table(rows: &[&Row]) -> std::collections::BTreeMap<&'static str, Percentiles> {
+    type Get = fn(&Summary) -> f64;
+    let metrics: [(&'static str, Get); 9] = [
+        ("min_uav_boundary_m", |s| s.min_uav_boundary_m),
+        ("min_load_boundary_m", |s| s.min_load_boundary_m),
+        ("min_uav_uav_m", |s| s.min_uav_uav_m),
+        ("max_tension_n", |s| s.max_tension_n),
+        ("tension_cv_mean", |s| s.tension_cv_mean),
+        ("max_load_altitude_error_m", |s| s.max_load_altitude_error_m),
+        ("max_thrust_fraction", |s| s.max_thrust_fraction),
+        ("formation_error_end_m", |s| s.formation_error_end_m),
+        ("completion_time_s", |s| s.completion_time_s.unwrap_or(f64::NAN)),
+    ];
+    metrics.iter().filter_map(|(k, f)| percentiles(rows.iter().map(|r| f(&r.summary)).collect()).map(|p| (*k, p))).collect()
+}
+
+fn level_stats(level: Option<f64>, rows: &[&Row]) -> LevelStats {
+    let successes = rows.iter().filter(|r| r.summary.success).count();
+    let mut reasons = std::collections::BTreeMap::new();
+    for r in rows {
+        for f in &r.summary.failures {
+            // Group by the reason's words, numbers removed.
+            let key: String = f
+                .split(['(', ':'])
+                .next()
+                .unwrap_or(f)
+                .split_whitespace()
+                .filter(|w| !w.chars().any(|c| c.is_ascii_digit()))
+                .collect::<Vec<_>>()
+                .join(" ");
+            *reasons.entry(key).or_insert(0) += 1;
+        }
+    }
+    LevelStats {
+        level,
+        runs: rows.len(),
+        successes,
+        success_rate: if rows.is_empty() { 0.0 } else { successes as f64 / rows.len() as f64 },
+        percentiles: metric_table(rows),
+        failure_reasons: reasons,
+    }
+}
+
+/// Aggregates the rows.
+pub fn report(c: &Campaign, first_seed: u64, rows: &[Row]) -> SweepReport {
+    let all: Vec<&Row> = rows.iter().collect();
+    let total = level_stats(None, &all);
+    let levels = c
+        .levels
+        .iter()
+        .map(|(lv, _)| level_stats(*lv, &rows.iter().filter(|r| r.level == *lv).collect::<Vec<_>>()))
+        .collect();
+    SweepReport {
+        scenario: c.name.clone(),
+        level_key: c.level_key.clone(),
+        first_seed,
+        runs: total.runs,
+        successes: total.successes,
+        success_rate: total.success_rate,
+        percentiles: total.percentiles,
+        levels,
+    }
+}
+
+/// `sweep.csv`: one row per run.
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures\n",
+    );
+    for r in rows {
+        let m = &r.summary;
+        s += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            r.level.map_or(String::new(), |l| l.to_string()),
+            m.seed,
+            m.success,
+            m.reached_end,
+            m.completion_time_s.map_or(String::new(), |t| t.to_string()),
+            m.min_uav_boundary_m,
+            m.min_load_boundary_m,
+            m.min_uav_uav_m,
+            m.max_tension_n,
+            m.tension_cv_mean,
+            m.time_at_cap_fraction,
+            m.max_load_altitude_error_m,
+            m.max_thrust_fraction,
+            m.formation_error_end_m,
+            m.failures.join("; ").replace('"', "'"),
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_by_hand() {
+        let p = percentiles((1..=101).map(f64::from).collect()).unwrap();
+        assert_eq!((p.min, p.p5, p.p50, p.p95, p.max), (1.0, 6.0, 51.0, 96.0, 101.0));
+        assert!(percentiles(vec![f64::NAN]).is_none());
+    }
+
+    #[test]
+    fn merge_overrides_nested_tables() {
+        let mut a: toml::Table = toml::from_str("[x]\na = 1\nb = 2\n[y]\nc = 3").unwrap();
+        let b: toml::Table = toml::from_str("[x]\nb = 5\n[z]\nd = 1").unwrap();
+        merge(&mut a, &b);
+        assert_eq!(a["x"]["a"].as_integer(), Some(1));
+        assert_eq!(a["x"]["b"].as_integer(), Some(5));
+        assert_eq!(a["z"]["d"].as_integer(), Some(1));
+        assert!(set_dotted(&mut a, "x.e", 0.5));
+        assert_eq!(a["x"]["e"].as_float(), Some(0.5));
+        let mut f: toml::Table = toml::from_str("[[faults]]\nuav = 0\n").unwrap();
+        assert!(set_dotted(&mut f, "faults.0.uav", 3.0));
+        assert_eq!(f["faults"][0]["uav"].as_integer(), Some(3));
+        assert!(!set_dotted(&mut f, "faults.5.uav", 3.0));
+    }
+}
