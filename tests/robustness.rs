@@ -1,0 +1,81 @@
+//! Robustness campaigns of issue 6 (scenarios/campaigns/), flown in full: each asserts the
+//! success rate the campaign is held to and prints its worst metrics.
+
+use host_sim::campaign::{self, Campaign};
+use std::path::Path;
+
+fn load(name: &str) -> Campaign {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns").join(name);
+    campaign::load(Some(&p)).expect("campaign is valid")
+}
+
+fn jobs() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Flies the campaign at its own run count and seed; returns the report.
+fn fly(c: &Campaign) -> campaign::SweepReport {
+    let rows = campaign::fly(c, c.runs, c.seed, jobs(), false).expect("runs start");
+    let rep = campaign::report(c, c.seed, &rows);
+    for l in &rep.levels {
+        let p = |k: &str| l.percentiles.get(k).cloned();
+        println!(
+            "{} level {:?}: {}/{} ({:.1} %), worst UAV-bnd {:?} m, worst UAV-UAV {:?} m, worst load alt err {:?} m, failures {:?}",
+            rep.scenario,
+            l.level,
+            l.successes,
+            l.runs,
+            100.0 * l.success_rate,
+            p("min_uav_boundary_m").map(|p| p.min),
+            p("min_uav_uav_m").map(|p| p.min),
+            p("max_load_altitude_error_m").map(|p| p.max),
+            l.failure_reasons
+        );
+    }
+    rep
+}
+
+#[test]
+fn nominal_disturbances_succeed_in_at_least_99_percent_of_200_runs() {
+    let c = load("nominal.toml");
+    assert_eq!(c.runs, 200);
+    let rep = fly(&c);
+    assert!(rep.success_rate >= 0.99, "success rate {:.3}", rep.success_rate);
+}
+
+#[test]
+fn cable_length_and_stiffness_errors_are_tolerated() {
+    let rep = fly(&load("cable-uncertainty.toml"));
+    for l in &rep.levels {
+        assert!(l.success_rate >= 0.95, "level {:?}: {:.2}", l.level, l.success_rate);
+    }
+}
+
+#[test]
+fn a_snapped_cable_keeps_the_load_in_the_tube_and_at_altitude() {
+    let rep = fly(&load("cable-snap.toml"));
+    assert!(rep.success_rate >= 0.95, "success rate {:.3}", rep.success_rate);
+    let alt = rep.percentiles.get("max_load_altitude_error_m").expect("metric").max;
+    let bnd = rep.percentiles.get("min_load_boundary_m").expect("metric").min;
+    assert!(alt < 1.0 && bnd > 0.0, "load altitude error {alt} m, load-boundary {bnd} m");
+}
+
+#[test]
+fn a_silent_uav_causes_no_collision() {
+    let rep = fly(&load("uav-silent.toml"));
+    let uu = rep.percentiles.get("min_uav_uav_m").expect("metric").min;
+    assert!(uu >= 0.4, "UAVs came within {uu} m");
+    assert!(rep.success_rate >= 0.95, "success rate {:.3}", rep.success_rate);
+}
+
+#[test]
+fn same_seed_list_gives_the_same_sweep_whatever_the_thread_count() {
+    let mut c = load("nominal.toml");
+    c.runs = 6;
+    let a = campaign::fly(&c, 6, 77, 1, false).expect("runs");
+    let b = campaign::fly(&c, 6, 77, 2, false).expect("runs");
+    assert_eq!(campaign::csv(&a), campaign::csv(&b));
+    let r1 = serde_json::to_string(&campaign::report(&c, 77, &a)).expect("json");
+    let r2 = serde_json::to_string(&campaign::report(&c, 77, &b)).expect("json");
+    assert_eq!(r1, r2);
+}
