@@ -173,7 +173,7 @@ pub struct Row {
 /// A crate rejecting the scenario (as for a single run).
 pub fn fly(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool) -> Result<Vec<Row>, String> {
     let work: Vec<(usize, u64)> = (0..c.levels.len()).flat_map(|l| (0..runs as u64).map(move |k| (l, seed + k))).collect();
-    let bar = progress_bar(progress, work.len() as u64);
+    let bar = sim::progress_bar(progress, work.len() as u64, "sweep [{bar:40}] {pos}/{len} runs {elapsed}");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build().map_err(|e| e.to_string())?;
     let rows: Result<Vec<Row>, String> = pool.install(|| {
         work.par_iter()
@@ -191,18 +191,6 @@ pub fn fly(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool) ->
         b.finish_and_clear();
     }
     rows
-}
-
-fn progress_bar(enabled: bool, len: u64) -> Option<indicatif::ProgressBar> {
-    use std::io::IsTerminal;
-    if !enabled || !std::io::stderr().is_terminal() {
-        return None;
-    }
-    let b = indicatif::ProgressBar::new(len);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("sweep [{bar:40}] {pos}/{len} runs {elapsed}") {
-        b.set_style(style.progress_chars("=> "));
-    }
-    Some(b)
 }
 
 /// Percentiles of one metric.

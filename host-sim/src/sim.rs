@@ -334,7 +334,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     let mut uav_hints = vec![0usize; n];
     let mut load_hint = 0usize;
 
-    let bar = progress_bar(opts.progress, max_steps);
+    let bar = progress_bar(opts.progress, max_steps, "{spinner} simulating [{bar:40}] {percent:>3}% (time limit) {elapsed}");
     let wall = Instant::now();
     let mut step: u64 = 0;
     let mut arrival_step: Option<u64> = None;
@@ -439,13 +439,14 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     Ok(RunOutput { summary, record, scene: scene(ls) })
 }
 
-fn progress_bar(enabled: bool, len: u64) -> Option<indicatif::ProgressBar> {
+/// A progress bar on stderr when it is a terminal and `enabled`, with `template`.
+pub(crate) fn progress_bar(enabled: bool, len: u64, template: &str) -> Option<indicatif::ProgressBar> {
     use std::io::IsTerminal;
     if !enabled || !std::io::stderr().is_terminal() {
         return None;
     }
     let b = indicatif::ProgressBar::new(len);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} simulating [{bar:40}] {percent:>3}% (time limit) {elapsed}") {
+    if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
         b.set_style(style.progress_chars("=> "));
     }
     Some(b)

@@ -4,7 +4,7 @@
 //! term, all evaluated at the UAV's own horizontal position. Its altitude law is the same as
 //! the dissipative controller's (the comparison in the paper is horizontal only).
 
-use crate::controller::{finite3, hold_command, Command, Measurements};
+use crate::controller::{finite3, hold_command, validate_gains, Command, Measurements};
 use crate::keeping::keeping_velocity;
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
@@ -43,20 +43,7 @@ impl BaselineParams {
     /// # Errors
     /// [`ControlError::InvalidParameter`] naming the bad field.
     pub fn validate(&self) -> Result<(), ControlError> {
-        let pos = |x: f32| x.is_finite() && x > 0.0;
-        let checks: [(bool, &'static str); 6] = [
-            (pos(self.k1), "k1"),
-            (pos(self.k2), "k2"),
-            (pos(self.k3), "k3"),
-            (pos(self.v_max_mps), "v_max_mps"),
-            (pos(self.r_safe_m), "r_safe_m"),
-            (self.r_active_m.is_finite() && self.r_active_m > self.r_safe_m, "r_active_m"),
-        ];
-        for (ok, name) in checks {
-            if !ok {
-                return Err(ControlError::InvalidParameter(name));
-            }
-        }
+        validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
         self.vertical.validate()
     }
 }

@@ -69,20 +69,7 @@ impl DissipativeParams {
     /// # Errors
     /// [`ControlError::InvalidParameter`] naming the bad field.
     pub fn validate(&self) -> Result<(), ControlError> {
-        let pos = |x: f32| x.is_finite() && x > 0.0;
-        let checks: [(bool, &'static str); 6] = [
-            (pos(self.k1), "k1"),
-            (pos(self.k2), "k2"),
-            (pos(self.k3), "k3"),
-            (pos(self.v_max_mps), "v_max_mps"),
-            (pos(self.r_safe_m), "r_safe_m"),
-            (self.r_active_m.is_finite() && self.r_active_m > self.r_safe_m, "r_active_m"),
-        ];
-        for (ok, name) in checks {
-            if !ok {
-                return Err(ControlError::InvalidParameter(name));
-            }
-        }
+        validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
         self.tray.validate()?;
         self.vertical.validate()
     }
@@ -90,6 +77,24 @@ impl DissipativeParams {
     /// The tube barrier eq:2-15-1 these parameters define.
     pub fn tube_barrier(&self) -> BarrierParams {
         BarrierParams::tube(self.k3, self.r_safe_m, self.r_active_m)
+    }
+}
+
+/// Checks the gains `k1..k3`, the speed limit and the barrier radii shared by both
+/// controllers' parameter sets, naming the first bad one.
+pub(crate) fn validate_gains(k: [f32; 3], v_max_mps: f32, r_safe_m: f32, r_active_m: f32) -> Result<(), ControlError> {
+    let pos = |x: f32| x.is_finite() && x > 0.0;
+    let checks: [(bool, &'static str); 6] = [
+        (pos(k[0]), "k1"),
+        (pos(k[1]), "k2"),
+        (pos(k[2]), "k3"),
+        (pos(v_max_mps), "v_max_mps"),
+        (pos(r_safe_m), "r_safe_m"),
+        (r_active_m.is_finite() && r_active_m > r_safe_m, "r_active_m"),
+    ];
+    match checks.iter().find(|(ok, _)| !ok) {
+        Some((_, name)) => Err(ControlError::InvalidParameter(name)),
+        None => Ok(()),
     }
 }
 
