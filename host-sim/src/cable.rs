@@ -65,8 +65,11 @@ impl CableForce {
     }
 }
 
+/// True when every component is finite. Written out with non-short-circuit `&` (no iterator,
+/// no branches): it runs several times per cable per plant sub-step.
+#[inline]
 fn all_finite(v: &Vector3<f64>) -> bool {
-    v.iter().all(|c| c.is_finite())
+    v.x.is_finite() & v.y.is_finite() & v.z.is_finite()
 }
 
 /// Cable force for the UAV at `p_uav` (m) moving at `v_uav` (m/s) and the load at `p_load` (m)
@@ -80,6 +83,7 @@ fn all_finite(v: &Vector3<f64>) -> bool {
 /// (positions, velocities, `len0`, `k`, `b`, or a NaN `f_max`), or arithmetic overflow for absurdly
 /// large finite input all give the zero force. A negative `f_max` acts as 0.
 #[must_use]
+#[inline]
 pub fn cable_force(
     p_uav: Vector3<f64>,
     v_uav: Vector3<f64>,
@@ -87,14 +91,15 @@ pub fn cable_force(
     v_load: Vector3<f64>,
     params: &CableParams,
 ) -> CableForce {
+    // `&`, not `&&`: every operand is a cheap pure test, so evaluate all without branching.
     let inputs_finite = all_finite(&p_uav)
-        && all_finite(&v_uav)
-        && all_finite(&p_load)
-        && all_finite(&v_load)
-        && params.rest_length_m.is_finite()
-        && params.stiffness_n_per_m.is_finite()
-        && params.damping_ns_per_m.is_finite()
-        && !params.f_max_n.is_nan();
+        & all_finite(&v_uav)
+        & all_finite(&p_load)
+        & all_finite(&v_load)
+        & params.rest_length_m.is_finite()
+        & params.stiffness_n_per_m.is_finite()
+        & params.damping_ns_per_m.is_finite()
+        & !params.f_max_n.is_nan();
     if !inputs_finite {
         return CableForce::slack(0.0);
     }
@@ -113,7 +118,7 @@ pub fn cable_force(
     // Not f64::clamp: it panics when the bounds are NaN or reversed.
     let tension_n = raw_n.max(0.0).min(params.f_max_n.max(0.0));
     let on_load_n = u * tension_n;
-    if !tension_n.is_finite() || !all_finite(&on_load_n) {
+    if !(tension_n.is_finite() & all_finite(&on_load_n)) {
         return CableForce::slack(length_m);
     }
     CableForce {

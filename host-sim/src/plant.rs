@@ -162,10 +162,20 @@ pub struct Plant {
     last_forces: Vec<CableForce>,
     /// `last_forces[i].tension_n`, kept contiguous for [`Plant::tensions_n`].
     tensions_n: Vec<f64>,
+    /// Scratch of [`Plant::step`], reused so that a step does not allocate: limited thrust
+    /// command per UAV (`None` = hold the actual thrust).
+    targets: Vec<Option<Vector3<f64>>>,
+    /// Scratch of [`Plant::step`]: external force per UAV (zero when missing or non-finite), N.
+    ext_uav: Vec<Vector3<f64>>,
+    /// Thrust-lag factor per UAV for the sub-step `alpha_h_s` (cached: `exp_m1` is costly).
+    alphas: Vec<f64>,
+    /// Sub-step, s, for which `alphas` holds (NaN: not computed yet).
+    alpha_h_s: f64,
 }
 
+#[inline]
 fn finite3(v: &Vector3<f64>) -> bool {
-    v.iter().all(|c| c.is_finite())
+    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
 }
 
 /// Scale `v` (N) down to magnitude `max_n` (N) if it is longer; direction kept.
@@ -267,6 +277,10 @@ impl Plant {
             substeps,
             last_forces: Vec::new(),
             tensions_n: Vec::new(),
+            targets: Vec::new(),
+            ext_uav: Vec::new(),
+            alphas: Vec::new(),
+            alpha_h_s: f64::NAN,
         };
         plant.last_forces = plant.cable_forces();
         plant.tensions_n = plant.last_forces.iter().map(|f| f.tension_n).collect();
@@ -368,69 +382,73 @@ impl Plant {
             Vector3::zeros()
         };
 
-        // Limited command and lag factor per UAV: constant over the step.
-        let targets: Vec<Option<Vector3<f64>>> = self
-            .uav_params
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
+        // Limited command and lag factor per UAV: constant over the step. The buffers are
+        // reused (no allocation per step); the lag factors only change with the sub-step.
+        self.targets.clear();
+        self.targets
+            .extend(self.uav_params.iter().enumerate().map(|(i, p)| {
                 thrust_cmd_n
                     .get(i)
                     .filter(|c| finite3(c))
                     .map(|c| clamp_magnitude(*c, p.thrust_max_n))
-            })
-            .collect();
-        let alphas: Vec<f64> = self
-            .uav_params
-            .iter()
-            .map(|p| {
+            }));
+        if h != self.alpha_h_s || self.alphas.len() != self.uav_params.len() {
+            self.alphas.clear();
+            self.alphas.extend(self.uav_params.iter().map(|p| {
                 if p.thrust_lag_s > 0.0 {
                     -(-h / p.thrust_lag_s).exp_m1()
                 } else {
                     1.0
                 }
-            })
-            .collect();
-        let ext_uav: Vec<Vector3<f64>> = (0..self.uav_params.len())
-            .map(|i| {
-                ext_force_uav_n
-                    .get(i)
-                    .filter(|f| finite3(f))
-                    .copied()
-                    .unwrap_or_else(Vector3::zeros)
-            })
-            .collect();
+            }));
+            self.alpha_h_s = h;
+        }
+        self.ext_uav.clear();
+        self.ext_uav.extend((0..self.uav_params.len()).map(|i| {
+            ext_force_uav_n
+                .get(i)
+                .filter(|f| finite3(f))
+                .copied()
+                .unwrap_or_else(Vector3::zeros)
+        }));
+        // One force slot per (UAV, cable) pair, as `cable_forces` would return.
+        let n_pairs = self.uavs.len().min(self.cables.len());
+        self.last_forces.resize(n_pairs, CableForce::slack(0.0));
 
         for _ in 0..self.substeps {
-            // Forces at the state at the start of the sub-step.
-            self.last_forces = self.cable_forces();
-
-            // Thrust lag.
-            for ((uav, target), alpha) in self.uavs.iter_mut().zip(&targets).zip(&alphas) {
-                if let Some(t) = target {
-                    uav.thrust_n += (*t - uav.thrust_n) * *alpha;
-                }
-            }
-
-            // Velocities first (semi-implicit Euler) ...
+            // One pass per UAV, each UAV's terms in the same order as the textbook form
+            // (forces at the state at the start of the sub-step, thrust lag, velocity, then
+            // position with the new velocity). A UAV's update does not change what another
+            // UAV's cable sees (the load moves after the pass), so fusing the passes gives the
+            // same numbers bit for bit.
+            let (load_pos_m, load_vel_mps) = (self.load.pos_m, self.load.vel_mps);
             let mut load_force = self.load_params.mass_kg * g + ext_load;
-            for (((uav, p), f), ext) in self
+            let mut updated = 0;
+            for (((((uav, p), c), slot), target), (alpha, ext)) in self
                 .uavs
                 .iter_mut()
                 .zip(&self.uav_params)
-                .zip(&self.last_forces)
-                .zip(&ext_uav)
+                .zip(&self.cables)
+                .zip(self.last_forces.iter_mut())
+                .zip(&self.targets)
+                .zip(self.alphas.iter().zip(&self.ext_uav))
             {
+                let f = cable_force(uav.pos_m, uav.vel_mps, load_pos_m, load_vel_mps, c);
+                *slot = f;
+                if let Some(t) = target {
+                    uav.thrust_n += (*t - uav.thrust_n) * *alpha;
+                }
                 let force = uav.thrust_n + p.mass_kg * g + f.on_uav_n + ext;
                 uav.vel_mps += force * (h / p.mass_kg);
+                uav.pos_m += uav.vel_mps * h;
                 load_force += f.on_load_n;
+                updated += 1;
             }
-            self.load.vel_mps += load_force * (h / self.load_params.mass_kg);
-
-            // ... then positions with the new velocities.
-            for uav in &mut self.uavs {
+            // UAV entries without parameters (see the struct doc) only drift.
+            for uav in self.uavs.iter_mut().skip(updated) {
                 uav.pos_m += uav.vel_mps * h;
             }
+            self.load.vel_mps += load_force * (h / self.load_params.mass_kg);
             self.load.pos_m += self.load.vel_mps * h;
         }
         self.tensions_n.clear();

@@ -137,24 +137,41 @@ impl<const N: usize> Tube<N> {
     /// Any [`TubeError`]: bad waypoints, folding (`max(w_L, w_R) |kappa| >= 1`),
     /// overlapping terminals, or a self-overlapping tube.
     pub fn from_waypoints(waypoints: &[Waypoint]) -> Result<Self, TubeError> {
+        let mut tube = Self::placeholder();
+        tube.rebuild(waypoints)?;
+        Ok(tube)
+    }
+
+    /// Storage for a tube not built yet: no length, every sample at the origin. It is not a
+    /// valid tube (nothing was checked); only [`Tube::rebuild`] makes it one. For firmware that
+    /// keeps its tube in a `static` and builds it in place.
+    pub const fn placeholder() -> Self {
         const { assert!(N >= 2 * CHUNKS, "a tube table needs at least 32 samples") };
-        let spline = Spline::<MAX_WAYPOINTS>::new(waypoints)?;
-        let mut tube = Self {
+        Self {
             samples: [TubeSample::ZERO; N],
             certify_m: [0.0; N],
-            chunk_center_m: [Vec2::zeros(); CHUNKS],
+            chunk_center_m: [Vec2::new(0.0, 0.0); CHUNKS],
             chunk_radius_m: [0.0; CHUNKS],
             chunk_len: (N - 1).div_ceil(CHUNKS),
             ds_m: 0.0,
             length_m: 0.0,
-        };
-        tube.resample(&spline);
-        tube.check_folding()?;
-        tube.build_chunks();
-        tube.build_certification();
-        tube.check_terminals()?;
-        tube.check_self_overlap()?;
-        Ok(tube)
+        }
+    }
+
+    /// [`Tube::from_waypoints`] into this storage, without a second table on the stack (the
+    /// tables are about 9 KiB at the default size).
+    ///
+    /// # Errors
+    /// As [`Tube::from_waypoints`]; `self` is then not a valid tube (rebuild it before use).
+    pub fn rebuild(&mut self, waypoints: &[Waypoint]) -> Result<(), TubeError> {
+        let spline = Spline::<MAX_WAYPOINTS>::new(waypoints)?;
+        self.chunk_len = (N - 1).div_ceil(CHUNKS);
+        self.resample(&spline);
+        self.check_folding()?;
+        self.build_chunks();
+        self.build_certification();
+        self.check_terminals()?;
+        self.check_self_overlap()
     }
 
     /// Fills the table with samples equally spaced in arc length.
@@ -483,6 +500,20 @@ mod tests {
     fn straight(w_left: f32, w_right: f32) -> T {
         T::from_waypoints(&[Waypoint::new(0.0, 0.0, w_left, w_right), Waypoint::new(20.0, 0.0, w_left, w_right)])
             .unwrap()
+    }
+
+    #[test]
+    fn rebuild_in_used_storage_matches_from_waypoints() {
+        let wps = arc(15.0, 1.5, 2.0, 5);
+        let fresh = T::from_waypoints(&wps).unwrap();
+        let mut reused = straight(3.0, 1.0);
+        reused.rebuild(&wps).unwrap();
+        assert_eq!(reused.samples(), fresh.samples());
+        assert_eq!(reused.certify_m, fresh.certify_m);
+        assert_eq!((reused.chunk_center_m, reused.chunk_radius_m), (fresh.chunk_center_m, fresh.chunk_radius_m));
+        assert_eq!((reused.length_m(), reused.ds_m()), (fresh.length_m(), fresh.ds_m()));
+        let mut bad = T::placeholder();
+        assert!(bad.rebuild(&wps[..1]).is_err());
     }
 
     /// Waypoints on a circle arc of radius `r` from angle 0 to `sweep` rad, centre at origin.

@@ -1,0 +1,658 @@
+//! The companion: MAVLink dispatch, configuration, lockstep ticks and telemetry around one
+//! [`Flight`]. The board supplies bytes, a millisecond clock, a cycle counter and a byte sink
+//! ([`Io`]); the firmware's Tickers call [`Companion::high_level_step`] and
+//! [`Companion::low_level_step`], or, with `VT_LOCKSTEP = 1`, each own `LOCAL_POSITION_NED`
+//! runs one low-level period (and the high level when due) on receipt.
+//!
+//! The message mapping is documented in `docs/protocol.md`. Every frame with a bad checksum,
+//! an unknown id or an impossible value is counted ([`LinkCounters`], [`ValueCounters`]) and
+//! dropped; nothing on the wire reaches the controllers unchecked.
+
+use mavlink::dialects::common::{
+    AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavState,
+    MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
+    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
+    PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
+    SYS_STATUS_DATA,
+};
+use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
+
+use crate::flight::{Flight, HoldReasons, Setpoint, Sources, Stamped, StartError, State};
+use crate::framer::{Frame, Framer, LinkCounters};
+use crate::frames::{enu_from_ned, finite3, ned_from_enu};
+use crate::mission::{Item, MissionResult, MissionUpload, UploadReply};
+use crate::params::{self, Param, ParamError, Params};
+use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
+
+/// Largest accepted position magnitude per axis, m (anything beyond is a corrupt value).
+pub const POSITION_LIMIT_M: f32 = 1.0e5;
+/// Largest accepted velocity magnitude per axis, m/s.
+pub const VELOCITY_LIMIT_MPS: f32 = 200.0;
+/// `POSITION_TARGET_LOCAL_NED.type_mask`: velocity only (ignore position, acceleration, yaw,
+/// yaw rate).
+const VELOCITY_ONLY_MASK: u16 = 0b1101_1100_0111;
+/// `SET_ATTITUDE_TARGET.type_mask`: ignore the three body rates.
+const IGNORE_BODY_RATES_MASK: u8 = 0b0000_0111;
+/// `MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN.param1` values.
+const REBOOT: f32 = 1.0;
+/// See [`REBOOT`].
+const SHUTDOWN: f32 = 2.0;
+/// `DEBUG_VECT.name` of the cable-force estimate.
+pub const NAME_CABLE_FORCE: &str = "FHAT_NED";
+/// `DEBUG_VECT.name` of the loop timing (x: last high-level step, y: last low-level step,
+/// z: worst low-level step, in board cycles).
+pub const NAME_CYCLES: &str = "CYCLES";
+/// `NAMED_VALUE_INT.name` of the stack high-water mark, bytes.
+pub const NAME_STACK: &str = "STACK";
+
+/// What the board provides.
+pub trait Io {
+    /// Board clock, ms (used as receive stamps and "now" outside lockstep).
+    fn now_ms(&self) -> u32;
+    /// A free-running cycle counter for loop timing (board-defined unit, `docs/firmware.md`).
+    fn cycles(&self) -> u32;
+    /// Sends one complete frame.
+    fn send(&mut self, frame: &[u8]);
+    /// Stack high-water mark, bytes (0 if unknown).
+    fn stack_used_bytes(&self) -> u32 {
+        0
+    }
+}
+
+/// What the board should do after a message (from `MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Request {
+    /// Reset the MCU.
+    Reboot,
+    /// Stop (QEMU: exit the emulator).
+    Shutdown,
+}
+
+/// Operating mode, reported in `HEARTBEAT.custom_mode` (low byte; hold reasons in the next).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Mode {
+    /// No valid tube yet.
+    Unconfigured = 0,
+    /// Tube accepted; waiting for `MAV_CMD_MISSION_START`.
+    Ready = 1,
+    /// Flying the transport.
+    Transport = 2,
+    /// Failsafe hold ([`HoldReasons`]).
+    Hold = 3,
+}
+
+/// Values rejected after decoding (counted, dropped).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ValueCounters {
+    /// Non-finite or out-of-range states, refused parameters, malformed payloads.
+    pub bad_values: u32,
+    /// Valid frames the companion does not use, or from systems outside the team.
+    pub ignored: u32,
+}
+
+/// The companion computer's state.
+pub struct Companion {
+    framer: Framer,
+    core: Core,
+}
+
+/// Everything but the framer (so frames borrowed from it can be handled).
+struct Core {
+    params: Params,
+    mission: MissionUpload,
+    /// The tube's storage, built in place (`Tube::rebuild`: the tables are ~9 KiB and must
+    /// not be copied through the stack); valid only when `tube_ok`.
+    tube: CompanionTube,
+    /// `tube` holds a validated tube.
+    tube_ok: bool,
+    sources: Sources,
+    flight: Option<Flight>,
+    mode: Mode,
+    values: ValueCounters,
+    tx_seq: u8,
+    clock_ms: u32,
+    hl_steps: u32,
+    hl_cycles: u32,
+    ll_cycles: u32,
+    ll_cycles_max: u32,
+    request: Option<Request>,
+    link: LinkCounters,
+}
+
+impl Default for Companion {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Companion {
+    /// A fresh companion: default parameters, no tube, not armed.
+    pub const fn new() -> Self {
+        Self {
+            framer: Framer::new(),
+            core: Core {
+                params: Params::new(),
+                mission: MissionUpload::new(),
+                tube: CompanionTube::placeholder(),
+                tube_ok: false,
+                sources: Sources::new(),
+                flight: None,
+                mode: Mode::Unconfigured,
+                values: ValueCounters { bad_values: 0, ignored: 0 },
+                tx_seq: 0,
+                clock_ms: 0,
+                hl_steps: 0,
+                hl_cycles: 0,
+                ll_cycles: 0,
+                ll_cycles_max: 0,
+                request: None,
+                link: LinkCounters {
+                    frames_ok: 0,
+                    crc_errors: 0,
+                    unknown_ids: 0,
+                    framing_errors: 0,
+                    bytes_discarded: 0,
+                    overruns: 0,
+                },
+            },
+        }
+    }
+
+    /// Feeds received bytes; handles every complete frame (and, in lockstep, runs the control
+    /// steps they trigger). Returns a board request if one arrived.
+    pub fn on_bytes(&mut self, bytes: &[u8], io: &mut impl Io) -> Option<Request> {
+        for &b in bytes {
+            self.framer.push(b);
+            while let Some(frame) = self.framer.next_frame() {
+                self.core.handle(&frame, io);
+            }
+        }
+        self.core.link = *self.framer.counters();
+        self.core.request.take()
+    }
+
+    /// Adds receive overruns counted by the board's UART driver.
+    pub fn add_overruns(&mut self, n: u32) {
+        self.core.link.overruns = self.core.link.overruns.wrapping_add(n);
+    }
+
+    /// One high-level period (Ticker mode; does nothing in lockstep). Also sends telemetry.
+    pub fn high_level_step(&mut self, io: &mut impl Io) {
+        if self.lockstep() {
+            return;
+        }
+        self.core.clock_ms = io.now_ms();
+        self.core.high_level(io);
+    }
+
+    /// One low-level period (Ticker mode; does nothing in lockstep, where own states drive
+    /// the steps). Returns false only when the step produced a non-finite setpoint (replaced by
+    /// the level hover): the caller feeds the watchdog on true.
+    pub fn low_level_step(&mut self, io: &mut impl Io) -> bool {
+        if self.lockstep() {
+            return true;
+        }
+        self.core.clock_ms = io.now_ms();
+        self.core.low_level(io)
+    }
+
+    /// True with `VT_LOCKSTEP = 1`.
+    pub fn lockstep(&self) -> bool {
+        self.core.params.get_u32(Param::Lockstep) == 1
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        self.core.mode
+    }
+
+    /// Current hold reasons (clear unless in [`Mode::Hold`]).
+    pub fn hold_reasons(&self) -> HoldReasons {
+        self.core.flight.as_ref().map(Flight::hold_reasons).unwrap_or_default()
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        &self.core.params
+    }
+
+    /// Link-level counters.
+    pub fn link_counters(&self) -> LinkCounters {
+        self.core.link
+    }
+
+    /// Value-level counters.
+    pub fn value_counters(&self) -> ValueCounters {
+        self.core.values
+    }
+
+    /// The armed controllers, if any.
+    pub fn flight(&self) -> Option<&Flight> {
+        self.core.flight.as_ref()
+    }
+
+    /// High-level rate, Hz.
+    pub fn high_level_hz(&self) -> u32 {
+        self.core.params.get_u32(Param::HlHz)
+    }
+
+    /// Low-level rate, Hz.
+    pub fn low_level_hz(&self) -> u32 {
+        self.core.params.get_u32(Param::LlHz)
+    }
+}
+
+impl Core {
+    fn tube(&self) -> Option<&CompanionTube> {
+        self.tube_ok.then_some(&self.tube)
+    }
+
+    fn own_system_id(&self) -> u8 {
+        self.params.own_system_id()
+    }
+
+    fn send<D: MessageData>(&mut self, io: &mut impl Io, data: &D) {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        let header = MavHeader { system_id: u32::from(self.own_system_id()), component_id: COMPANION_COMPONENT_ID, sequence: self.tx_seq };
+        raw.serialize_message_data(header, data);
+        self.tx_seq = self.tx_seq.wrapping_add(1);
+        io.send(raw.raw_bytes());
+    }
+
+    fn bad_value(&mut self) {
+        self.values.bad_values = self.values.bad_values.wrapping_add(1);
+    }
+
+    fn ignored(&mut self) {
+        self.values.ignored = self.values.ignored.wrapping_add(1);
+    }
+
+    /// True when a message addressed to (`system`, `component`) is for us.
+    fn for_us(&self, system: u8, component: u8) -> bool {
+        (system == 0 || system == self.own_system_id()) && (component == 0 || component == COMPANION_COMPONENT_ID)
+    }
+
+    fn handle(&mut self, f: &Frame<'_>, io: &mut impl Io) {
+        macro_rules! decode {
+            ($t:ty) => {
+                match <$t>::deser(MavlinkVersion::V2, f.payload) {
+                    Ok(d) => d,
+                    Err(_) => return self.bad_value(),
+                }
+            };
+        }
+        match f.message_id {
+            LOCAL_POSITION_NED_DATA::ID => {
+                let d = decode!(LOCAL_POSITION_NED_DATA);
+                self.on_local_position(f, &d, io);
+            }
+            PARAM_SET_DATA::ID => {
+                let d = decode!(PARAM_SET_DATA);
+                self.on_param_set(f, &d, io);
+            }
+            PARAM_REQUEST_READ_DATA::ID => {
+                let d = decode!(PARAM_REQUEST_READ_DATA);
+                if !self.for_us(d.target_system, d.target_component) {
+                    return self.ignored();
+                }
+                let p = match d.param_index {
+                    -1 => d.param_id.to_str().ok().and_then(Param::from_name),
+                    k => usize::try_from(k).ok().and_then(Param::from_index),
+                };
+                match p {
+                    Some(p) => self.send_param(io, p),
+                    None => self.bad_value(),
+                }
+            }
+            PARAM_REQUEST_LIST_DATA::ID => {
+                let d = decode!(PARAM_REQUEST_LIST_DATA);
+                if !self.for_us(d.target_system, d.target_component) {
+                    return self.ignored();
+                }
+                for &p in params::ALL {
+                    self.send_param(io, p);
+                }
+            }
+            MISSION_COUNT_DATA::ID => {
+                let d = decode!(MISSION_COUNT_DATA);
+                if !self.for_us(d.target_system, d.target_component) {
+                    return self.ignored();
+                }
+                let reply = if self.flight.is_some() { UploadReply::Refuse(MissionResult::Denied) } else { self.mission.begin(d.count) };
+                self.mission_reply(f, reply, io);
+            }
+            MISSION_ITEM_INT_DATA::ID => {
+                let d = decode!(MISSION_ITEM_INT_DATA);
+                if !self.for_us(d.target_system, d.target_component) {
+                    return self.ignored();
+                }
+                let item = Item {
+                    seq: d.seq,
+                    frame: d.frame as u8,
+                    command: d.command as u16,
+                    x: d.x,
+                    y: d.y,
+                    param1: d.param1,
+                    param2: d.param2,
+                };
+                let reply = if self.flight.is_some() { UploadReply::Refuse(MissionResult::Denied) } else { self.mission.item(&item) };
+                if matches!(reply, UploadReply::Refuse(_)) {
+                    self.bad_value();
+                }
+                self.mission_reply(f, reply, io);
+            }
+            MISSION_CLEAR_ALL_DATA::ID => {
+                let d = decode!(MISSION_CLEAR_ALL_DATA);
+                if !self.for_us(d.target_system, d.target_component) {
+                    return self.ignored();
+                }
+                let result = if self.flight.is_some() {
+                    MavMissionResult::MAV_MISSION_DENIED
+                } else {
+                    self.mission.clear();
+                    self.tube_ok = false;
+                    self.mode = Mode::Unconfigured;
+                    MavMissionResult::MAV_MISSION_ACCEPTED
+                };
+                self.send(io, &MISSION_ACK_DATA { target_system: f.system_id, target_component: f.component_id, mavtype: result });
+            }
+            COMMAND_LONG_DATA::ID => {
+                let d = decode!(COMMAND_LONG_DATA);
+                if !self.for_us(d.target_system, d.target_component) {
+                    return self.ignored();
+                }
+                self.on_command(&d, io);
+            }
+            HEARTBEAT_DATA::ID => {}
+            _ => self.ignored(),
+        }
+    }
+
+    fn on_local_position(&mut self, f: &Frame<'_>, d: &LOCAL_POSITION_NED_DATA, io: &mut impl Io) {
+        let pos = enu_from_ned(d.x, d.y, d.z);
+        let vel = enu_from_ned(d.vx, d.vy, d.vz);
+        let within = |v: &crate::Vec3, lim: f32| finite3(v) && v.iter().all(|c| c.abs() <= lim);
+        if !(within(&pos, POSITION_LIMIT_M) && within(&vel, VELOCITY_LIMIT_MPS)) {
+            return self.bad_value();
+        }
+        let lockstep = self.params.get_u32(Param::Lockstep) == 1;
+        // Lockstep: the host's simulated time is the clock; else the board's at receipt.
+        let stamp_ms = if lockstep { d.time_boot_ms } else { io.now_ms() };
+        let own_sys = self.own_system_id();
+        let state = Stamped { value: State { pos_m: pos, vel_mps: vel }, stamp_ms };
+        if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
+            if lockstep && self.flight.is_some() {
+                self.clock_ms = stamp_ms;
+                self.lockstep_tick(state, io);
+            } else {
+                self.sources.own = Some(state);
+                if lockstep {
+                    self.clock_ms = stamp_ms;
+                }
+            }
+        } else if f.system_id == own_sys && u32::from(f.component_id) == self.params.get_u32(Param::LoadComp) {
+            self.sources.load = Some(state);
+        } else if f.component_id == AUTOPILOT_COMPONENT_ID {
+            let n = self.params.get_u32(Param::NUavs) as usize;
+            let base = self.params.get_u32(Param::SysidBase);
+            let j = u32::from(f.system_id).wrapping_sub(base) as usize;
+            match self.sources.neighbours.get_mut(j) {
+                Some(slot) if j < n => *slot = Some(Stamped { value: pos, stamp_ms }),
+                _ => self.ignored(),
+            }
+        } else {
+            self.ignored();
+        }
+    }
+
+    /// Lockstep: the own state `own` closes one low-level period. The high level runs first
+    /// when due, with the data held before this message (the last sample, as host-sim's
+    /// controllers read their latest sensor snapshot); then `own` is taken and the low level
+    /// runs with its velocity.
+    fn lockstep_tick(&mut self, own: Stamped<State>, io: &mut impl Io) {
+        if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+            self.high_level(io);
+        }
+        self.sources.own = Some(own);
+        self.low_level(io);
+    }
+
+    fn high_level(&mut self, io: &mut impl Io) {
+        let now = self.clock_ms;
+        if let (Some(fl), Some(tube)) = (self.flight.as_mut(), self.tube_ok.then_some(&self.tube)) {
+            let t0 = io.cycles();
+            let v = fl.high_level(tube, &self.sources, now);
+            self.hl_cycles = io.cycles().wrapping_sub(t0);
+            let ned = ned_from_enu(&v);
+            let f_hat = ned_from_enu(&fl.cable_force_n());
+            self.update_mode();
+            let target = POSITION_TARGET_LOCAL_NED_DATA {
+                time_boot_ms: now,
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                vx: ned[0],
+                vy: ned[1],
+                vz: ned[2],
+                afx: 0.0,
+                afy: 0.0,
+                afz: 0.0,
+                yaw: 0.0,
+                yaw_rate: 0.0,
+                type_mask: PositionTargetTypemask::from_bits_truncate(VELOCITY_ONLY_MASK),
+                coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            };
+            self.send(io, &target);
+            let time_usec = u64::from(now) * 1000;
+            self.send(io, &DEBUG_VECT_DATA { time_usec, x: f_hat[0], y: f_hat[1], z: f_hat[2], name: NAME_CABLE_FORCE.into() });
+            let (x, y, z) = (self.hl_cycles as f32, self.ll_cycles as f32, self.ll_cycles_max as f32);
+            self.send(io, &DEBUG_VECT_DATA { time_usec, x, y, z, name: NAME_CYCLES.into() });
+        }
+        // Slow telemetry once per second of high-level steps.
+        let per_second = self.params.get_u32(Param::HlHz).max(1);
+        if self.hl_steps.is_multiple_of(per_second) {
+            self.send_status(io);
+        }
+        self.hl_steps = self.hl_steps.wrapping_add(1);
+    }
+
+    /// Returns false when the setpoint had to be replaced (non-finite); true otherwise,
+    /// including when not armed (nothing to send).
+    fn low_level(&mut self, io: &mut impl Io) -> bool {
+        let now = self.clock_ms;
+        let Some(fl) = self.flight.as_mut() else {
+            return true;
+        };
+        let t0 = io.cycles();
+        let sp: Setpoint = fl.low_level(&self.sources, now);
+        self.ll_cycles = io.cycles().wrapping_sub(t0);
+        self.ll_cycles_max = self.ll_cycles_max.max(self.ll_cycles);
+        // Hold on stale data is a designed state; only a non-finite output is unhealthy.
+        let healthy = fl.hold_reasons().0 & HoldReasons::NONFINITE == 0;
+        self.update_mode();
+        let msg = SET_ATTITUDE_TARGET_DATA {
+            time_boot_ms: now,
+            q: sp.q_ned,
+            body_roll_rate: 0.0,
+            body_pitch_rate: 0.0,
+            body_yaw_rate: 0.0,
+            thrust: sp.thrust,
+            target_system: self.own_system_id(),
+            target_component: AUTOPILOT_COMPONENT_ID,
+            type_mask: AttitudeTargetTypemask::from_bits_truncate(IGNORE_BODY_RATES_MASK),
+        };
+        self.send(io, &msg);
+        healthy
+    }
+
+    fn update_mode(&mut self) {
+        let new = match &self.flight {
+            Some(fl) if fl.hold_reasons().is_clear() => Mode::Transport,
+            Some(_) => Mode::Hold,
+            None if self.tube_ok => Mode::Ready,
+            None => Mode::Unconfigured,
+        };
+        if new != self.mode {
+            log!(info, "mode {} -> {} (hold reasons {=u8:#x})", self.mode, new, self.flight.as_ref().map_or(0, |f| f.hold_reasons().0));
+            self.mode = new;
+        }
+    }
+
+    fn send_status(&mut self, io: &mut impl Io) {
+        let reasons = self.flight.as_ref().map_or(0, |f| f.hold_reasons().0);
+        let system_status = match self.mode {
+            Mode::Unconfigured | Mode::Ready => MavState::MAV_STATE_STANDBY,
+            Mode::Transport => MavState::MAV_STATE_ACTIVE,
+            Mode::Hold => MavState::MAV_STATE_CRITICAL,
+        };
+        self.send(
+            io,
+            &HEARTBEAT_DATA {
+                custom_mode: u32::from(self.mode as u8) | (u32::from(reasons) << 8),
+                mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+                base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                system_status,
+                mavlink_version: 3,
+            },
+        );
+        let c = self.link;
+        let sat = |x: u32| x.min(u32::from(u16::MAX)) as u16;
+        self.send(
+            io,
+            &SYS_STATUS_DATA {
+                onboard_control_sensors_present: MavSysStatusSensor::empty(),
+                onboard_control_sensors_enabled: MavSysStatusSensor::empty(),
+                onboard_control_sensors_health: MavSysStatusSensor::empty(),
+                load: 0,
+                voltage_battery: u16::MAX,
+                current_battery: -1,
+                drop_rate_comm: 0,
+                errors_comm: sat(c.crc_errors.wrapping_add(c.framing_errors)),
+                errors_count1: sat(c.unknown_ids),
+                errors_count2: sat(self.values.bad_values),
+                errors_count3: sat(c.overruns),
+                errors_count4: sat(c.bytes_discarded),
+                battery_remaining: -1,
+            },
+        );
+        let stack = io.stack_used_bytes();
+        self.send(io, &NAMED_VALUE_INT_DATA { time_boot_ms: self.clock_ms, value: stack as i32, name: NAME_STACK.into() });
+    }
+
+    fn send_param(&mut self, io: &mut impl Io, p: Param) {
+        let msg = PARAM_VALUE_DATA {
+            param_value: self.params.get(p),
+            param_count: params::COUNT as u16,
+            param_index: p as u16,
+            param_id: p.info().name.into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        };
+        self.send(io, &msg);
+    }
+
+    fn on_param_set(&mut self, _f: &Frame<'_>, d: &PARAM_SET_DATA, io: &mut impl Io) {
+        if !self.for_us(d.target_system, d.target_component) {
+            return self.ignored();
+        }
+        let Some(p) = d.param_id.to_str().ok().and_then(Param::from_name) else {
+            log!(warn, "PARAM_SET: unknown name");
+            return self.bad_value();
+        };
+        let result = if self.flight.is_some() { Err(ParamError::Locked) } else { self.params.set(p, d.param_value) };
+        if let Err(_e) = result {
+            log!(warn, "PARAM_SET {} refused: {}", p, _e);
+            self.bad_value();
+        }
+        // Echo the value in force (the new one, or the unchanged one when refused).
+        self.send_param(io, p);
+    }
+
+    fn mission_reply(&mut self, f: &Frame<'_>, reply: UploadReply, io: &mut impl Io) {
+        let (ts, tc) = (f.system_id, f.component_id);
+        let ack = |r| MISSION_ACK_DATA { target_system: ts, target_component: tc, mavtype: r };
+        match reply {
+            UploadReply::Request(seq) => self.send(io, &MISSION_REQUEST_INT_DATA { seq, target_system: ts, target_component: tc }),
+            UploadReply::Nothing => self.ignored(),
+            UploadReply::Refuse(r) => {
+                let code = match r {
+                    MissionResult::Error => MavMissionResult::MAV_MISSION_ERROR,
+                    MissionResult::UnsupportedFrame => MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME,
+                    MissionResult::Unsupported => MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                    MissionResult::NoSpace => MavMissionResult::MAV_MISSION_NO_SPACE,
+                    MissionResult::Invalid => MavMissionResult::MAV_MISSION_INVALID,
+                    MissionResult::InvalidParam1 => MavMissionResult::MAV_MISSION_INVALID_PARAM1,
+                    MissionResult::InvalidSequence => MavMissionResult::MAV_MISSION_INVALID_SEQUENCE,
+                    MissionResult::Denied => MavMissionResult::MAV_MISSION_DENIED,
+                };
+                self.send(io, &ack(code));
+            }
+            UploadReply::Complete => {
+                // Build and validate the tube now, once (the lookup tables are the expensive part).
+                let built = self.tube.rebuild(self.mission.waypoints());
+                self.tube_ok = built.is_ok();
+                let result = match built {
+                    Ok(()) => {
+                        log!(info, "tube accepted: {} waypoints", self.mission.waypoints().len());
+                        MavMissionResult::MAV_MISSION_ACCEPTED
+                    }
+                    Err(_e) => {
+                        log!(warn, "tube rejected: {}", _e);
+                        self.values.bad_values = self.values.bad_values.wrapping_add(1);
+                        MavMissionResult::MAV_MISSION_INVALID
+                    }
+                };
+                self.update_mode();
+                self.send(io, &ack(result));
+            }
+        }
+    }
+
+    fn on_command(&mut self, d: &COMMAND_LONG_DATA, io: &mut impl Io) {
+        let result = match d.command {
+            MavCmd::MAV_CMD_MISSION_START => {
+                if self.flight.is_some() {
+                    MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+                } else {
+                    let now = if self.params.get_u32(Param::Lockstep) == 1 {
+                        self.sources.own.map_or(self.clock_ms, |s| s.stamp_ms)
+                    } else {
+                        io.now_ms()
+                    };
+                    self.clock_ms = now;
+                    match Flight::start(&self.params, self.tube(), &self.sources, now) {
+                        Ok(fl) => {
+                            self.flight = Some(fl);
+                            self.hl_steps = 0;
+                            log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
+                            MavResult::MAV_RESULT_ACCEPTED
+                        }
+                        Err(e) => {
+                            log!(warn, "mission start refused: {}", e);
+                            match e {
+                                StartError::StaleData => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                                _ => MavResult::MAV_RESULT_FAILED,
+                            }
+                        }
+                    }
+                }
+            }
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if d.param1 == REBOOT => {
+                self.request = Some(Request::Reboot);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if d.param1 == SHUTDOWN => {
+                self.request = Some(Request::Shutdown);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            _ => MavResult::MAV_RESULT_UNSUPPORTED,
+        };
+        self.update_mode();
+        self.send(io, &COMMAND_ACK_DATA { command: d.command, result });
+    }
+}

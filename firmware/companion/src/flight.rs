@@ -1,0 +1,320 @@
+//! The armed controllers of one UAV and their two steps, with the freshness failsafe.
+//!
+//! - High level (tube + springs, `vt-dissipative`), every `1/VT_HL_HZ`: own position, load
+//!   position and velocity, neighbours' positions, the CFO's last cable-force estimate -> a
+//!   velocity command (world ENU).
+//! - Low level (velocity loop + CFO, `vt-cfo`), every `1/VT_LL_HZ`: velocity command and own
+//!   velocity -> thrust vector -> attitude + collective thrust ([`vt_cfo::thrust_to_attitude`];
+//!   no trigonometry: the heading is a unit vector computed at start).
+//!
+//! These are exactly the calls host-sim's software-in-the-loop runner makes (`sim::run`): the
+//! same parameters, `dt = 1/rate`, `own_cable_force_n = Some(f_hat)` from the previous
+//! low-level step, high level before low level when both are due.
+//!
+//! # Failsafe (hold)
+//! Own state older than `FS_OWN_TMO`, load state older than `FS_LOAD_TMO`, any neighbour older
+//! than `FS_NBR_TMO` (or never heard), or a controller output that is non-finite or flagged
+//! invalid: the velocity command becomes zero (no horizontal motion, no climb), which the
+//! velocity loop turns into the hover thrust corrected by the CFO's force estimate. With no
+//! fresh own velocity the velocity loop gets NaN and flies its own failsafe: the compensated
+//! hover thrust `f_hat - G` without feedback. Hold ends by itself when every input is fresh
+//! again. The reasons are reported in `HEARTBEAT.custom_mode` ([`HoldReasons`]).
+
+use nalgebra::{Unit, UnitQuaternion, Vector2};
+use vt_cfo::{thrust_to_attitude, VelocityLoop};
+use vt_dissipative::{Command, DissipativeController, Formation, Measurements};
+
+use crate::frames::{finite3, ned_frd_quaternion};
+use crate::params::{Param, Params};
+use crate::{CompanionTube, Vec3, MAX_UAVS};
+
+/// Why the companion holds (bit set, reported in telemetry).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HoldReasons(pub u8);
+
+impl HoldReasons {
+    /// Own state stale or missing.
+    pub const OWN_STALE: u8 = 1 << 0;
+    /// Load state stale or missing.
+    pub const LOAD_STALE: u8 = 1 << 1;
+    /// A neighbour's position stale or missing.
+    pub const NEIGHBOUR_STALE: u8 = 1 << 2;
+    /// The high-level controller flagged invalid input.
+    pub const INVALID_INPUT: u8 = 1 << 3;
+    /// A command was non-finite.
+    pub const NONFINITE: u8 = 1 << 4;
+
+    /// True when no reason is set.
+    pub fn is_clear(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// A measurement with the time it was received (companion clock, ms).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stamped<T> {
+    /// The value.
+    pub value: T,
+    /// Receive time, ms.
+    pub stamp_ms: u32,
+}
+
+impl<T: Copy> Stamped<T> {
+    /// The value if it is at most `timeout_ms` old at `now_ms` (a stamp in the future is stale).
+    #[inline]
+    pub fn fresh(&self, now_ms: u32, timeout_ms: u32) -> Option<T> {
+        (now_ms.wrapping_sub(self.stamp_ms) <= timeout_ms).then_some(self.value)
+    }
+}
+
+/// Position and velocity, world ENU.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    /// Position, m.
+    pub pos_m: Vec3,
+    /// Velocity, m/s.
+    pub vel_mps: Vec3,
+}
+
+/// The latest data from every source.
+#[derive(Debug, Clone)]
+pub struct Sources {
+    /// Own state from the autopilot.
+    pub own: Option<Stamped<State>>,
+    /// Load state from the load tracker.
+    pub load: Option<Stamped<State>>,
+    /// Neighbours' positions by UAV index (own slot unused).
+    pub neighbours: [Option<Stamped<Vec3>>; MAX_UAVS],
+}
+
+impl Default for Sources {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Sources {
+    /// Nothing received yet.
+    pub const fn new() -> Self {
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS] }
+    }
+}
+
+/// Why the mission could not start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StartError {
+    /// No valid tube uploaded.
+    NoTube,
+    /// `VT_ID >= VT_N_UAVS`, or `VT_LL_HZ` not a multiple of `VT_HL_HZ`.
+    BadTeam,
+    /// Own, load or a neighbour's state is missing or stale.
+    StaleData,
+    /// The high-level controller rejected its parameters or the take-off formation.
+    Controller(vt_dissipative::ControlError),
+    /// The velocity loop rejected its parameters.
+    VelocityLoop(vt_cfo::CfoError),
+}
+
+/// What one low-level step produced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setpoint {
+    /// Attitude, `[w, x, y, z]`, FRD body to local NED (MAVLink `SET_ATTITUDE_TARGET.q`).
+    pub q_ned: [f32; 4],
+    /// Collective thrust, `[0, 1]` of `VL_T_MAX` (`SET_ATTITUDE_TARGET.thrust`).
+    pub thrust: f32,
+}
+
+/// The armed controllers and their inputs.
+#[derive(Debug, Clone)]
+pub struct Flight {
+    id: usize,
+    n: usize,
+    high: DissipativeController<MAX_UAVS>,
+    low: VelocityLoop,
+    heading: Unit<Vector2<f32>>,
+    thrust_max_n: f32,
+    hover_n: f32,
+    hl_dt_s: f32,
+    ll_dt_s: f32,
+    low_per_high: u32,
+    own_tmo_ms: u32,
+    load_tmo_ms: u32,
+    nbr_tmo_ms: u32,
+    ll_ticks: u32,
+    vel_cmd_mps: Vec3,
+    f_hat_n: Vec3,
+    hl_reasons: HoldReasons,
+    ll_reasons: HoldReasons,
+    last_command: Option<Command>,
+}
+
+impl Flight {
+    /// Arms: the take-off formation from the current positions of every UAV and the load
+    /// (eq:2-7), then the controllers from the parameters.
+    ///
+    /// # Errors
+    /// [`StartError`].
+    pub fn start(params: &Params, tube: Option<&CompanionTube>, src: &Sources, now_ms: u32) -> Result<Self, StartError> {
+        if tube.is_none() {
+            return Err(StartError::NoTube);
+        }
+        let n = params.get_u32(Param::NUavs) as usize;
+        let id = params.get_u32(Param::Id) as usize;
+        let low_per_high = params.low_per_high().ok_or(StartError::BadTeam)?;
+        if id >= n || n > MAX_UAVS {
+            return Err(StartError::BadTeam);
+        }
+        let (own_tmo_ms, load_tmo_ms, nbr_tmo_ms) =
+            (params.timeout_ms(Param::FsOwnTmo), params.timeout_ms(Param::FsLoadTmo), params.timeout_ms(Param::FsNbrTmo));
+        let own = src.own.and_then(|s| s.fresh(now_ms, own_tmo_ms)).ok_or(StartError::StaleData)?;
+        let load = src.load.and_then(|s| s.fresh(now_ms, load_tmo_ms)).ok_or(StartError::StaleData)?;
+        let mut takeoff = [Vec3::zeros(); MAX_UAVS];
+        for (j, slot) in takeoff.iter_mut().enumerate().take(n) {
+            *slot = if j == id {
+                own.pos_m
+            } else {
+                src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, nbr_tmo_ms)).ok_or(StartError::StaleData)?
+            };
+        }
+        let dissipative = params.dissipative().map_err(StartError::Controller)?;
+        let tray = params.tray();
+        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray)
+            .map_err(StartError::Controller)?;
+        let high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+        let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
+        Ok(Self {
+            id,
+            n,
+            high,
+            low: VelocityLoop::new(vl),
+            heading: params.heading(),
+            thrust_max_n: vl.limits().thrust_max_n(),
+            hover_n: vl.hover_thrust_n(),
+            hl_dt_s: params.high_level_dt_s(),
+            ll_dt_s: params.low_level_dt_s(),
+            low_per_high,
+            own_tmo_ms,
+            load_tmo_ms,
+            nbr_tmo_ms,
+            ll_ticks: 0,
+            vel_cmd_mps: Vec3::zeros(),
+            f_hat_n: Vec3::zeros(),
+            hl_reasons: HoldReasons::default(),
+            ll_reasons: HoldReasons::default(),
+            last_command: None,
+        })
+    }
+
+    /// True when the high-level step is due at this lockstep tick (tick 0, then every
+    /// `VT_LL_HZ / VT_HL_HZ` ticks).
+    pub fn high_level_due(&self) -> bool {
+        self.ll_ticks.is_multiple_of(self.low_per_high.max(1))
+    }
+
+    /// One high-level step at `now_ms`: the velocity command (zero in hold).
+    pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
+        let mut reasons = 0u8;
+        let own = src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms));
+        let load = src.load.and_then(|s| s.fresh(now_ms, self.load_tmo_ms));
+        if own.is_none() {
+            reasons |= HoldReasons::OWN_STALE;
+        }
+        if load.is_none() {
+            reasons |= HoldReasons::LOAD_STALE;
+        }
+        let mut view: [Option<Vec3>; MAX_UAVS] = [None; MAX_UAVS];
+        for (j, slot) in view.iter_mut().enumerate().take(self.n) {
+            if j == self.id {
+                *slot = own.map(|o| o.pos_m);
+            } else {
+                *slot = src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, self.nbr_tmo_ms));
+                if slot.is_none() {
+                    reasons |= HoldReasons::NEIGHBOUR_STALE;
+                }
+            }
+        }
+        self.vel_cmd_mps = Vec3::zeros();
+        if let (0, Some(own), Some(load)) = (reasons, own, load) {
+            let m = Measurements {
+                own_pos_m: own.pos_m,
+                load_pos_m: load.pos_m,
+                load_vel_mps: load.vel_mps,
+                neighbours_m: view.get(..self.n).unwrap_or(&[]),
+                own_cable_force_n: Some(self.f_hat_n),
+            };
+            let cmd = self.high.update(tube, &m, self.hl_dt_s);
+            self.last_command = Some(cmd);
+            if cmd.status.nonfinite_command || !finite3(&cmd.vel_mps) {
+                reasons |= HoldReasons::NONFINITE;
+            } else if cmd.status.invalid_input {
+                reasons |= HoldReasons::INVALID_INPUT;
+            } else {
+                self.vel_cmd_mps = cmd.vel_mps;
+            }
+        }
+        self.hl_reasons = HoldReasons(reasons);
+        self.vel_cmd_mps
+    }
+
+    /// One low-level step at `now_ms`: the attitude setpoint.
+    pub fn low_level(&mut self, src: &Sources, now_ms: u32) -> Setpoint {
+        let mut reasons = 0u8;
+        let v_meas = match src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms)) {
+            Some(own) => own.vel_mps,
+            None => {
+                reasons |= HoldReasons::OWN_STALE;
+                Vec3::repeat(f32::NAN) // the velocity loop's no-measurement failsafe
+            }
+        };
+        let v_cmd = if self.hl_reasons.is_clear() { self.vel_cmd_mps } else { Vec3::zeros() };
+        let out = self.low.update(v_cmd, v_meas, self.ll_dt_s);
+        self.f_hat_n = out.f_hat_n;
+        let att = thrust_to_attitude(out.thrust_n, self.heading, self.thrust_max_n);
+        let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };
+        if !(sp.q_ned.iter().all(|c| c.is_finite()) && sp.thrust.is_finite()) {
+            reasons |= HoldReasons::NONFINITE;
+            sp = self.level_hover();
+        }
+        self.ll_reasons = HoldReasons(reasons);
+        self.ll_ticks = self.ll_ticks.wrapping_add(1);
+        sp
+    }
+
+    /// Level attitude along the heading at the hover collective (the last-resort output).
+    fn level_hover(&self) -> Setpoint {
+        let h = self.heading;
+        // Yaw about ENU up by the heading's angle, without trigonometry: the half-angle
+        // quaternion from the unit vector (cos psi, sin psi).
+        let q = UnitQuaternion::rotation_between(&nalgebra::Vector3::x(), &nalgebra::Vector3::new(h.x, h.y, 0.0))
+            .unwrap_or_else(UnitQuaternion::identity);
+        let collective = if self.thrust_max_n > 0.0 { (self.hover_n / self.thrust_max_n).clamp(0.0, 1.0) } else { 0.0 };
+        Setpoint { q_ned: ned_frd_quaternion(&q), thrust: collective }
+    }
+
+    /// Current hold reasons (high and low level).
+    pub fn hold_reasons(&self) -> HoldReasons {
+        HoldReasons(self.hl_reasons.0 | self.ll_reasons.0)
+    }
+
+    /// The last velocity command, m/s, world ENU.
+    pub fn velocity_command_mps(&self) -> Vec3 {
+        self.vel_cmd_mps
+    }
+
+    /// The CFO's cable-force estimate `f_hat`, N, world ENU.
+    pub fn cable_force_n(&self) -> Vec3 {
+        self.f_hat_n
+    }
+
+    /// The last high-level command with its status (None before the first nominal step).
+    pub fn last_command(&self) -> Option<&Command> {
+        self.last_command.as_ref()
+    }
+
+    /// Low-level steps so far.
+    pub fn low_level_ticks(&self) -> u32 {
+        self.ll_ticks
+    }
+}

@@ -1,0 +1,326 @@
+//! The parameter table: every gain, limit, rate and team setting the companion needs, set over
+//! MAVLink with `PARAM_SET` (`MAV_PARAM_TYPE_REAL32`; integer parameters carry an integral
+//! float) and read back with `PARAM_REQUEST_READ` / `PARAM_REQUEST_LIST`.
+//!
+//! Each entry has a name (at most 16 characters, the MAVLink limit), a unit, a default (the
+//! paper's outdoor experiment, REFERENCE §5, and the project's scenario
+//! `scenarios/experiment-3uav.toml`) and a range checked on `PARAM_SET`. Cross-parameter
+//! validation (e.g. `r_active > r_safe`) is the crates' own, run when the mission starts
+//! ([`Params::dissipative`], [`Params::velocity_loop`]).
+
+use nalgebra::{Unit, Vector2, Vector3};
+use vt_cfo::{CfoError, CfoParams, PidGains, ThrustLimits, VelocityLoopParams};
+use vt_dissipative::{ControlError, DissipativeParams, TrayParams, VerticalParams};
+
+/// One parameter's description.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamInfo {
+    /// MAVLink `param_id`.
+    pub name: &'static str,
+    /// Default value.
+    pub default: f32,
+    /// Smallest accepted value.
+    pub min: f32,
+    /// Largest accepted value.
+    pub max: f32,
+    /// Only integral values are accepted.
+    pub integer: bool,
+}
+
+const fn real(name: &'static str, default: f32, min: f32, max: f32) -> ParamInfo {
+    ParamInfo { name, default, min, max, integer: false }
+}
+
+const fn int(name: &'static str, default: f32, min: f32, max: f32) -> ParamInfo {
+    ParamInfo { name, default, min, max, integer: true }
+}
+
+/// Largest gain accepted by the table (the crates check the rest).
+const GAIN_MAX: f32 = 1.0e3;
+/// Largest length accepted by the table, m.
+const LENGTH_MAX_M: f32 = 1.0e3;
+/// Largest altitude reference magnitude, m.
+const ALTITUDE_MAX_M: f32 = 1.0e4;
+/// Largest thrust or force, N.
+const FORCE_MAX_N: f32 = 1.0e4;
+
+macro_rules! params {
+    ($($variant:ident => $info:expr, $doc:literal;)*) => {
+        /// A parameter of the companion.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        #[repr(u8)]
+        pub enum Param {
+            $(#[doc = $doc] $variant,)*
+        }
+
+        /// Every parameter, in table order (the MAVLink `param_index`).
+        pub const ALL: &[Param] = &[$(Param::$variant,)*];
+
+        /// The descriptions, indexed by `Param as usize`.
+        pub const TABLE: &[ParamInfo] = &[$($info,)*];
+    };
+}
+
+params! {
+    Id => int("VT_ID", 0.0, 0.0, 31.0), "This UAV's index in the team, `0..VT_N_UAVS`.";
+    NUavs => int("VT_N_UAVS", 3.0, 1.0, 32.0), "Team size.";
+    SysidBase => int("VT_SYSID_BASE", 1.0, 1.0, 223.0), "MAVLink system id of UAV 0; UAV `j` is `VT_SYSID_BASE + j`.";
+    LoadComp => int("VT_LOAD_COMP", 100.0, 1.0, 255.0), "Component id of the load tracker on the own system (`MAV_COMP_ID_CAMERA`).";
+    Lockstep => int("VT_LOCKSTEP", 0.0, 0.0, 1.0), "1: each own `LOCAL_POSITION_NED` is one low-level period (processor in the loop); 0: Tickers.";
+    HlHz => int("VT_HL_HZ", 50.0, 1.0, 1000.0), "High-level (tube + springs) rate, Hz.";
+    LlHz => int("VT_LL_HZ", 500.0, 1.0, 2000.0), "Low-level (velocity loop + CFO) rate, Hz; a multiple of `VT_HL_HZ`.";
+    FsOwnTmo => real("FS_OWN_TMO", 0.1, 0.001, 10.0), "Own state older than this: hold, s.";
+    FsLoadTmo => real("FS_LOAD_TMO", 0.5, 0.001, 10.0), "Load state older than this: hold, s.";
+    FsNbrTmo => real("FS_NBR_TMO", 0.5, 0.001, 10.0), "A neighbour's position older than this: hold, s.";
+    K1 => real("VT_K1", 0.3, 0.0, GAIN_MAX), "Passing gain `k1`, 1/s (eq:2-13).";
+    K2 => real("VT_K2", 0.1, 0.0, GAIN_MAX), "Spring gain `k2`, 1/s (eq:2-5).";
+    K3 => real("VT_K3", 1.0, 0.0, GAIN_MAX), "Tube barrier gain `k3`, m^2/s (eq:2-15-1).";
+    VMax => real("VT_V_MAX", 1.0, 0.0, 50.0), "Velocity limit `v_m`, m/s (eq:2-21).";
+    RSafe => real("VT_R_SAFE", 0.5, 0.0, LENGTH_MAX_M), "Tube barrier safety radius `r_s`, m.";
+    RActive => real("VT_R_ACT", 1.2, 0.0, LENGTH_MAX_M), "Tube barrier activation radius `r_a`, m.";
+    TrayH => real("VT_TRAY_H", 4.0, 0.0, LENGTH_MAX_M), "Tray height above the load `H`, m (eq:2-4).";
+    TrayHMin => real("VT_TRAY_HMIN", 0.5, 0.0, LENGTH_MAX_M), "Projection floor of `z_i - z_l`, m.";
+    LoadZRef => real("VT_LOAD_ZREF", 3.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Load altitude reference, m (ENU up).";
+    CableL => real("VT_CABLE_L", 3.0, 0.0, LENGTH_MAX_M), "Own cable length, m.";
+    CableStretch => real("VT_CABLE_STR", 0.0, 0.0, LENGTH_MAX_M), "Own cable's static stretch, m.";
+    Kz => real("VT_KZ", 1.0, 0.0, GAIN_MAX), "Altitude gain `k_z`, 1/s.";
+    VzMax => real("VT_VZ_MAX", 1.0, 0.0, 50.0), "Vertical speed limit, m/s.";
+    ZMin => real("VT_Z_MIN", 1.0, 0.0, LENGTH_MAX_M), "Smallest UAV height above the load reference, m.";
+    TShare => real("VT_T_SHARE", 0.0, 0.0, FORCE_MAX_N), "Nominal cable tension share, N (0: no load sharing).";
+    KShare => real("VT_K_SHARE", 0.0, 0.0, GAIN_MAX), "Load-sharing gain `k_T`, (m/s)/N.";
+    KLoadAlt => real("VT_K_LALT", 0.0, 0.0, GAIN_MAX), "Load-altitude gain `k_L` of the sharing integrator, 1/s.";
+    DzMax => real("VT_DZ_MAX", 0.0, 0.0, LENGTH_MAX_M), "Bound on the sharing offset, m.";
+    KpX => real("VL_KP_X", 2.0, 0.0, GAIN_MAX), "Velocity loop `Kp`, east, 1/s (eq:2-3).";
+    KpY => real("VL_KP_Y", 2.0, 0.0, GAIN_MAX), "Velocity loop `Kp`, north, 1/s.";
+    KpZ => real("VL_KP_Z", 2.0, 0.0, GAIN_MAX), "Velocity loop `Kp`, up, 1/s.";
+    KiX => real("VL_KI_X", 0.1, 0.0, GAIN_MAX), "Velocity loop `Ki`, east, 1/s^2.";
+    KiY => real("VL_KI_Y", 0.1, 0.0, GAIN_MAX), "Velocity loop `Ki`, north, 1/s^2.";
+    KiZ => real("VL_KI_Z", 0.1, 0.0, GAIN_MAX), "Velocity loop `Ki`, up, 1/s^2.";
+    KdX => real("VL_KD_X", 0.1, 0.0, 1.0), "Velocity loop `Kd`, east.";
+    KdY => real("VL_KD_Y", 0.1, 0.0, 1.0), "Velocity loop `Kd`, north.";
+    KdZ => real("VL_KD_Z", 0.1, 0.0, 1.0), "Velocity loop `Kd`, up.";
+    ILimX => real("VL_ILIM_X", 2.0, 0.0, 100.0), "Integral bound `|Ki int e_v|`, east, m/s^2.";
+    ILimY => real("VL_ILIM_Y", 2.0, 0.0, 100.0), "Integral bound, north, m/s^2.";
+    ILimZ => real("VL_ILIM_Z", 2.0, 0.0, 100.0), "Integral bound, up, m/s^2.";
+    ThrustMin => real("VL_T_MIN", 1.5, 0.0, FORCE_MAX_N), "Smallest vertical thrust, N.";
+    ThrustMax => real("VL_T_MAX", 30.0, 0.0, FORCE_MAX_N), "Thrust limit, N (collective 1 in `SET_ATTITUDE_TARGET`).";
+    TiltMax => real("VL_TILT_MAX", core::f32::consts::FRAC_PI_6, 0.0, 1.57), "Tilt limit, rad.";
+    CfoMu => real("VL_CFO_MU", 15.0, 0.0, 1.0e4), "CFO bandwidth `mu`, rad/s (REFERENCE §4).";
+    Mass => real("VL_MASS", 1.47, 0.0, 1.0e3), "UAV mass, kg.";
+    Yaw => real("VL_YAW", 0.0, -3.15, 3.15), "Heading held while transporting, rad (NED yaw: 0 north, pi/2 east).";
+}
+
+/// Number of parameters.
+pub const COUNT: usize = TABLE.len();
+
+impl Param {
+    /// The parameter's description.
+    pub fn info(self) -> ParamInfo {
+        TABLE.get(self as usize).copied().unwrap_or(real("?", 0.0, 0.0, 0.0))
+    }
+
+    /// The parameter called `name`, if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        ALL.iter().copied().find(|p| p.info().name == name)
+    }
+
+    /// The parameter at `param_index`, if any.
+    pub fn from_index(index: usize) -> Option<Self> {
+        ALL.get(index).copied()
+    }
+}
+
+/// Why a `PARAM_SET` was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ParamError {
+    /// No parameter has this name.
+    UnknownName,
+    /// NaN, infinite, out of range, or not integral for an integer parameter.
+    BadValue,
+    /// Parameters are locked while the mission runs.
+    Locked,
+}
+
+/// The current values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Params {
+    values: [f32; COUNT],
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Params {
+    /// Every parameter at its default.
+    #[allow(clippy::indexing_slicing)] // const evaluation: an out-of-range index fails the build
+    pub const fn new() -> Self {
+        let mut values = [0.0; COUNT];
+        let mut k = 0;
+        while k < COUNT {
+            values[k] = TABLE[k].default;
+            k += 1;
+        }
+        Self { values }
+    }
+
+    /// Value of `p`.
+    #[inline]
+    pub fn get(&self, p: Param) -> f32 {
+        self.values.get(p as usize).copied().unwrap_or(0.0)
+    }
+
+    /// Integer value of `p` (integer parameters are integral by construction).
+    #[inline]
+    pub fn get_u32(&self, p: Param) -> u32 {
+        self.get(p) as u32
+    }
+
+    /// Sets `p` after the range check.
+    ///
+    /// # Errors
+    /// [`ParamError::BadValue`].
+    pub fn set(&mut self, p: Param, value: f32) -> Result<(), ParamError> {
+        let info = p.info();
+        let integral = !info.integer || libm::truncf(value) == value;
+        if !(value.is_finite() && value >= info.min && value <= info.max && integral) {
+            return Err(ParamError::BadValue);
+        }
+        if let Some(slot) = self.values.get_mut(p as usize) {
+            *slot = value;
+        }
+        Ok(())
+    }
+
+    /// This UAV's MAVLink system id (`VT_SYSID_BASE + VT_ID`).
+    pub fn own_system_id(&self) -> u8 {
+        self.system_id_of(self.get_u32(Param::Id) as usize)
+    }
+
+    /// MAVLink system id of UAV `j`.
+    pub fn system_id_of(&self, j: usize) -> u8 {
+        (self.get_u32(Param::SysidBase) as usize).saturating_add(j).min(usize::from(u8::MAX)) as u8
+    }
+
+    /// The high-level controller's parameters (validated by `vt-dissipative`).
+    ///
+    /// # Errors
+    /// The crate's [`ControlError`] naming the field.
+    pub fn dissipative(&self) -> Result<DissipativeParams, ControlError> {
+        let g = |p| self.get(p);
+        let params = DissipativeParams {
+            k1: g(Param::K1),
+            k2: g(Param::K2),
+            k3: g(Param::K3),
+            v_max_mps: g(Param::VMax),
+            r_safe_m: g(Param::RSafe),
+            r_active_m: g(Param::RActive),
+            tray: self.tray(),
+            vertical: VerticalParams {
+                load_altitude_ref_m: g(Param::LoadZRef),
+                cable_length_m: g(Param::CableL),
+                cable_stretch_m: g(Param::CableStretch),
+                kz_per_s: g(Param::Kz),
+                vz_max_mps: g(Param::VzMax),
+                min_height_m: g(Param::ZMin),
+                tension_share_n: g(Param::TShare),
+                share_gain_mps_per_n: g(Param::KShare),
+                load_altitude_gain_per_s: g(Param::KLoadAlt),
+                share_offset_max_m: g(Param::DzMax),
+            },
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// The virtual tray.
+    pub fn tray(&self) -> TrayParams {
+        TrayParams { height_above_load_m: self.get(Param::TrayH), min_height_above_load_m: self.get(Param::TrayHMin) }
+    }
+
+    /// The velocity loop's parameters (validated by `vt-cfo`); the CFO period is `1 / VT_LL_HZ`.
+    ///
+    /// # Errors
+    /// The crate's [`CfoError`].
+    pub fn velocity_loop(&self) -> Result<VelocityLoopParams, CfoError> {
+        let g = |p| self.get(p);
+        let v = |x, y, z| Vector3::new(g(x), g(y), g(z));
+        let gains = PidGains { kp: v(Param::KpX, Param::KpY, Param::KpZ), ki: v(Param::KiX, Param::KiY, Param::KiZ), kd: v(Param::KdX, Param::KdY, Param::KdZ) };
+        let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?;
+        let cfo = CfoParams::new(g(Param::CfoMu), g(Param::Mass), self.low_level_dt_s())?;
+        VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)
+    }
+
+    /// High-level period `1 / VT_HL_HZ`, s (as host-sim computes it: `1.0 / hz as f32`).
+    pub fn high_level_dt_s(&self) -> f32 {
+        1.0 / self.get(Param::HlHz)
+    }
+
+    /// Low-level period `1 / VT_LL_HZ`, s.
+    pub fn low_level_dt_s(&self) -> f32 {
+        1.0 / self.get(Param::LlHz)
+    }
+
+    /// Low-level periods per high-level period, if `VT_LL_HZ` is a multiple of `VT_HL_HZ`.
+    pub fn low_per_high(&self) -> Option<u32> {
+        let (hl, ll) = (self.get_u32(Param::HlHz), self.get_u32(Param::LlHz));
+        (hl > 0 && ll % hl == 0).then(|| ll / hl)
+    }
+
+    /// The heading held while transporting, as an ENU unit vector: NED yaw `psi` is
+    /// `(sin psi, cos psi)` in (east, north). Trigonometry here runs once, at mission start.
+    pub fn heading(&self) -> Unit<Vector2<f32>> {
+        let yaw = self.get(Param::Yaw);
+        let h = Vector2::new(libm::sinf(yaw), libm::cosf(yaw));
+        Unit::try_new(h, 1e-6).unwrap_or_else(|| Unit::new_unchecked(Vector2::new(0.0, 1.0)))
+    }
+
+    /// Timeout of `p` (one of the `FS_*` parameters) in milliseconds.
+    pub fn timeout_ms(&self, p: Param) -> u32 {
+        (self.get(p) * 1000.0) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_fit_mavlink_and_are_unique() {
+        for (k, info) in TABLE.iter().enumerate() {
+            assert!(info.name.len() <= 16, "{}", info.name);
+            assert!(info.min <= info.default && info.default <= info.max, "{}", info.name);
+            assert_eq!(Param::from_name(info.name).map(|p| p as usize), Some(k));
+        }
+        assert_eq!(ALL.len(), TABLE.len());
+    }
+
+    #[test]
+    fn defaults_build_valid_controllers() {
+        let p = Params::new();
+        p.dissipative().unwrap();
+        p.velocity_loop().unwrap();
+        assert_eq!(p.low_per_high(), Some(10));
+        assert_eq!(p.own_system_id(), 1);
+    }
+
+    #[test]
+    fn bad_values_are_refused() {
+        let mut p = Params::new();
+        assert_eq!(p.set(Param::K1, f32::NAN), Err(ParamError::BadValue));
+        assert_eq!(p.set(Param::NUavs, 2.5), Err(ParamError::BadValue));
+        assert_eq!(p.set(Param::NUavs, 33.0), Err(ParamError::BadValue));
+        assert_eq!(p.set(Param::NUavs, 10.0), Ok(()));
+        assert_eq!(p.get_u32(Param::NUavs), 10);
+    }
+
+    #[test]
+    fn heading_is_unit_and_north_by_default() {
+        let h = Params::new().heading();
+        assert_eq!((h.x, h.y), (0.0, 1.0));
+    }
+}

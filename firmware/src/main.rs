@@ -1,0 +1,200 @@
+//! Firmware of the cooperative-transport companion computer (issue 4).
+//!
+//! Beside the autopilot, it receives the UAV's own state, the load's state and the
+//! neighbours' positions over MAVLink 2, runs the high-level controller (tube + springs) and the
+//! low-level velocity loop + CFO at their own rates, and sends the autopilot an attitude +
+//! thrust setpoint. Everything that is not hardware lives in `vt-companion` (host-testable and
+//! flown software-in-the-loop by host-sim); this crate is the board glue:
+//!
+//! - `rx_task`: link bytes -> [`Companion::on_bytes`] (and, in lockstep, the control steps).
+//! - `tx_task`: frames queued by the companion -> link.
+//! - `high_level_task`, `low_level_task`: embassy `Ticker`s at `VT_HL_HZ` / `VT_LL_HZ`; the
+//!   low-level task feeds the watchdog after each healthy step.
+//!
+//! Boards (exactly one feature): `qemu` (mps2-an386) and `stm32f405`. See `docs/firmware.md`.
+#![no_std]
+#![no_main]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+#[cfg(all(feature = "qemu", feature = "stm32f405"))]
+compile_error!("select exactly one board feature: `qemu` or `stm32f405`");
+#[cfg(not(any(feature = "qemu", feature = "stm32f405")))]
+compile_error!("select a board feature: `--features qemu` or `--features stm32f405`");
+
+mod board;
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::mutex::Mutex;
+use embassy_sync::pipe::Pipe;
+use embassy_time::{Duration, Instant, Ticker, Timer};
+use vt_companion::{Companion, Io, Request};
+
+/// Bytes queued for the link (a full parameter list is about 1.8 KB).
+const TX_CAPACITY: usize = 4096;
+/// Receive chunk handed to the companion at once.
+const RX_CHUNK: usize = 128;
+/// Transmit chunk written to the UART at once.
+const TX_CHUNK: usize = 256;
+/// Period of the link statistics in the debug log, s.
+const LINK_REPORT_S: u32 = 2;
+/// How long the shutdown path waits for queued frames to leave, ms.
+const SHUTDOWN_FLUSH_MS: u64 = 20;
+
+/// The companion. An async mutex: control steps run with interrupts enabled (the tasks share
+/// one thread executor, so the lock is never contended across an await).
+static COMPANION: Mutex<CriticalSectionRawMutex, Companion> = Mutex::new(Companion::new());
+/// Outgoing frames.
+static TX: Pipe<CriticalSectionRawMutex, TX_CAPACITY> = Pipe::new();
+/// Frames dropped because the transmit queue was full.
+static TX_DROPPED: AtomicU32 = AtomicU32::new(0);
+
+/// The companion's view of the board.
+struct LinkIo;
+
+impl Io for LinkIo {
+    fn now_ms(&self) -> u32 {
+        Instant::now().as_millis() as u32
+    }
+
+    fn cycles(&self) -> u32 {
+        board::cycles()
+    }
+
+    fn send(&mut self, frame: &[u8]) {
+        // Whole frames only: a partial frame would corrupt the stream.
+        if TX.free_capacity() >= frame.len() {
+            // `try_write` stops at the ring's wrap-around: write until the frame is in.
+            let mut rest = frame;
+            while !rest.is_empty() {
+                match TX.try_write(rest) {
+                    Ok(n) => rest = rest.get(n..).unwrap_or(&[]),
+                    Err(_) => break, // cannot happen: capacity was checked under the lock
+                }
+            }
+        } else {
+            TX_DROPPED.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn stack_used_bytes(&self) -> u32 {
+        board::stack_used_bytes()
+    }
+}
+
+#[embassy_executor::task]
+async fn rx_task(mut rx: board::LinkRx) {
+    let mut buf = [0u8; RX_CHUNK];
+    let mut stack_reported = 0;
+    loop {
+        let n = rx.read(&mut buf).await;
+        let request = {
+            let mut c = COMPANION.lock().await;
+            c.add_overruns(rx.take_overruns());
+            c.on_bytes(buf.get(..n).unwrap_or(&[]), &mut LinkIo)
+        };
+        let stack = board::stack_used_bytes();
+        if stack > stack_reported {
+            stack_reported = stack;
+            defmt::debug!("stack high-water mark {=u32} bytes", stack);
+        }
+        match request {
+            Some(Request::Shutdown) => {
+                defmt::info!("shutdown requested; stack high-water mark {=u32} bytes", board::stack_used_bytes());
+                Timer::after_millis(SHUTDOWN_FLUSH_MS).await;
+                board::shutdown();
+            }
+            Some(Request::Reboot) => {
+                Timer::after_millis(SHUTDOWN_FLUSH_MS).await;
+                board::reboot();
+            }
+            None => {}
+        }
+    }
+}
+
+#[embassy_executor::task]
+async fn tx_task(mut tx: board::LinkTx) {
+    let mut buf = [0u8; TX_CHUNK];
+    loop {
+        let n = TX.read(&mut buf).await;
+        tx.write(buf.get(..n).unwrap_or(&[])).await;
+    }
+}
+
+#[embassy_executor::task]
+async fn high_level_task() {
+    let mut ticks: u32 = 0;
+    loop {
+        let hz = COMPANION.lock().await.high_level_hz().max(1);
+        let mut ticker = Ticker::every(Duration::from_hz(u64::from(hz)));
+        loop {
+            ticker.next().await;
+            let mut c = COMPANION.lock().await;
+            if c.high_level_hz() != hz {
+                break; // rate changed by PARAM_SET: restart the Ticker
+            }
+            c.high_level_step(&mut LinkIo);
+            ticks = ticks.wrapping_add(1);
+            if ticks % (hz * LINK_REPORT_S) == 0 {
+                defmt::debug!(
+                    "link: {} values: {} tx dropped {=u32} tx queued {=usize}",
+                    c.link_counters(),
+                    c.value_counters(),
+                    TX_DROPPED.load(Ordering::Relaxed),
+                    TX.len()
+                );
+            }
+        }
+    }
+}
+
+#[embassy_executor::task]
+async fn low_level_task(mut watchdog: board::Watchdog) {
+    loop {
+        let hz = COMPANION.lock().await.low_level_hz().max(1);
+        let mut ticker = Ticker::every(Duration::from_hz(u64::from(hz)));
+        loop {
+            ticker.next().await;
+            let mut c = COMPANION.lock().await;
+            if c.low_level_hz() != hz {
+                break;
+            }
+            // Fed only by a healthy control loop: a stalled executor, a stuck step or a
+            // non-finite setpoint lets it expire.
+            if c.low_level_step(&mut LinkIo) {
+                watchdog.feed();
+            }
+        }
+    }
+}
+
+/// The executor (the board's: WFI-based under QEMU, WFE-based on the STM32).
+static EXECUTOR: static_cell::StaticCell<board::Executor> = static_cell::StaticCell::new();
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let b = board::init();
+    defmt::info!("vt-firmware {=str} on {=str}", env!("CARGO_PKG_VERSION"), board::NAME);
+    board::boot_report();
+    EXECUTOR.init(board::Executor::new()).run(|spawner| {
+        match rx_task(b.rx) {
+            Ok(t) => spawner.spawn(t),
+            Err(_) => defmt::error!("cannot spawn rx_task"),
+        }
+        match tx_task(b.tx) {
+            Ok(t) => spawner.spawn(t),
+            Err(_) => defmt::error!("cannot spawn tx_task"),
+        }
+        match high_level_task() {
+            Ok(t) => spawner.spawn(t),
+            Err(_) => defmt::error!("cannot spawn high_level_task"),
+        }
+        match low_level_task(b.watchdog) {
+            Ok(t) => spawner.spawn(t),
+            Err(_) => defmt::error!("cannot spawn low_level_task"),
+        }
+    })
+}

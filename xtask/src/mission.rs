@@ -1,0 +1,77 @@
+//! Whole-mission realtime factor: flies a scenario with host-sim's runner (in this process,
+//! one thread) and reads `realtime_factor` (simulated seconds per wall second of the loop).
+
+use std::path::Path;
+
+use host_sim::scenario;
+use host_sim::sim::{self, RunOptions};
+use serde_json::{json, Value};
+
+/// The result of flying one scenario `runs` times.
+#[derive(Debug, Clone)]
+pub struct MissionBench {
+    /// Median realtime factor over the runs.
+    pub realtime_factor: f64,
+    /// Every run's realtime factor.
+    pub runs: Vec<f64>,
+    /// Summary of the first run (success, distances, times) as JSON.
+    pub summary: Value,
+}
+
+/// Flies `path` `runs` times (at least once) with the scenario's defaults.
+///
+/// # Errors
+/// The scenario does not load (the message is host-sim's), or the run cannot start.
+pub fn run(path: &Path, runs: usize) -> Result<MissionBench, String> {
+    let ls = scenario::load(Some(path)).map_err(|e| e.to_string())?;
+    let opts = RunOptions { progress: false, ..RunOptions::default() };
+    let mut factors = Vec::with_capacity(runs.max(1));
+    let mut summary = Value::Null;
+    for k in 0..runs.max(1) {
+        let out = sim::run(&ls, &opts).map_err(|e| e.to_string())?;
+        let s = &out.summary;
+        factors.push(s.realtime_factor);
+        if k == 0 {
+            summary = json!({
+                "scenario": s.scenario,
+                "n_uavs": s.n_uavs,
+                "success": s.success,
+                "failures": s.failures,
+                "completion_time_s": s.completion_time_s,
+                "sim_time_s": s.sim_time_s,
+                "wall_time_s": s.wall_time_s,
+                "min_uav_boundary_m": s.min_uav_boundary_m,
+                "min_uav_uav_m": s.min_uav_uav_m,
+                "max_tension_n": s.max_tension_n,
+                "max_load_altitude_error_m": s.max_load_altitude_error_m,
+                "formation_error_end_m": s.formation_error_end_m,
+                "capacity_margin": s.capacity_margin,
+            });
+        }
+    }
+    Ok(MissionBench { realtime_factor: median(&factors), runs: factors, summary })
+}
+
+/// Median of a non-empty list (mean of the middle two for an even length); NaN when empty.
+pub fn median(xs: &[f64]) -> f64 {
+    let mut v: Vec<f64> = xs.iter().copied().filter(|x| !x.is_nan()).collect();
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    match (v.get(m.wrapping_sub(1)), v.get(m)) {
+        (_, None) => f64::NAN,
+        (Some(a), Some(b)) if v.len() % 2 == 0 => 0.5 * (a + b),
+        (_, Some(b)) => *b,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even_lists() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&[]).is_nan());
+    }
+}
