@@ -10,12 +10,27 @@ echo "== toolchain: thumbv7em-none-eabihf target and clippy"
 rustup target list --installed | grep -qx thumbv7em-none-eabihf || rustup target add thumbv7em-none-eabihf
 rustup component list --installed | grep -q '^clippy' || rustup component add clippy
 
+echo "== QEMU (processor-in-the-loop tests)"
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  as_root apt-get update -qq
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq qemu-system-arm
+fi
+qemu-system-arm --version | head -n 1
+
 echo "== the controller crates build for the flight MCU (no_std, no alloc)"
-cargo build --release --target thumbv7em-none-eabihf -p vt-tube -p vt-dissipative -p vt-cfo
+cargo build --release --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo
 
-echo "== clippy, host and MCU, warnings are errors"
+echo "== firmware: both boards build; flash and static RAM within budget"
+cargo run -q --release -p xtask -- firmware-size
+
+echo "== clippy, host, MCU crates and both firmware boards; warnings are errors"
 cargo clippy --workspace --all-targets -- -D warnings
-cargo clippy --target thumbv7em-none-eabihf -p vt-tube -p vt-dissipative -p vt-cfo -- -D warnings
+cargo clippy --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -- -D warnings
+(cd firmware && cargo clippy --release --features qemu -- -D warnings && cargo clippy --release --features stm32f405 -- -D warnings)
 
-echo "== tests (unit, property, doc, closed-loop acceptance)"
-cargo test --workspace --release
+echo "== firmware companion unit tests (host build of the firmware's logic)"
+host_triple=$(rustc -vV | sed -n 's/^host: //p')
+(cd firmware && cargo test --release -p vt-companion --features std --target "$host_triple")
+
+echo "== tests (unit, property, doc, closed-loop acceptance, link fuzz, PIL in QEMU)"
+VT_REQUIRE_QEMU=1 cargo test --workspace --release

@@ -86,6 +86,14 @@ impl<T: Copy> Link<T> {
                 let lost = silent || (self.drop_probability > 0.0 && self.rng.next_f64() < self.drop_probability);
                 let jitter = if self.jitter_steps > 0 { self.rng.next_u64() % (self.jitter_steps + 1) } else { 0 };
                 if let Some(q) = self.queues.get_mut(k) {
+                    if !lost && self.delay_steps == 0 && jitter == 0 && q.is_empty() {
+                        // Due now and nothing ahead of it: the queue would take it and hand it
+                        // straight back. Same result, no queue traffic (the common case).
+                        if let Some(slot) = self.latest.get_mut(k) {
+                            *slot = Some((now, *p));
+                        }
+                        continue;
+                    }
                     if !lost {
                         // Keep arrival order monotone per sender (a later message never
                         // overtakes an earlier one on a serial link).

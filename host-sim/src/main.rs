@@ -76,6 +76,32 @@ enum Cmd {
         #[arg(long, default_value = "out/sweep")]
         out: PathBuf,
     },
+    /// Processor-in-the-loop: fly the mission with each UAV's controller in its own QEMU
+    /// (the `qemu` firmware over MAVLink) and SIL with host twins; compare every command and
+    /// write pil_report.json and summary.json.
+    Pil {
+        /// Scenario TOML file (default: scenarios/experiment-3uav.toml).
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long, default_value = "out/pil")]
+        out: PathBuf,
+        /// Firmware ELF to fly (default: build the `qemu` board, or $VT_FIRMWARE_ELF).
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+        /// Stop the flight after this many simulated seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
+    /// `qemu-system-arm -icount shift=0`; writes DIR/bench.json.
+    PilBench {
+        /// Output directory.
+        #[arg(long, default_value = "out/bench/mcu")]
+        out: PathBuf,
+        /// Firmware ELF (default: build the `qemu` board).
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -90,6 +116,16 @@ fn main() -> ExitCode {
         }
         Cmd::Compare { scenario, f_max, out, seed } => compare(scenario, f_max, &out, seed),
         Cmd::Sweep { scenario, runs, jobs, seed, out } => sweep(scenario, runs, jobs, seed, &out),
+        Cmd::Pil { scenario, out, firmware, duration } => {
+            if let Some(d) = duration {
+                if !(d.is_finite() && d > 0.0) {
+                    eprintln!("error: --duration must be a finite number of seconds > 0 (got {d})");
+                    return ExitCode::from(EXIT_BAD_INPUT);
+                }
+            }
+            host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration)
+        }
+        Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
     }
 }
 

@@ -53,7 +53,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use vt_companion::companion::{NAME_CABLE_FORCE, NAME_CYCLES};
-use vt_companion::{Companion, Framer, Io, Param, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
+use vt_companion::{Companion, CompanionTube, Framer, Io, Param, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 use vt_dissipative::{Formation, MAX_UAVS};
 
 type V3 = Vector3<f64>;
@@ -68,7 +68,7 @@ pub const LOAD_COMPONENT_ID: u8 = 100;
 /// System id of UAV 0 (`VT_SYSID_BASE`).
 pub const SYSID_BASE: u8 = 1;
 /// How long the host waits for one answer from an emulator before giving up.
-pub const REPLY_TIMEOUT: Duration = Duration::from_secs(3);
+pub const REPLY_TIMEOUT: Duration = Duration::from_secs(30);
 /// Own-state timeout sent to the firmware (`FS_OWN_TMO`), s: ten low-level periods at 500 Hz.
 pub const OWN_TIMEOUT_S: f32 = 0.02;
 /// Load-state timeout (`FS_LOAD_TMO`), s.
@@ -213,6 +213,14 @@ pub trait Port {
     /// # Errors
     /// Nothing arrives within the timeout (QEMU), or nothing is pending (host twin).
     fn recv(&mut self) -> Result<Rx, PilError>;
+    /// Waits for the companion to stop (after a shutdown request) and returns its exit code
+    /// and raw log; a host twin has neither.
+    ///
+    /// # Errors
+    /// It does not stop in time.
+    fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        Ok((Some(0), Vec::new()))
+    }
 }
 
 impl Port for Box<dyn Port> {
@@ -221,6 +229,9 @@ impl Port for Box<dyn Port> {
     }
     fn recv(&mut self) -> Result<Rx, PilError> {
         self.as_mut().recv()
+    }
+    fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        (*self).finish()
     }
 }
 
@@ -241,9 +252,10 @@ impl Io for TwinIo<'_> {
     }
 }
 
-/// The firmware's companion compiled for the host (software in the loop).
+/// The firmware's companion compiled for the host (software in the loop). Its tube storage
+/// is leaked (9 KiB per twin; a twin lives as long as a flight).
 pub struct SilPort {
-    companion: Box<Companion>,
+    companion: Box<Companion<'static>>,
     framer: Framer,
     pending: VecDeque<Rx>,
 }
@@ -257,11 +269,12 @@ impl Default for SilPort {
 impl SilPort {
     /// A fresh companion.
     pub fn new() -> Self {
-        Self { companion: Box::new(Companion::new()), framer: Framer::new(), pending: VecDeque::new() }
+        let tube: &'static mut CompanionTube = Box::leak(Box::new(CompanionTube::placeholder()));
+        Self { companion: Box::new(Companion::new(tube)), framer: Framer::new(), pending: VecDeque::new() }
     }
 
     /// The companion (for inspection in tests).
-    pub fn companion(&self) -> &Companion {
+    pub fn companion(&self) -> &Companion<'static> {
         &self.companion
     }
 }
@@ -316,19 +329,33 @@ impl QemuPort {
     /// # Errors
     /// The emulator cannot start or does not connect.
     pub fn spawn(elf: &Path, o: &QemuOptions) -> Result<Self, PilError> {
+        if !elf.is_file() {
+            return err(format!("firmware ELF {} not found (build it: cd firmware && cargo build --release --features qemu)", elf.display()));
+        }
         std::fs::create_dir_all(&o.socket_dir).map_err(|e| PilError(format!("{}: {e}", o.socket_dir.display())))?;
         let socket = o.socket_dir.join(format!("{}.sock", o.name));
         let _ = std::fs::remove_file(&socket);
         let listener = UnixListener::bind(&socket).map_err(|e| PilError(format!("{}: {e}", socket.display())))?;
         let mut cmd = Command::new(&o.qemu);
-        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-display", "none", "-monitor", "none", "-nodefaults"])
+        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-display", "none", "-monitor", "none", "-nodefaults", "-nic", "none"])
             .args(["-chardev", &format!("socket,id=link,path={}", socket.display()), "-serial", "chardev:link"])
             .args(["-semihosting-config", "enable=on,target=native"]);
         if o.icount {
             cmd.args(["-icount", "shift=0"]);
         }
-        cmd.arg("-kernel").arg(elf).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::inherit());
+        cmd.arg("-kernel").arg(elf).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
         let mut child = cmd.spawn().map_err(|e| PilError(format!("cannot start {}: {e}", o.qemu)))?;
+        // Forward the emulator's messages, less the one about the board's unused Ethernet.
+        if let Some(err_pipe) = child.stderr.take() {
+            std::thread::spawn(move || {
+                use std::io::BufRead;
+                for line in std::io::BufReader::new(err_pipe).lines().map_while(Result::ok) {
+                    if !line.contains("has no peer") {
+                        eprintln!("{line}");
+                    }
+                }
+            });
+        }
         listener.set_nonblocking(true).map_err(|e| PilError(e.to_string()))?;
         let t0 = Instant::now();
         let stream = loop {
@@ -395,7 +422,12 @@ impl QemuPort {
     /// It does not exit within the timeout (it is then killed).
     pub fn wait_exit(mut self) -> Result<(Option<i32>, Vec<u8>), PilError> {
         let t0 = Instant::now();
+        // Keep draining the link: a firmware blocked on a full socket could not act on the
+        // shutdown request.
+        let _ = self.stream.set_nonblocking(true);
+        let mut sink = [0u8; 4096];
         let status = loop {
+            while matches!(self.stream.read(&mut sink), Ok(n) if n > 0) {}
             match self.child.try_wait() {
                 Ok(Some(s)) => break Some(s),
                 Ok(None) if t0.elapsed() < REPLY_TIMEOUT => std::thread::sleep(Duration::from_millis(5)),
@@ -437,6 +469,10 @@ impl Drop for QemuPort {
 impl Port for QemuPort {
     fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
         self.stream.write_all(bytes).map_err(|e| PilError(format!("link write: {e}")))
+    }
+
+    fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        (*self).wait_exit()
     }
 
     fn recv(&mut self) -> Result<Rx, PilError> {
@@ -498,7 +534,7 @@ pub fn firmware_dir() -> PathBuf {
 pub fn default_firmware_path() -> PathBuf {
     std::env::var_os("VT_FIRMWARE_ELF")
         .map(PathBuf::from)
-        .unwrap_or_else(|| firmware_dir().join("target/thumbv7em-none-eabihf/release/vt-firmware"))
+        .unwrap_or_else(|| firmware_dir().join("target/thumbv7em-none-eabihf/release/vt-firmware-qemu"))
 }
 
 /// Builds the `qemu` firmware (release) in its own workspace and target directory; cargo's
@@ -511,10 +547,13 @@ pub fn build_firmware() -> Result<PathBuf, PilError> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(&dir).args(["build", "--release", "--features", "qemu"]);
-    // Do not inherit the outer build's settings (target dir, flags, target).
+    // Do not inherit the outer build's settings (target dir, flags, target, profile); keep the
+    // rest (CARGO_HOME, registries, proxies).
     for (k, _) in std::env::vars_os() {
         if let Some(k) = k.to_str() {
-            if k.starts_with("CARGO_") || k == "RUSTFLAGS" || k == "RUSTDOCFLAGS" {
+            let outer = ["CARGO_BUILD_", "CARGO_PROFILE_", "CARGO_TARGET_"].iter().any(|p| k.starts_with(p))
+                || ["CARGO_ENCODED_RUSTFLAGS", "RUSTFLAGS", "RUSTDOCFLAGS", "CARGO_INCREMENTAL", "CARGO_MAKEFLAGS", "CARGO_PRIMARY_PACKAGE"].contains(&k);
+            if outer {
                 cmd.env_remove(k);
             }
         }
@@ -524,7 +563,7 @@ pub fn build_firmware() -> Result<PathBuf, PilError> {
     if !status.success() {
         return err(format!("firmware build failed ({status})"));
     }
-    Ok(dir.join("target/thumbv7em-none-eabihf/release/vt-firmware"))
+    Ok(dir.join("target/thumbv7em-none-eabihf/release/vt-firmware-qemu"))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1461,4 +1500,271 @@ pub fn write_report(dir: &Path, report: &PilReport) -> Result<(), PilError> {
     w("pil_report.json", serde_json::to_string_pretty(report).map_err(|e| PilError(e.to_string()))?)?;
     w("summary.json", serde_json::to_string_pretty(&report.summary).map_err(|e| PilError(e.to_string()))?)?;
     Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Instruction counts (Cortex-M4 under QEMU)
+
+/// Team sizes the instruction counts are measured for.
+pub const BENCH_TEAM_SIZES: [usize; 3] = [3, 10, 30];
+
+/// The scenario flown for a team of `n`: the experiment (3), the paper's mission (10), or the
+/// paper's mission with its ten cables repeated (any other size up to the capacity).
+///
+/// # Errors
+/// The scenario files cannot be read, or `n` exceeds the capacity.
+pub fn bench_scenario(n: usize) -> Result<LoadedScenario, PilError> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios");
+    let load = |f: &str| crate::scenario::load(Some(&dir.join(f))).map_err(|e| PilError(e.to_string()));
+    match n {
+        3 => load("experiment-3uav.toml"),
+        10 => load("paper-10uav.toml"),
+        _ if n == 0 || n > MAX_UAVS => err(format!("team of {n} outside 1..={MAX_UAVS}")),
+        _ => {
+            let mut ls = load("paper-10uav.toml")?;
+            let base = ls.scenario.cables.lengths_m.clone();
+            ls.scenario.cables.lengths_m = base.iter().copied().cycle().take(n).collect();
+            ls.scenario.name = format!("paper-{n}uav (bench)");
+            Ok(ls)
+        }
+    }
+}
+
+/// Instruction counts of one team size (UAV 0's firmware under `-icount shift=0`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StepCounts {
+    /// Team size.
+    pub n_uavs: usize,
+    /// Scenario flown.
+    pub scenario: String,
+    /// High-level steps measured.
+    pub high_level_steps: usize,
+    /// Mean instructions of a high-level step (tube + springs + vertical law).
+    pub high_level_mean: f64,
+    /// Worst high-level step.
+    pub high_level_max: f64,
+    /// Low-level steps measured (one per high-level step: the one before it).
+    pub low_level_steps: usize,
+    /// Mean instructions of a low-level step (velocity loop + CFO + attitude).
+    pub low_level_mean: f64,
+    /// Worst low-level step.
+    pub low_level_max: f64,
+    /// Stack high-water mark of the firmware at the end, bytes.
+    pub stack_peak_bytes: Option<u64>,
+    /// Instructions of the one-off tube build (`Tube::rebuild`, on the mission upload).
+    pub tube_build_instructions: Option<f64>,
+}
+
+/// `pil-bench` output.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    /// Instructions per 25 MHz SysTick tick, measured by the firmware's calibration loop.
+    pub instructions_per_tick: f64,
+    /// The calibration as logged: (instructions, ticks).
+    pub calibration: (u64, u64),
+    /// Per team size.
+    pub steps: Vec<StepCounts>,
+    /// Simulated seconds flown per team size.
+    pub duration_s: f64,
+    /// The firmware ELF.
+    pub firmware: String,
+}
+
+fn parse_after(line: &str, prefix: &str) -> Option<u64> {
+    line.split(prefix).nth(1)?.split_whitespace().next()?.parse().ok()
+}
+
+/// Measures instructions per high-level and low-level step for [`BENCH_TEAM_SIZES`]: UAV 0
+/// runs in QEMU with `-icount shift=0` (one instruction per virtual ns, so one 25 MHz SysTick
+/// tick is 40 instructions; the firmware's calibration loop checks that), the rest of the team
+/// as host twins. The counts cover the control steps only (`Flight::high_level`,
+/// `Flight::low_level`), not MAVLink decoding or encoding, and include the few SysTick
+/// interrupts that fall inside a step.
+///
+/// # Errors
+/// A flight fails, or the firmware's log lacks the calibration.
+pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, duration_s: f64) -> Result<BenchReport, PilError> {
+    let mut steps = Vec::new();
+    let mut calibration = None;
+    for n in BENCH_TEAM_SIZES {
+        let ls = bench_scenario(n)?;
+        let o = QemuOptions { qemu: qemu.into(), icount: true, socket_dir: socket_dir.into(), name: format!("bench{n}") };
+        let q = QemuPort::spawn(firmware, &o)?;
+        let mut ports: Vec<Box<dyn Port>> = vec![Box::new(q)];
+        ports.extend((1..n).map(|_| Box::new(SilPort::new()) as Box<dyn Port>));
+        let out = fly(&ls, &mut ports, FlightLimits { duration_s: Some(duration_s) }, "bench")?;
+        let Some(first) = ports.into_iter().next() else { return err("no port") };
+        // Shut UAV 0's emulator down through its link and read its log.
+        let (code, bytes) = shutdown_boxed(first, &mut Encoder::default())?;
+        if code != Some(0) {
+            return err(format!("bench emulator exited with {code:?}"));
+        }
+        let log = decode_defmt(firmware, &bytes)?;
+        let mut stack = None;
+        let mut tube_ticks = None;
+        for l in &log {
+            if let Some(c) = parse_after(l, "built in ") {
+                tube_ticks = Some(c);
+            }
+            if l.starts_with("calibration:") {
+                if let (Some(i), Some(t)) = (parse_after(l, "calibration: "), parse_after(l, "instructions in ")) {
+                    calibration = Some((i, t));
+                }
+            }
+            if let Some(s) = parse_after(l, "stack high-water mark ") {
+                stack = Some(s);
+            }
+        }
+        let (i, t) = calibration.ok_or_else(|| PilError("no calibration in the firmware log".into()))?;
+        if t == 0 {
+            return err("calibration measured 0 ticks (is -icount active?)");
+        }
+        let k = i as f64 / t as f64;
+        let stat = |v: &[f32]| {
+            let v = v.get(1..).unwrap_or(&[]); // the first step warms the tube lookup up
+            let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64;
+            let max = v.iter().fold(0.0f64, |a, &x| a.max(f64::from(x)));
+            (v.len(), mean * k, max * k)
+        };
+        let (hn, hm, hx) = stat(&out.hl_cycles[0]);
+        let (ln, lm, lx) = stat(&out.ll_cycles[0]);
+        steps.push(StepCounts {
+            n_uavs: n,
+            scenario: ls.scenario.name.clone(),
+            high_level_steps: hn,
+            high_level_mean: hm,
+            high_level_max: hx,
+            low_level_steps: ln,
+            low_level_mean: lm,
+            low_level_max: lx,
+            stack_peak_bytes: stack,
+            tube_build_instructions: tube_ticks.map(|c| c as f64 * k),
+        });
+    }
+    let (i, t) = calibration.unwrap_or((0, 1));
+    Ok(BenchReport {
+        instructions_per_tick: i as f64 / t.max(1) as f64,
+        calibration: (i, t),
+        steps,
+        duration_s,
+        firmware: firmware.display().to_string(),
+    })
+}
+
+impl BenchReport {
+    /// The object `cargo xtask bench` reads from `firmware/bench.sh` (issue 5's hook).
+    pub fn hook_json(&self) -> serde_json::Value {
+        let per = |f: &dyn Fn(&StepCounts) -> f64| {
+            serde_json::Value::Object(self.steps.iter().map(|s| (s.n_uavs.to_string(), serde_json::json!(f(s).round() as u64))).collect())
+        };
+        let ll = self.steps.iter().map(|s| s.low_level_mean).fold(0.0f64, f64::max);
+        let stack = self.steps.iter().filter_map(|s| s.stack_peak_bytes).max();
+        serde_json::json!({
+            "mcu_instructions_per_uav_step": per(&|s| s.high_level_mean + s.low_level_mean),
+            "mcu_instructions_high_level": per(&|s| s.high_level_mean),
+            "mcu_instructions_low_level": ll.round() as u64,
+            "firmware_stack_peak_bytes": { "qemu": stack },
+            "instructions_per_tick": self.instructions_per_tick,
+            "steps": self.steps,
+        })
+    }
+}
+
+/// Shuts down a boxed port that holds a [`QemuPort`] (sends the command, drains, waits).
+fn shutdown_boxed(mut port: Box<dyn Port>, enc: &mut Encoder) -> Result<(Option<i32>, Vec<u8>), PilError> {
+    let cmd = COMMAND_LONG_DATA {
+        param1: 2.0,
+        command: MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+        target_system: SYSID_BASE,
+        target_component: COMPANION_COMPONENT_ID,
+        ..COMMAND_LONG_DATA::default()
+    };
+    port.send(&enc.frame(GCS_SYSTEM_ID, GCS_COMPONENT_ID, &cmd))?;
+    port.finish()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Command-line entry points (wired by main.rs)
+
+/// `host-sim pil [SCENARIO] [--out DIR] [--firmware ELF] [--duration S]`: flies the scenario
+/// (default: the 3-UAV experiment) SIL and PIL, writes `DIR/pil_report.json` and
+/// `DIR/summary.json`, prints the comparison. Builds the firmware when no ELF is given and the
+/// default one is missing. Exit 0 when bit-exact and the PIL mission succeeded, 1 otherwise,
+/// 2 on bad input.
+pub fn cli(scenario: Option<&Path>, out: &Path, firmware: Option<PathBuf>, duration_s: Option<f64>) -> std::process::ExitCode {
+    use std::process::ExitCode;
+    let default_scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+    let ls = match crate::scenario::load(Some(scenario.unwrap_or(&default_scenario))) {
+        Ok(ls) => ls,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let qemu = "qemu-system-arm";
+    if !qemu_available(qemu) {
+        eprintln!("error: {qemu} not found (apt-get install -y qemu-system-arm)");
+        return ExitCode::from(2);
+    }
+    // An explicit ELF (flag or $VT_FIRMWARE_ELF) is flown as given; otherwise the firmware is
+    // (re)built, so a stale image is never flown by accident.
+    let elf = match firmware.or_else(|| std::env::var_os("VT_FIRMWARE_ELF").map(PathBuf::from)) {
+        Some(p) if p.is_file() => p,
+        Some(p) => {
+            eprintln!("error: firmware ELF {} does not exist", p.display());
+            return ExitCode::from(2);
+        }
+        None => match build_firmware() {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        },
+    };
+    eprintln!("flying {} SIL (host twins) and PIL ({} x QEMU, {}) ...", ls.source_name, ls.scenario.cables.lengths_m.len(), elf.display());
+    let opts = PilOptions { firmware: elf, qemu: qemu.into(), out_dir: out.to_path_buf(), duration_s };
+    match run(&ls, &opts) {
+        Ok(r) => {
+            println!("{}", r.summary.table());
+            println!(
+                "  commands compared {}  bit_exact {}  max |diff| {}  (wall SIL {:.1} s, PIL {:.1} s)",
+                r.commands_compared, r.bit_exact, r.max_abs_diff, r.wall_time_s[0], r.wall_time_s[1]
+            );
+            if let Some(d) = &r.first_difference {
+                println!("  first difference: {d:?}");
+            }
+            println!("  wrote {}", out.join("pil_report.json").display());
+            if r.bit_exact && r.summary.success { ExitCode::SUCCESS } else { ExitCode::from(1) }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// `host-sim pil-bench [--out DIR]`: instruction counts per step (see [`bench`]); writes
+/// `DIR/bench.json` and prints the hook object (`firmware/bench.sh`) on the last line.
+pub fn cli_bench(out: &Path, firmware: Option<PathBuf>) -> std::process::ExitCode {
+    use std::process::ExitCode;
+    let elf = match firmware.map_or_else(build_firmware, Ok) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    match bench(&elf, "qemu-system-arm", &out.join("sockets"), 2.0) {
+        Ok(r) => {
+            let _ = std::fs::create_dir_all(out);
+            let _ = std::fs::write(out.join("bench.json"), serde_json::to_string_pretty(&r).unwrap_or_default());
+            println!("{}", r.hook_json());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
 }

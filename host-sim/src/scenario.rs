@@ -6,6 +6,11 @@ use std::fmt;
 use std::path::Path;
 use vt_tube::{Tube, Waypoint};
 
+/// Team capacity of the simulator, UAVs: the controllers' fixed-size arrays are instantiated
+/// with it in host-sim (`DissipativeController<SIM_MAX_UAVS>`). The firmware keeps the crates'
+/// default `vt_dissipative::MAX_UAVS` (32): an MCU sizes its team at build time.
+pub const SIM_MAX_UAVS: usize = 128;
+
 /// The paper's simulation scenario, compiled in (also at `scenarios/paper-10uav.toml`).
 pub const PAPER_10UAV: &str = include_str!("../../scenarios/paper-10uav.toml");
 /// Name shown for the compiled-in default.
@@ -557,8 +562,8 @@ impl Validator<'_> {
         }
         self.positive("uavs", "formation_radius_m", s.uavs.formation_radius_m)?;
         let n = s.cables.lengths_m.len();
-        if n == 0 || n > vt_dissipative::MAX_UAVS {
-            return Err(self.err("cables", "lengths_m", format!("needs 1..={} entries, one per UAV (got {n})", vt_dissipative::MAX_UAVS)));
+        if n == 0 || n > SIM_MAX_UAVS {
+            return Err(self.err("cables", "lengths_m", format!("needs 1..={SIM_MAX_UAVS} entries, one per UAV (got {n})")));
         }
         for &l in &s.cables.lengths_m {
             self.positive("cables", "lengths_m", l)?;

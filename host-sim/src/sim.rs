@@ -2,6 +2,7 @@
 //! f64 plant at three rates (plant, low level, high level), with a link model for
 //! neighbours' positions. This file composes; the control laws live in the crates.
 
+use crate::scenario::SIM_MAX_UAVS;
 use crate::cable::CableParams;
 use crate::disturbance::{drag_n, ParameterDraw, Sensors, Wind};
 use crate::link::Link;
@@ -14,7 +15,7 @@ use std::time::Instant;
 use vt_cfo::{CfoParams, PidGains, ThrustLimits, VelocityLoop, VelocityLoopParams};
 use vt_dissipative::{
     BaselineController, BaselineParams, Command, DissipativeController, DissipativeParams, Formation, Measurements,
-    TrayParams, VerticalParams, MAX_UAVS,
+    TrayParams, VerticalParams,
 };
 
 type V3 = Vector3<f64>;
@@ -167,7 +168,7 @@ pub fn tray(s: &Scenario) -> TrayParams {
 }
 
 enum HighLevel {
-    Dissipative(Vec<DissipativeController<MAX_UAVS>>),
+    Dissipative(Vec<DissipativeController<SIM_MAX_UAVS>>),
     Baseline(Vec<BaselineController>),
 }
 
@@ -254,7 +255,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     // Controllers, one per UAV.
     let tray = tray(s);
     let uav_f: Vec<V3f> = measured_uav.iter().map(v3f).collect();
-    let formation = Formation::<MAX_UAVS>::from_takeoff(&uav_f, &v3f(&measured_load), &tray).map_err(|e| SimError(format!("formation: {e}")))?;
+    let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&uav_f, &v3f(&measured_load), &tray).map_err(|e| SimError(format!("formation: {e}")))?;
     let mut high = match opts.controller {
         ControllerKind::Dissipative => HighLevel::Dissipative(
             (0..n)
@@ -486,7 +487,7 @@ fn push_record(rec: &mut RunRecord, t: f64, plant: &Plant, m: &Metrics) {
 }
 
 /// RMS over UAV node pairs of |current - rest length|, nodes by the tray projection.
-pub fn formation_error(plant: &Plant, formation: &Formation<MAX_UAVS>, tray: &TrayParams) -> f64 {
+pub fn formation_error<const N: usize>(plant: &Plant, formation: &Formation<N>, tray: &TrayParams) -> f64 {
     use vt_dissipative::springs::NodeId;
     let load = v3f(&plant.load.pos_m);
     let nodes: Vec<_> = plant.uavs.iter().map(|u| tray.project(&v3f(&u.pos_m), &load).0).collect();

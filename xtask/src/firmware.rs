@@ -12,7 +12,7 @@
 //!   figures measured here.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -105,7 +105,7 @@ pub fn build_and_measure(paths: &Paths, board: &str) -> Result<ImageSize, String
         let tail: Vec<&str> = text.lines().filter(|l| l.starts_with("error")).take(3).collect();
         return Err(format!("firmware build failed for `{board}`: {}", tail.join(" | ")));
     }
-    let elf: PathBuf = target_dir.join("thumbv7em-none-eabihf").join("release").join("vt-firmware");
+    let elf = target_dir.join("thumbv7em-none-eabihf").join("release").join(format!("vt-firmware-{board}"));
     let bytes = fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
     elf_size(&bytes)
 }
@@ -172,6 +172,36 @@ fn rel(paths: &Paths, p: &Path) -> String {
     p.strip_prefix(&paths.root).unwrap_or(p).display().to_string()
 }
 
+/// Flash budget of the firmware image, bytes (the project's: under 128 KiB).
+pub const FLASH_BUDGET_BYTES: u64 = 128 * 1024;
+/// Static RAM budget, bytes (the project's 32 KiB covers static RAM and the stack peak; the
+/// stack peak is measured in QEMU by `firmware/bench.sh`, so this check is on static RAM alone).
+pub const RAM_BUDGET_BYTES: u64 = 32 * 1024;
+
+/// `cargo xtask firmware-size`: builds every board, prints flash and static RAM, and fails
+/// (false) when an image is over [`FLASH_BUDGET_BYTES`] or [`RAM_BUDGET_BYTES`].
+///
+/// # Errors
+/// A build failed or an ELF is unreadable.
+pub fn size_check(paths: &Paths) -> Result<bool, String> {
+    let mut ok = true;
+    println!("{:<10} {:>12} {:>16}", "board", "flash [B]", "static RAM [B]");
+    for board in BOARDS {
+        let s = build_and_measure(paths, board)?;
+        let over_flash = s.flash_bytes > FLASH_BUDGET_BYTES;
+        let over_ram = s.static_ram_bytes > RAM_BUDGET_BYTES;
+        println!(
+            "{board:<10} {:>12} {:>16}{}{}",
+            s.flash_bytes,
+            s.static_ram_bytes,
+            if over_flash { "  OVER the 128 KiB flash budget" } else { "" },
+            if over_ram { "  OVER the 32 KiB RAM budget" } else { "" }
+        );
+        ok &= !(over_flash || over_ram);
+    }
+    Ok(ok)
+}
+
 #[cfg(test)]
 #[allow(clippy::indexing_slicing)]
 mod tests {
@@ -211,3 +241,4 @@ mod tests {
         assert!(elf_size(&e).is_err());
     }
 }
+

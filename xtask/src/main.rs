@@ -53,7 +53,9 @@ const USAGE: &str = "usage: cargo xtask bench [--skip host,missions,firmware] [-
   --runs-100   runs of the 100-UAV mission (default 1)
   --boards     firmware boards to build and measure (default: qemu,stm32f405)
   --mcu-cmd    command printing the MCU figures as JSON (default: firmware/bench.sh)
-  --docs       also copy the scaling plot to docs/img/bench-scaling.png";
+  --docs       also copy the scaling plot to docs/img/bench-scaling.png
+       cargo xtask firmware-size
+  builds both firmware boards and fails when flash > 128 KiB or static RAM > 32 KiB";
 
 fn parse(args: &[String]) -> Result<Options, String> {
     let mut o = Options {
@@ -104,6 +106,18 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("bench") => {}
+        Some("firmware-size") => {
+            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().map(PathBuf::from).unwrap_or_default();
+            let paths = Paths { out: root.join("out").join("bench"), root };
+            return match firmware::size_check(&paths) {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => ExitCode::FAILURE,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
         Some("-h" | "--help") | None => {
             println!("{USAGE}");
             return ExitCode::SUCCESS;

@@ -9,7 +9,7 @@
 //! axis projected on the horizontal plane, `psi` measured from east towards north; it is passed
 //! as a vector so that no trigonometry runs in the control step.
 
-use nalgebra::{Matrix3, Rotation3, UnitQuaternion, UnitVector2, Vector3};
+use nalgebra::{Quaternion, UnitQuaternion, UnitVector2, Vector3};
 
 use crate::CfoError;
 
@@ -81,7 +81,7 @@ impl ThrustLimits {
         }
         let tilt_max_cos = libm::cosf(tilt_max_rad);
         // tan = sin / cos with sin = sqrt(1 - cos^2) on (0, pi/2).
-        let tilt_max_tan = libm::sqrtf(1.0 - tilt_max_cos * tilt_max_cos) / tilt_max_cos;
+        let tilt_max_tan = vt_fpu::sqrt(1.0 - tilt_max_cos * tilt_max_cos) / tilt_max_cos;
         if !(tilt_max_cos > 0.0 && tilt_max_tan.is_finite() && tilt_max_tan > 0.0) {
             return Err(CfoError::InvalidTiltMax);
         }
@@ -142,7 +142,7 @@ impl ThrustLimits {
         // Vertical priority: T_z first (max/min rather than f32::clamp: never panics).
         let tz = t.z.max(self.thrust_min_n).min(self.thrust_max_n);
         // Horizontal budget: tilt cone and magnitude sphere.
-        let h_sphere = libm::sqrtf(((self.thrust_max_n - tz) * (self.thrust_max_n + tz)).max(0.0));
+        let h_sphere = vt_fpu::sqrt(((self.thrust_max_n - tz) * (self.thrust_max_n + tz)).max(0.0));
         let h_max = (tz * self.tilt_max_tan).min(h_sphere);
         // |(T_x, T_y)| without overflow: scale by the larger component first.
         let s = t.x.abs().max(t.y.abs());
@@ -150,7 +150,7 @@ impl ThrustLimits {
             return Vector3::new(0.0, 0.0, tz);
         }
         let (ux, uy) = (t.x / s, t.y / s);
-        let u_norm = libm::sqrtf(ux * ux + uy * uy); // in [1, sqrt 2]
+        let u_norm = vt_fpu::sqrt(ux * ux + uy * uy); // in [1, sqrt 2]
         if s * u_norm <= h_max {
             Vector3::new(t.x, t.y, tz)
         } else {
@@ -206,7 +206,7 @@ pub struct AttitudeSetpoint {
 /// let thrust_n = Vector3::new(3.0, -4.0, 20.0);
 /// let sp = thrust_to_attitude(thrust_n, heading, 50.0);
 /// assert_relative_eq!(sp.attitude * Vector3::z(), thrust_n.normalize(), epsilon = 1e-6);
-/// assert_relative_eq!(sp.collective, thrust_n.norm() / 50.0);
+/// assert_relative_eq!(sp.collective, vt_fpu::norm(&thrust_n) / 50.0);
 /// let back = attitude_to_thrust(sp.attitude, sp.collective, 50.0);
 /// assert_relative_eq!(back, thrust_n, max_relative = 1e-5);
 /// ```
@@ -232,17 +232,17 @@ pub fn thrust_to_attitude(
     if z_b.z < 0.0 {
         x_b = -x_b; // keep the nose forward when inverted (PX4 bodyzToAttitude)
     }
-    let cross_norm = x_b.norm();
+    let cross_norm = vt_fpu::norm(&x_b);
     let x_b = if cross_norm > DEGENERATE_CROSS {
         x_b / cross_norm
     } else {
         // z_b ~ +-y_c, so the heading is nearly normal to z_b: project it (norm ~ 1).
         let p = heading_3d - z_b * heading_3d.dot(&z_b);
-        p / p.norm()
+        p / vt_fpu::norm(&p)
     };
     // Re-orthogonalise so that [x_b y_b z_b] is orthonormal to rounding, z_b exact.
     let y_b = z_b.cross(&x_b);
-    let y_b = y_b / y_b.norm();
+    let y_b = y_b / vt_fpu::norm(&y_b);
     let x_b = y_b.cross(&z_b);
 
     // thrust_norm_n > 0 here (possibly +inf for huge finite input): the ratio is never NaN.
@@ -290,7 +290,7 @@ fn direction_and_norm(v: &Vector3<f32>) -> Option<(Vector3<f32>, f32)> {
         return None;
     }
     let u = v / s;
-    let u_norm = u.norm(); // in [1, sqrt 3]
+    let u_norm = vt_fpu::norm(&u); // in [1, sqrt 3]
     let norm = s * u_norm;
     if norm <= DEGENERATE_THRUST_N {
         return None;
@@ -304,9 +304,29 @@ fn attitude_from_axes(
     y_b: &Vector3<f32>,
     z_b: &Vector3<f32>,
 ) -> UnitQuaternion<f32> {
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[*x_b, *y_b, *z_b]));
-    // Branch-on-trace conversion (square roots only), then re-normalise away rounding.
-    UnitQuaternion::new_normalize(UnitQuaternion::from_rotation_matrix(&r).into_inner())
+    // R = [x_b y_b z_b]; r_ij = row i of column j.
+    let (r00, r10, r20) = (x_b.x, x_b.y, x_b.z);
+    let (r01, r11, r21) = (y_b.x, y_b.y, y_b.z);
+    let (r02, r12, r22) = (z_b.x, z_b.y, z_b.z);
+    // Branch-on-trace conversion (square roots only): nalgebra's `from_rotation_matrix`
+    // operation for operation, with the FPU's square root (vt-fpu), so the result is the same
+    // bits on every target.
+    let tr = r00 + r11 + r22;
+    let q = if tr > 0.0 {
+        let d = vt_fpu::sqrt(tr + 1.0) * 2.0;
+        Quaternion::new(0.25 * d, (r21 - r12) / d, (r02 - r20) / d, (r10 - r01) / d)
+    } else if r00 > r11 && r00 > r22 {
+        let d = vt_fpu::sqrt(1.0 + r00 - r11 - r22) * 2.0;
+        Quaternion::new((r21 - r12) / d, 0.25 * d, (r01 + r10) / d, (r02 + r20) / d)
+    } else if r11 > r22 {
+        let d = vt_fpu::sqrt(1.0 + r11 - r00 - r22) * 2.0;
+        Quaternion::new((r02 - r20) / d, (r01 + r10) / d, 0.25 * d, (r12 + r21) / d)
+    } else {
+        let d = vt_fpu::sqrt(1.0 + r22 - r00 - r11) * 2.0;
+        Quaternion::new((r10 - r01) / d, (r02 + r20) / d, (r12 + r21) / d, 0.25 * d)
+    };
+    // Re-normalise away rounding (as `UnitQuaternion::new_normalize`).
+    UnitQuaternion::new_unchecked(Quaternion::from(q.coords / vt_fpu::norm(&q.coords)))
 }
 
 #[cfg(test)]
@@ -485,6 +505,23 @@ mod tests {
             Vector3::repeat(1.0 / 3.0f32.sqrt()),
             epsilon = 1e-6
         );
+    }
+
+    proptest! {
+        /// The hand-written matrix-to-quaternion conversion is nalgebra's, bit for bit, on
+        /// every branch (random rotations from random axis/angle pairs).
+        #[test]
+        fn attitude_from_axes_is_nalgebras(ax in -1.0f32..1.0, ay in -1.0f32..1.0, az in -1.0f32..1.0, angle in -core::f32::consts::PI..core::f32::consts::PI) {
+            use nalgebra::{Matrix3, Rotation3};
+            prop_assume!(ax * ax + ay * ay + az * az > 1e-3);
+            let axis = nalgebra::Unit::new_normalize(Vector3::new(ax, ay, az));
+            let m = Rotation3::from_axis_angle(&axis, angle).into_inner();
+            let (x, y, z) = (m.column(0).into_owned(), m.column(1).into_owned(), m.column(2).into_owned());
+            let ours = attitude_from_axes(&x, &y, &z);
+            let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
+            let theirs = UnitQuaternion::new_normalize(UnitQuaternion::from_rotation_matrix(&r).into_inner());
+            prop_assert_eq!(ours.coords.map(f32::to_bits), theirs.coords.map(f32::to_bits));
+        }
     }
 
     proptest! {

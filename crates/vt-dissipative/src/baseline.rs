@@ -103,7 +103,7 @@ impl BaselineController {
             match m.neighbours_m.get(j).copied().flatten() {
                 Some(pj) if finite3(&pj) => {
                     let d = q - pj.xy();
-                    let dist = libm::sqrtf(d.norm_squared());
+                    let dist = vt_fpu::sqrt(d.norm_squared());
                     let b = self.robot_barrier.eval(dist);
                     if dist >= crate::springs::COINCIDENT_M {
                         u2 -= d * (b.deriv / dist);

@@ -306,7 +306,7 @@ impl<const N: usize> DissipativeController<N> {
 /// own altitude and load position are finite, else zero vertical velocity.
 pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measurements<'_>, center_m: Vec2, status: Status) -> Command {
     let v_z = if finite3(&m.load_pos_m) && finite3(&m.own_pos_m) {
-        vertical.vertical_velocity_mps(m.own_pos_m.z - offset_m, (m.own_pos_m.xy() - m.load_pos_m.xy()).norm())
+        vertical.vertical_velocity_mps(m.own_pos_m.z - offset_m, vt_fpu::norm(&(m.own_pos_m.xy() - m.load_pos_m.xy())))
     } else {
         0.0
     };

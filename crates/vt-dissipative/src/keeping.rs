@@ -17,7 +17,7 @@ pub const ON_MIDPOINT_M: f32 = 1e-6;
 #[inline]
 pub fn keeping_velocity(section: &Section, q_m: &Vec2, barrier: &BarrierParams) -> (Vec2, f32) {
     let off = q_m - section.midpoint_m;
-    let r = libm::sqrtf(off.norm_squared());
+    let r = vt_fpu::sqrt(off.norm_squared());
     let d_t = section.half_width_m - r;
     if r < ON_MIDPOINT_M {
         return (Vec2::zeros(), d_t);

@@ -42,7 +42,7 @@ pub fn connected(a: NodeId, b: NodeId) -> bool {
 #[inline]
 pub fn spring_velocity(q_i: &Vec2, q_j: &Vec2, rest_m: f32, k2: f32, i_first: bool) -> (Vec2, bool) {
     let d = q_i - q_j;
-    let l = libm::sqrtf(d.norm_squared());
+    let l = vt_fpu::sqrt(d.norm_squared());
     if l >= COINCIDENT_M {
         (d * (-k2 * (l - rest_m) / l), false)
     } else {
@@ -130,7 +130,7 @@ impl<const N: usize> Formation<N> {
 
     /// Rest length `l_ab0` (eq:2-7), m.
     pub fn rest_length_m(&self, a: NodeId, b: NodeId) -> f32 {
-        (self.node_m(a) - self.node_m(b)).norm()
+        vt_fpu::norm(&(self.node_m(a) - self.node_m(b)))
     }
 
     /// Spring energy `sum over connected pairs of 1/2 (l - l0)^2` (eq:2-8), m^2, for the
@@ -139,10 +139,10 @@ impl<const N: usize> Formation<N> {
         let mut e = 0.0;
         for (i, qi) in uav_m.iter().enumerate().take(self.n) {
             for (j, qj) in uav_m.iter().enumerate().take(self.n).skip(i + 1) {
-                e += half_sq((qi - qj).norm() - self.rest_length_m(NodeId::Uav(i), NodeId::Uav(j)));
+                e += half_sq(vt_fpu::norm(&(qi - qj)) - self.rest_length_m(NodeId::Uav(i), NodeId::Uav(j)));
             }
-            e += half_sq((qi - load_m).norm() - self.rest_length_m(NodeId::Uav(i), NodeId::Load));
-            e += half_sq((qi - center_m).norm() - self.rest_length_m(NodeId::Uav(i), NodeId::Center));
+            e += half_sq(vt_fpu::norm(&(qi - load_m)) - self.rest_length_m(NodeId::Uav(i), NodeId::Load));
+            e += half_sq(vt_fpu::norm(&(qi - center_m)) - self.rest_length_m(NodeId::Uav(i), NodeId::Center));
         }
         e
     }

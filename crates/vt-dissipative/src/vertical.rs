@@ -98,13 +98,13 @@ impl VerticalParams {
     pub fn altitude_ref_m(&self, offset_m: f32) -> f32 {
         let le = self.cable_length_m + self.cable_stretch_m;
         let h2 = (le * le - offset_m * offset_m).max(self.min_height_m * self.min_height_m);
-        self.load_altitude_ref_m + libm::sqrtf(h2)
+        self.load_altitude_ref_m + vt_fpu::sqrt(h2)
     }
 
     /// Vertical velocity command for a UAV at altitude `z_m`, m/s.
     #[inline]
     pub fn vertical_velocity_mps(&self, z_m: f32, offset_m: f32) -> f32 {
-        (self.kz_per_s * (self.altitude_ref_m(offset_m) - z_m)).clamp(-self.vz_max_mps, self.vz_max_mps)
+        vt_tube::limit(self.kz_per_s * (self.altitude_ref_m(offset_m) - z_m), -self.vz_max_mps, self.vz_max_mps)
     }
 }
 
@@ -139,22 +139,22 @@ impl VerticalLoop {
     pub fn update(&mut self, uav_m: &crate::Vec3, load_m: &crate::Vec3, force_n: Option<crate::Vec3>, dt_s: f32) -> f32 {
         let p = &self.params;
         let d = uav_m - load_m;
-        let offset = libm::sqrtf(d.x * d.x + d.y * d.y);
+        let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
         let sharing = p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
         if let (true, Some(f), true) = (sharing, force_n, dt_s.is_finite() && dt_s > 0.0) {
-            let len = libm::sqrtf(d.norm_squared());
+            let len = vt_fpu::sqrt(d.norm_squared());
             if f.iter().all(|x| x.is_finite()) && len > 0.0 {
                 let tension = f.dot(&d) / len;
                 let rate = -p.share_gain_mps_per_n * (tension - p.tension_share_n)
                     + p.load_altitude_gain_per_s * (p.load_altitude_ref_m - load_m.z);
-                let next = (self.offset_m + rate * dt_s).clamp(-p.share_offset_max_m, p.share_offset_max_m);
+                let next = vt_tube::limit(self.offset_m + rate * dt_s, -p.share_offset_max_m, p.share_offset_max_m);
                 if next.is_finite() {
                     self.offset_m = next;
                 }
             }
         }
         let z_ref = p.altitude_ref_m(offset) + self.offset_m;
-        (p.kz_per_s * (z_ref - uav_m.z)).clamp(-p.vz_max_mps, p.vz_max_mps)
+        vt_tube::limit(p.kz_per_s * (z_ref - uav_m.z), -p.vz_max_mps, p.vz_max_mps)
     }
 }
 

@@ -23,7 +23,7 @@ pub mod tube;
 
 pub use barrier::{Barrier, BarrierParams};
 pub use error::TubeError;
-pub use smooth::{sat, sigma, sigma_deriv, smooth_min, smooth_min_deriv};
+pub use smooth::{limit, sat, sigma, sigma_deriv, smooth_min, smooth_min_deriv};
 pub use spline::{Spline, Waypoint};
 pub use tube::{Section, Tube, TubeSample, DEFAULT_SAMPLES};
 

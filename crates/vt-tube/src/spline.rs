@@ -83,7 +83,7 @@ impl<const W: usize> Spline<W> {
             s.wl[i] = w.w_left_m;
             s.wr[i] = w.w_right_m;
             if i > 0 {
-                let chord = (w.pos_m - s.p[i - 1]).norm();
+                let chord = vt_fpu::norm(&(w.pos_m - s.p[i - 1]));
                 if !(chord > 1e-4) {
                     return Err(TubeError::CoincidentWaypoints { index: i });
                 }
@@ -182,7 +182,7 @@ impl<const W: usize> Spline<W> {
         GL5_NODES
             .iter()
             .zip(GL5_WEIGHTS.iter())
-            .map(|(x, w)| w * self.eval(mid + half * x).1.norm())
+            .map(|(x, w)| w * vt_fpu::norm(&self.eval(mid + half * x).1))
             .sum::<f32>()
             * half
     }

@@ -98,7 +98,7 @@ impl Section {
     /// Distance to the tube boundary `d_t = r_t - |q - m|`, m (negative outside).
     #[inline]
     pub fn boundary_distance_m(&self, q_m: Vec2) -> f32 {
-        self.half_width_m - (q_m - self.midpoint_m).norm()
+        self.half_width_m - vt_fpu::norm(&(q_m - self.midpoint_m))
     }
 
     /// Signed lateral offset `(q - gamma) . n`, m (positive to the left).
@@ -142,17 +142,25 @@ impl<const N: usize> Tube<N> {
         Ok(tube)
     }
 
-    /// Storage for a tube not built yet: no length, every sample at the origin. It is not a
-    /// valid tube (nothing was checked); only [`Tube::rebuild`] makes it one. For firmware that
-    /// keeps its tube in a `static` and builds it in place.
+    /// Storage for a tube not built yet, all zero bits (so a `static` of it costs no flash): it
+    /// is not a valid tube (nothing was checked, no tangent is a unit vector); only
+    /// [`Tube::rebuild`] makes it one. For firmware that keeps its tube in a `static` and builds
+    /// it in place.
     pub const fn placeholder() -> Self {
         const { assert!(N >= 2 * CHUNKS, "a tube table needs at least 32 samples") };
+        const UNSET: TubeSample = TubeSample {
+            pos_m: Vec2::new(0.0, 0.0),
+            tangent: Vec2::new(0.0, 0.0),
+            curvature_pm: 0.0,
+            w_left_m: 0.0,
+            w_right_m: 0.0,
+        };
         Self {
-            samples: [TubeSample::ZERO; N],
+            samples: [UNSET; N],
             certify_m: [0.0; N],
             chunk_center_m: [Vec2::new(0.0, 0.0); CHUNKS],
             chunk_radius_m: [0.0; CHUNKS],
-            chunk_len: (N - 1).div_ceil(CHUNKS),
+            chunk_len: 0,
             ds_m: 0.0,
             length_m: 0.0,
         }
@@ -203,9 +211,9 @@ impl<const N: usize> Tube<N> {
                     let want = next as f32 * self.ds_m - acc;
                     let mut u = ua + du * (want / len).clamp(0.0, 1.0);
                     // One Newton step on arc_length(ua, u) = want.
-                    let speed = spline.eval(u).1.norm();
+                    let speed = vt_fpu::norm(&spline.eval(u).1);
                     if speed > 0.0 {
-                        u = (u - (spline.arc_length(ua, u) - want) / speed).clamp(ua, ub);
+                        u = crate::limit(u - (spline.arc_length(ua, u) - want) / speed, ua, ub);
                     }
                     self.set_sample(next, spline, u);
                     next += 1;
@@ -224,7 +232,7 @@ impl<const N: usize> Tube<N> {
 
     fn set_sample<const W: usize>(&mut self, k: usize, spline: &Spline<W>, u: f32) {
         let (pos, d1, d2) = spline.eval(u);
-        let speed = d1.norm();
+        let speed = vt_fpu::norm(&d1);
         let (tangent, curvature) = if speed > 0.0 {
             (d1 / speed, (d1.x * d2.y - d1.y * d2.x) / (speed * speed * speed))
         } else {
@@ -257,7 +265,7 @@ impl<const N: usize> Tube<N> {
                 max = max.sup(&p.pos_m);
             }
             let center = (min + max) * 0.5;
-            let radius = pts.iter().map(|p| (p.pos_m - center).norm()).fold(0.0f32, f32::max);
+            let radius = pts.iter().map(|p| vt_fpu::norm(&(p.pos_m - center))).fold(0.0f32, f32::max);
             if let (Some(cc), Some(cr)) = (self.chunk_center_m.get_mut(c), self.chunk_radius_m.get_mut(c)) {
                 *cc = center;
                 *cr = radius;
@@ -284,7 +292,7 @@ impl<const N: usize> Tube<N> {
                     sep2 = sep2.min((s.pos_m - pk).norm_squared());
                 }
             }
-            let sep_half = if sep2 == f32::MAX { f32::MAX } else { 0.5 * libm::sqrtf(sep2) };
+            let sep_half = if sep2 == f32::MAX { f32::MAX } else { 0.5 * vt_fpu::sqrt(sep2) };
             let r = (sep_half.min(convex_radius) - 2.0 * self.ds_m).max(0.0);
             if let Some(slot) = self.certify_m.get_mut(k) {
                 *slot = r;
@@ -428,7 +436,7 @@ impl<const N: usize> Tube<N> {
         for c in 0..CHUNKS {
             let center = self.chunk_center_m.get(c).copied().unwrap_or_else(Vec2::zeros);
             let radius = self.chunk_radius_m.get(c).copied().unwrap_or(f32::MAX);
-            let gap = (q - center).norm() - radius;
+            let gap = vt_fpu::norm(&(q - center)) - radius;
             if gap > 0.0 && gap * gap >= best {
                 continue;
             }
@@ -453,7 +461,7 @@ impl<const N: usize> Tube<N> {
         let b = self.sample(k + 1);
         let point = a.pos_m + (b.pos_m - a.pos_m) * t;
         let tan = a.tangent + (b.tangent - a.tangent) * t;
-        let tn = tan.norm();
+        let tn = vt_fpu::norm(&tan);
         let tangent = if tn > 0.0 { tan / tn } else { a.tangent };
         let normal = Vec2::new(-tangent.y, tangent.x);
         let wl = a.w_left_m + (b.w_left_m - a.w_left_m) * t;

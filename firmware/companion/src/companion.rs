@@ -95,19 +95,20 @@ pub struct ValueCounters {
     pub ignored: u32,
 }
 
-/// The companion computer's state.
-pub struct Companion {
+/// The companion computer's state. The tube's tables (about 9 KiB) live outside, in storage
+/// the owner provides (a zero-initialised `static` on the MCU), and are built in place.
+pub struct Companion<'t> {
     framer: Framer,
-    core: Core,
+    core: Core<'t>,
 }
 
 /// Everything but the framer (so frames borrowed from it can be handled).
-struct Core {
+struct Core<'t> {
     params: Params,
     mission: MissionUpload,
     /// The tube's storage, built in place (`Tube::rebuild`: the tables are ~9 KiB and must
     /// not be copied through the stack); valid only when `tube_ok`.
-    tube: CompanionTube,
+    tube: &'t mut CompanionTube,
     /// `tube` holds a validated tube.
     tube_ok: bool,
     sources: Sources,
@@ -124,21 +125,16 @@ struct Core {
     link: LinkCounters,
 }
 
-impl Default for Companion {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Companion {
-    /// A fresh companion: default parameters, no tube, not armed.
-    pub const fn new() -> Self {
+impl<'t> Companion<'t> {
+    /// A fresh companion: default parameters, no tube, not armed; `tube` is its tube storage
+    /// (any content: it is rebuilt before use, e.g. [`CompanionTube::placeholder`]).
+    pub const fn new(tube: &'t mut CompanionTube) -> Self {
         Self {
             framer: Framer::new(),
             core: Core {
                 params: Params::new(),
                 mission: MissionUpload::new(),
-                tube: CompanionTube::placeholder(),
+                tube,
                 tube_ok: false,
                 sources: Sources::new(),
                 flight: None,
@@ -247,9 +243,9 @@ impl Companion {
     }
 }
 
-impl Core {
+impl Core<'_> {
     fn tube(&self) -> Option<&CompanionTube> {
-        self.tube_ok.then_some(&self.tube)
+        self.tube_ok.then_some(&*self.tube)
     }
 
     fn own_system_id(&self) -> u8 {
@@ -424,7 +420,7 @@ impl Core {
 
     fn high_level(&mut self, io: &mut impl Io) {
         let now = self.clock_ms;
-        if let (Some(fl), Some(tube)) = (self.flight.as_mut(), self.tube_ok.then_some(&self.tube)) {
+        if let (Some(fl), Some(tube)) = (self.flight.as_mut(), self.tube_ok.then_some(&*self.tube)) {
             let t0 = io.cycles();
             let v = fl.high_level(tube, &self.sources, now);
             self.hl_cycles = io.cycles().wrapping_sub(t0);
@@ -594,11 +590,13 @@ impl Core {
             }
             UploadReply::Complete => {
                 // Build and validate the tube now, once (the lookup tables are the expensive part).
+                let t0 = io.cycles();
                 let built = self.tube.rebuild(self.mission.waypoints());
+                let _cycles = io.cycles().wrapping_sub(t0);
                 self.tube_ok = built.is_ok();
                 let result = match built {
                     Ok(()) => {
-                        log!(info, "tube accepted: {} waypoints", self.mission.waypoints().len());
+                        log!(info, "tube accepted: {} waypoints, built in {} cycles", self.mission.waypoints().len(), _cycles);
                         MavMissionResult::MAV_MISSION_ACCEPTED
                     }
                     Err(_e) => {

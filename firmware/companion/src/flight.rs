@@ -13,8 +13,9 @@
 //!
 //! # Failsafe (hold)
 //! Own state older than `FS_OWN_TMO`, load state older than `FS_LOAD_TMO`, any neighbour older
-//! than `FS_NBR_TMO` (or never heard), or a controller output that is non-finite or flagged
-//! invalid: the velocity command becomes zero (no horizontal motion, no climb), which the
+//! than `FS_NBR_TMO` (or never heard; with `FS_NBR_ACT = 0` such a neighbour is only dropped
+//! from the spring set, as host-sim's controllers do), or a controller output that is
+//! non-finite or flagged invalid: the velocity command becomes zero (no horizontal motion, no climb), which the
 //! velocity loop turns into the hover thrust corrected by the CFO's force estimate. With no
 //! fresh own velocity the velocity loop gets NaN and flies its own failsafe: the compensated
 //! hover thrust `f_hat - G` without feedback. Hold ends by itself when every input is fresh
@@ -142,6 +143,7 @@ pub struct Flight {
     own_tmo_ms: u32,
     load_tmo_ms: u32,
     nbr_tmo_ms: u32,
+    hold_on_stale_neighbour: bool,
     ll_ticks: u32,
     vel_cmd_mps: Vec3,
     f_hat_n: Vec3,
@@ -198,6 +200,7 @@ impl Flight {
             own_tmo_ms,
             load_tmo_ms,
             nbr_tmo_ms,
+            hold_on_stale_neighbour: params.get_u32(Param::FsNbrAct) == 1,
             ll_ticks: 0,
             vel_cmd_mps: Vec3::zeros(),
             f_hat_n: Vec3::zeros(),
@@ -230,7 +233,8 @@ impl Flight {
                 *slot = own.map(|o| o.pos_m);
             } else {
                 *slot = src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, self.nbr_tmo_ms));
-                if slot.is_none() {
+                // Hold, or leave the slot empty: the controller drops that neighbour's springs.
+                if slot.is_none() && self.hold_on_stale_neighbour {
                     reasons |= HoldReasons::NEIGHBOUR_STALE;
                 }
             }
@@ -282,15 +286,17 @@ impl Flight {
         sp
     }
 
-    /// Level attitude along the heading at the hover collective (the last-resort output).
+    /// Level attitude along the heading at the hover collective (the last-resort output):
+    /// the attitude of a vertical hover thrust, trig-free like the nominal path.
     fn level_hover(&self) -> Setpoint {
-        let h = self.heading;
-        // Yaw about ENU up by the heading's angle, without trigonometry: the half-angle
-        // quaternion from the unit vector (cos psi, sin psi).
-        let q = UnitQuaternion::rotation_between(&nalgebra::Vector3::x(), &nalgebra::Vector3::new(h.x, h.y, 0.0))
-            .unwrap_or_else(UnitQuaternion::identity);
-        let collective = if self.thrust_max_n > 0.0 { (self.hover_n / self.thrust_max_n).clamp(0.0, 1.0) } else { 0.0 };
-        Setpoint { q_ned: ned_frd_quaternion(&q), thrust: collective }
+        let att = thrust_to_attitude(Vec3::new(0.0, 0.0, self.hover_n.max(0.0)), self.heading, self.thrust_max_n);
+        let q_ned = ned_frd_quaternion(&att.attitude);
+        if q_ned.iter().all(|c| c.is_finite()) && att.collective.is_finite() {
+            Setpoint { q_ned, thrust: att.collective }
+        } else {
+            // Unreachable for a unit heading; a defined output all the same.
+            Setpoint { q_ned: ned_frd_quaternion(&UnitQuaternion::identity()), thrust: 0.0 }
+        }
     }
 
     /// Current hold reasons (high and low level).

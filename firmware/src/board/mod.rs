@@ -1,8 +1,8 @@
 //! Board support: one module per board, the same items in each.
 //!
-//! `NAME`, `init() -> Board`, `LinkRx::{read, take_overruns}`, `LinkTx::write`,
-//! `Watchdog::feed`, `cycles()`, `stack_used_bytes()`, `boot_report()`, `shutdown()`,
-//! `reboot()`.
+//! `NAME`, `init() -> Board`, `Executor`, `LinkRx::{read, take_overruns}`, `LinkTx::write`,
+//! `Watchdog::feed`, `cycles()`, `boot_report()`, `shutdown()`, `reboot()`; and here, shared:
+//! [`stack_used_bytes`].
 
 #[cfg(feature = "qemu")]
 mod qemu;
@@ -22,4 +22,31 @@ pub struct Board {
     pub tx: LinkTx,
     /// The watchdog (started).
     pub watchdog: Watchdog,
+}
+
+/// The paint cortex-m-rt writes over the stack before `main` (`paint-stack` feature,
+/// `cortex_m_rt::STACK_PAINT_VALUE`).
+const STACK_PAINT: u32 = 0xCCCC_CCCC;
+
+extern "C" {
+    static _stack_start: u32;
+    static _stack_end: u32;
+}
+
+/// Deepest stack use since reset, bytes: the painted region's first scrubbed word from below.
+#[allow(unsafe_code)]
+pub fn stack_used_bytes() -> u32 {
+    let top = core::ptr::addr_of!(_stack_start) as usize;
+    let bottom = core::ptr::addr_of!(_stack_end) as usize;
+    let mut p = bottom;
+    while p < top {
+        // SAFETY: [bottom, top) is the stack region of cortex-m-rt's linker script, inside RAM
+        // and word-aligned (the script asserts it); a racy read only makes the figure late.
+        let w = unsafe { core::ptr::read_volatile(p as *const u32) };
+        if w != STACK_PAINT {
+            break;
+        }
+        p += 4;
+    }
+    (top - p) as u32
 }

@@ -8,8 +8,6 @@
 //!   known length). The DWT cycle counter reads 0 under QEMU.
 //! - Logs: defmt over semihosting (decoded on the host); panics and shutdown exit QEMU with
 //!   semihosting `SYS_EXIT`.
-//! - Stack: painted with `0xCCCC_CCCC` by cortex-m-rt before `main` (`paint-stack`);
-//!   [`stack_used_bytes`] finds the deepest scrubbed word.
 //! - Watchdog: the board has none in QEMU; a software one in the SysTick handler exits QEMU
 //!   with a failure code when the low-level loop has not fed it for [`WATCHDOG_TIMEOUT_MS`].
 //!
@@ -17,8 +15,8 @@
 //! This module is the firmware's only `unsafe` code (allowed here, denied elsewhere): volatile
 //! access to the UART registers (fixed MMIO addresses of the board), unmasking an NVIC line,
 //! the `InterruptNumber` implementation (the numbers are the board's), the interrupt vector
-//! table (a `#[no_mangle]` `#[link_section]` static the linker script expects), reading the
-//! painted stack (addresses from the linker script), and the calibration loop (inline asm).
+//! table (a `#[no_mangle]` `#[link_section]` static the linker script expects), the executor's
+//! pender (`#[export_name]`), and the calibration loop (inline asm).
 #![allow(unsafe_code)]
 
 use core::cell::{Cell, RefCell};
@@ -32,7 +30,7 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::pipe::Pipe;
 use embassy_time_queue_utils::Queue;
 
-use super::Board;
+use super::{stack_used_bytes, Board};
 use defmt_semihosting as _; // the global defmt logger
 
 /// Set by the executor's pender: a task was woken.
@@ -83,13 +81,12 @@ const TICK_HZ: u32 = 1_000;
 /// SysTick reload for one tick.
 const SYSTICK_RELOAD: u32 = SYSCLK_HZ / TICK_HZ - 1;
 /// Software watchdog timeout, ms.
-pub const WATCHDOG_TIMEOUT_MS: u32 = 500;
+/// (Long, because a busy host can stall an emulator for a while; the IWDG on hardware is 250 ms.)
+pub const WATCHDOG_TIMEOUT_MS: u32 = 2_000;
 /// Iterations of the calibration loop (two instructions each).
 const CALIBRATION_ITERATIONS: u32 = 1_000_000;
 /// Instructions per calibration iteration (`subs` + `bne`).
 const CALIBRATION_INSTRUCTIONS_PER_ITERATION: u32 = 2;
-/// The paint cortex-m-rt writes over the stack (`cortex_m_rt::STACK_PAINT_VALUE`).
-const STACK_PAINT: u32 = 0xCCCC_CCCC;
 
 /// UART0 base address (QEMU `hw/arm/mps2.c`).
 const UART0_BASE: usize = 0x4000_4000;
@@ -210,10 +207,14 @@ impl LinkRx {
 pub struct LinkTx;
 
 impl LinkTx {
-    /// Writes every byte (QEMU's UART transmits immediately; the wait is for TX full).
+    /// Writes every byte. QEMU's UART sends at once unless the host side of the socket is
+    /// full; then the task yields, so the control loops keep running (and the queue in front
+    /// drops whole frames instead).
     pub async fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            while uart_read(UART_STATE) & STATE_TXFULL != 0 {}
+            while uart_read(UART_STATE) & STATE_TXFULL != 0 {
+                embassy_futures::yield_now().await;
+            }
             uart_write(UART_DATA, u32::from(b));
         }
     }
@@ -302,28 +303,6 @@ pub fn cycles() -> u32 {
     let c = if behind != 0 && behind <= period { c.wrapping_add(period) } else { c };
     LAST_CYCLES.store(c, Ordering::Relaxed);
     c
-}
-
-extern "C" {
-    static _stack_start: u32;
-    static _stack_end: u32;
-}
-
-/// Deepest stack use since reset, bytes: the painted region's first scrubbed word from below.
-pub fn stack_used_bytes() -> u32 {
-    let top = core::ptr::addr_of!(_stack_start) as usize;
-    let bottom = core::ptr::addr_of!(_stack_end) as usize;
-    let mut p = bottom;
-    while p < top {
-        // SAFETY: [bottom, top) is the stack region of the linker script, inside RAM, and
-        // word-aligned (cortex-m-rt asserts it); reading it races with nothing that matters.
-        let w = unsafe { core::ptr::read_volatile(p as *const u32) };
-        if w != STACK_PAINT {
-            break;
-        }
-        p += 4;
-    }
-    (top - p) as u32
 }
 
 /// Runs `iterations` of a two-instruction loop.

@@ -11,9 +11,9 @@
 //! - `high_level_task`, `low_level_task`: embassy `Ticker`s at `VT_HL_HZ` / `VT_LL_HZ`; the
 //!   low-level task feeds the watchdog after each healthy step.
 //!
-//! Boards (exactly one feature): `qemu` (mps2-an386) and `stm32f405`. See `docs/firmware.md`.
+//! Boards (exactly one feature, one binary each in `src/bin/`): `qemu` (mps2-an386) and
+//! `stm32f405`. See `docs/firmware.md`.
 #![no_std]
-#![no_main]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
@@ -30,10 +30,11 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::mutex::Mutex;
 use embassy_sync::pipe::Pipe;
 use embassy_time::{Duration, Instant, Ticker, Timer};
-use vt_companion::{Companion, Io, Request};
+use static_cell::{ConstStaticCell, StaticCell};
+use vt_companion::{Companion, CompanionTube, Io, Request};
 
-/// Bytes queued for the link (a full parameter list is about 1.8 KB).
-const TX_CAPACITY: usize = 4096;
+/// Bytes queued for the link (a full parameter list, the largest burst, is about 1.7 KB).
+const TX_CAPACITY: usize = 2048;
 /// Receive chunk handed to the companion at once.
 const RX_CHUNK: usize = 128;
 /// Transmit chunk written to the UART at once.
@@ -43,9 +44,13 @@ const LINK_REPORT_S: u32 = 2;
 /// How long the shutdown path waits for queued frames to leave, ms.
 const SHUTDOWN_FLUSH_MS: u64 = 20;
 
-/// The companion. An async mutex: control steps run with interrupts enabled (the tasks share
-/// one thread executor, so the lock is never contended across an await).
-static COMPANION: Mutex<CriticalSectionRawMutex, Companion> = Mutex::new(Companion::new());
+/// The companion, shared by the tasks. An async mutex: control steps run with interrupts
+/// enabled (the tasks share one thread executor, so the lock is never held across an await).
+type Shared = Mutex<CriticalSectionRawMutex, Companion<'static>>;
+/// Storage of the companion.
+static COMPANION: StaticCell<Shared> = StaticCell::new();
+/// The tube's tables (all zero until built in place: `.bss`, no flash image).
+static TUBE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
 /// Outgoing frames.
 static TX: Pipe<CriticalSectionRawMutex, TX_CAPACITY> = Pipe::new();
 /// Frames dropped because the transmit queue was full.
@@ -85,13 +90,13 @@ impl Io for LinkIo {
 }
 
 #[embassy_executor::task]
-async fn rx_task(mut rx: board::LinkRx) {
+async fn rx_task(companion: &'static Shared, mut rx: board::LinkRx) {
     let mut buf = [0u8; RX_CHUNK];
     let mut stack_reported = 0;
     loop {
         let n = rx.read(&mut buf).await;
         let request = {
-            let mut c = COMPANION.lock().await;
+            let mut c = companion.lock().await;
             c.add_overruns(rx.take_overruns());
             c.on_bytes(buf.get(..n).unwrap_or(&[]), &mut LinkIo)
         };
@@ -125,20 +130,20 @@ async fn tx_task(mut tx: board::LinkTx) {
 }
 
 #[embassy_executor::task]
-async fn high_level_task() {
+async fn high_level_task(companion: &'static Shared) {
     let mut ticks: u32 = 0;
     loop {
-        let hz = COMPANION.lock().await.high_level_hz().max(1);
+        let hz = companion.lock().await.high_level_hz().max(1);
         let mut ticker = Ticker::every(Duration::from_hz(u64::from(hz)));
         loop {
             ticker.next().await;
-            let mut c = COMPANION.lock().await;
+            let mut c = companion.lock().await;
             if c.high_level_hz() != hz {
                 break; // rate changed by PARAM_SET: restart the Ticker
             }
             c.high_level_step(&mut LinkIo);
             ticks = ticks.wrapping_add(1);
-            if ticks % (hz * LINK_REPORT_S) == 0 {
+            if ticks.is_multiple_of(hz * LINK_REPORT_S) {
                 defmt::debug!(
                     "link: {} values: {} tx dropped {=u32} tx queued {=usize}",
                     c.link_counters(),
@@ -152,13 +157,13 @@ async fn high_level_task() {
 }
 
 #[embassy_executor::task]
-async fn low_level_task(mut watchdog: board::Watchdog) {
+async fn low_level_task(companion: &'static Shared, mut watchdog: board::Watchdog) {
     loop {
-        let hz = COMPANION.lock().await.low_level_hz().max(1);
+        let hz = companion.lock().await.low_level_hz().max(1);
         let mut ticker = Ticker::every(Duration::from_hz(u64::from(hz)));
         loop {
             ticker.next().await;
-            let mut c = COMPANION.lock().await;
+            let mut c = companion.lock().await;
             if c.low_level_hz() != hz {
                 break;
             }
@@ -172,15 +177,16 @@ async fn low_level_task(mut watchdog: board::Watchdog) {
 }
 
 /// The executor (the board's: WFI-based under QEMU, WFE-based on the STM32).
-static EXECUTOR: static_cell::StaticCell<board::Executor> = static_cell::StaticCell::new();
+static EXECUTOR: StaticCell<board::Executor> = StaticCell::new();
 
-#[cortex_m_rt::entry]
-fn main() -> ! {
+/// Boots the board and runs the tasks forever (called by each board's binary, `src/bin/`).
+pub fn run() -> ! {
     let b = board::init();
     defmt::info!("vt-firmware {=str} on {=str}", env!("CARGO_PKG_VERSION"), board::NAME);
     board::boot_report();
+    let companion: &'static Shared = COMPANION.init(Mutex::new(Companion::new(TUBE.take())));
     EXECUTOR.init(board::Executor::new()).run(|spawner| {
-        match rx_task(b.rx) {
+        match rx_task(companion, b.rx) {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn rx_task"),
         }
@@ -188,11 +194,11 @@ fn main() -> ! {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn tx_task"),
         }
-        match high_level_task() {
+        match high_level_task(companion) {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn high_level_task"),
         }
-        match low_level_task(b.watchdog) {
+        match low_level_task(companion, b.watchdog) {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn low_level_task"),
         }
