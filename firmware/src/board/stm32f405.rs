@@ -9,7 +9,7 @@
 //!   low-level steps (`low_level_task`).
 //! - Logs: defmt over RTT (probe-rs); panics through panic-probe.
 //!
-//! Flash with `probe-rs run --chip STM32F405RGTx target/thumbv7em-none-eabihf/release/vt-firmware`.
+//! Flash with `probe-rs run --chip STM32F405RGTx target/thumbv7em-none-eabihf/release/vt-firmware-stm32f405`.
 
 use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
