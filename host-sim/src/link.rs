@@ -43,6 +43,13 @@ pub struct Link<T: Copy> {
     queues: Vec<VecDeque<(u64, u64, T)>>,
     /// Last received per (receiver, sender): (stamp step, payload).
     latest: Vec<Option<(u64, T)>>,
+    /// Ideal link (no delay, jitter, drops or silenced sender): every receiver has what each
+    /// sender broadcast last, kept once per sender in `broadcast` (O(n) per exchange instead of
+    /// O(n^2)). Left for the per-pair model, with the same contents, the moment that stops
+    /// being true.
+    ideal: bool,
+    /// Last broadcast per sender (ideal mode): (stamp step, payload).
+    broadcast: Vec<Option<(u64, T)>>,
 }
 
 impl<T: Copy> Link<T> {
@@ -58,17 +65,40 @@ impl<T: Copy> Link<T> {
             rng: SplitMix64::new(seed ^ 0x4C49_4E4B),
             queues: vec![VecDeque::new(); n * n],
             latest: vec![None; n * n],
+            ideal: delay_steps == 0 && drop_probability <= 0.0,
+            broadcast: vec![None; n],
+        }
+    }
+
+    /// Leaves ideal mode: every (receiver, sender) entry gets what the sender broadcast last.
+    fn leave_ideal(&mut self) {
+        if !self.ideal {
+            return;
+        }
+        self.ideal = false;
+        for rx in 0..self.n {
+            for (tx, b) in self.broadcast.iter().enumerate() {
+                if tx != rx {
+                    if let Some(slot) = self.latest.get_mut(rx * self.n + tx) {
+                        *slot = *b;
+                    }
+                }
+            }
         }
     }
 
     /// Adds a random extra delay, uniform in `0..=jitter_steps`, to every message.
     pub fn with_jitter(mut self, jitter_steps: u64) -> Self {
         self.jitter_steps = jitter_steps;
+        if jitter_steps > 0 {
+            self.leave_ideal();
+        }
         self
     }
 
     /// UAV `tx` stops transmitting (fault): nothing it sends arrives from now on.
     pub fn silence(&mut self, tx: usize) {
+        self.leave_ideal();
         if let Some(s) = self.silent.get_mut(tx) {
             *s = true;
         }
@@ -76,6 +106,12 @@ impl<T: Copy> Link<T> {
 
     /// Every UAV broadcasts its payload at step `now`; messages due are delivered.
     pub fn exchange(&mut self, now: u64, payloads: &[T]) {
+        if self.ideal {
+            for (b, p) in self.broadcast.iter_mut().zip(payloads) {
+                *b = Some((now, *p));
+            }
+            return;
+        }
         for rx in 0..self.n {
             for (tx, p) in payloads.iter().enumerate().take(self.n) {
                 if tx == rx {
@@ -118,9 +154,8 @@ impl<T: Copy> Link<T> {
                 out.push(Some(own));
                 continue;
             }
-            let v = self
-                .latest
-                .get(rx * self.n + tx)
+            let entry = if self.ideal { self.broadcast.get(tx) } else { self.latest.get(rx * self.n + tx) };
+            let v = entry
                 .copied()
                 .flatten()
                 .and_then(|(stamp, v)| (now.saturating_sub(stamp) <= self.stale_steps).then_some(v));
@@ -132,6 +167,33 @@ impl<T: Copy> Link<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ideal_mode_is_the_per_pair_model() {
+        // Same link twice, one forced out of ideal mode from the start: identical views at
+        // every step, before and after a sender is silenced.
+        let mut a = Link::new(4, 0, 0.0, 3, 9);
+        let mut b = Link::new(4, 0, 0.0, 3, 9);
+        b.leave_ideal();
+        assert!(a.ideal && !b.ideal);
+        let (mut va, mut vb) = (Vec::new(), Vec::new());
+        for k in 0..20u64 {
+            if k == 7 {
+                a.silence(2);
+                b.silence(2);
+            }
+            let p = [k, 10 + k, 20 + k, 30 + k];
+            a.exchange(k, &p);
+            b.exchange(k, &p);
+            for rx in 0..4 {
+                a.view(rx, k, 99, &mut va);
+                b.view(rx, k, 99, &mut vb);
+                assert_eq!(va, vb, "step {k} receiver {rx}");
+            }
+        }
+        a.view(0, 19, 99, &mut va);
+        assert_eq!(va[2], None, "silenced sender stale after the timeout");
+    }
 
     #[test]
     fn zero_delay_delivers_immediately() {
