@@ -78,7 +78,12 @@ impl Summary {
             ("max thrust fraction", format!("{:.2}", self.max_thrust_fraction)),
             ("formation error end", format!("{:.3} m", self.formation_error_end_m)),
             ("capacity margin", format!("{:+.1} %", 100.0 * (self.capacity_margin - 1.0))),
-            ("sim / wall time", format!("{:.1} s / {:.2} s ({:.0}x real time)", self.sim_time_s, self.wall_time_s, self.realtime_factor)),
+            ("sim / wall time", {
+                // Enough digits for slow (PIL, below 1x) and fast (SIL, 1000x) runs alike.
+                let rt = self.realtime_factor;
+                let digits = if rt >= 10.0 { 0 } else if rt >= 1.0 { 1 } else { 2 };
+                format!("{:.1} s / {:.2} s ({rt:.digits$}x real time)", self.sim_time_s, self.wall_time_s)
+            }),
         ]
     }
 
