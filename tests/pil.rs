@@ -462,3 +462,26 @@ proptest::proptest! {
         proptest::prop_assert!(answered, "no setpoint for a valid own state after the stream ({setpoints} before)");
     }
 }
+
+/// `host-sim pil` with bad input: exit 2 and a message naming what is wrong, before any
+/// emulator starts.
+#[test]
+fn pil_command_rejects_bad_input_with_exit_2() {
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim")).arg("pil").args(args).output().expect("host-sim runs");
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let dir = out_dir("bad-input");
+    let dir = dir.to_str().unwrap();
+    let (code, err) = run(&["--duration=-1", "--out", dir]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--duration"), "{err}");
+    let (code, err) = run(&["--firmware", "/nonexistent/vt-firmware-qemu", "--out", dir]);
+    if pil::qemu_available(QEMU) {
+        assert_eq!(code, Some(2), "{err}");
+        assert!(err.contains("/nonexistent/vt-firmware-qemu"), "{err}");
+    }
+    let (code, err) = run(&["/nonexistent/scenario.toml", "--out", dir]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("scenario.toml"), "{err}");
+}
