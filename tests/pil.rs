@@ -293,7 +293,7 @@ fn garbage_on_the_uart_is_counted_and_survived_like_the_twin() {
     assert!(unknown >= 1, "unknown ids counted ({unknown})");
     assert!(bad_values >= 1, "the NaN state counted ({bad_values})");
     assert!(discarded > 1000, "garbage bytes discarded ({discarded})");
-    assert_eq!(twin.companion().link_counters().rejected(), u32::from(comm) + u32::from(unknown));
+    assert_eq!(twin.companion().unwrap().link_counters().rejected(), u32::from(comm) + u32::from(unknown));
     let (code, _) = q.shutdown(&mut eq.gcs, cfg.system_id).unwrap();
     assert_eq!(code, Some(0), "still alive and shut down on command");
 }
@@ -342,7 +342,7 @@ fn the_twin_survives_random_frames_with_valid_checksums() {
             }
         }
     }
-    let c = twin.companion().value_counters();
+    let c = twin.companion().unwrap().value_counters();
     assert!(c.bad_values > 0 && c.ignored > 0, "{c:?}");
 }
 
@@ -404,7 +404,7 @@ proptest::proptest! {
         let mut enc = Encoders::default();
         configure_and_start(&mut twin, &cfg, &setup, &mut enc);
         let valid = |e: &mut pil::Encoder| e.frame(cfg.system_id, 1, &pil::local_position(2, &V3f::new(1.0, 2.0, 3.0), &V3f::zeros()));
-        let mut rejected = twin.companion().link_counters().rejected();
+        let mut rejected = twin.companion().unwrap().link_counters().rejected();
         let mut setpoints = 0usize;
         for p in &pieces {
             let bytes = match p {
@@ -440,7 +440,7 @@ proptest::proptest! {
                     setpoints += 1;
                 }
             }
-            let now = twin.companion().link_counters().rejected();
+            let now = twin.companion().unwrap().link_counters().rejected();
             proptest::prop_assert!(now >= rejected, "rejected frames went down: {rejected} -> {now}");
             rejected = now;
         }

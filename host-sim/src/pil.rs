@@ -252,10 +252,15 @@ impl Io for TwinIo<'_> {
     }
 }
 
-/// The firmware's companion compiled for the host (software in the loop). Its tube storage
-/// is leaked (9 KiB per twin; a twin lives as long as a flight).
+/// Tube storage of dropped twins, reused by new ones: a companion borrows its tube for its
+/// lifetime (`'static` on the MCU), so the twins take theirs from this pool (leaked once,
+/// about 9 KiB each); memory is bounded by the most twins alive at once.
+static TUBE_POOL: std::sync::Mutex<Vec<&'static mut CompanionTube>> = std::sync::Mutex::new(Vec::new());
+
+/// The firmware's companion compiled for the host (software in the loop).
 pub struct SilPort {
-    companion: Box<Companion<'static>>,
+    /// Always `Some` until dropped (then its tube goes back to the pool).
+    companion: Option<Box<Companion<'static>>>,
     framer: Framer,
     pending: VecDeque<Rx>,
 }
@@ -269,20 +274,35 @@ impl Default for SilPort {
 impl SilPort {
     /// A fresh companion.
     pub fn new() -> Self {
-        let tube: &'static mut CompanionTube = Box::leak(Box::new(CompanionTube::placeholder()));
-        Self { companion: Box::new(Companion::new(tube)), framer: Framer::new(), pending: VecDeque::new() }
+        let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
+        let tube: &'static mut CompanionTube = pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())));
+        Self { companion: Some(Box::new(Companion::new(tube))), framer: Framer::new(), pending: VecDeque::new() }
     }
 
-    /// The companion (for inspection in tests).
-    pub fn companion(&self) -> &Companion<'static> {
-        &self.companion
+    /// The companion (for inspection in tests); `None` only while the twin is being dropped.
+    pub fn companion(&self) -> Option<&Companion<'static>> {
+        self.companion.as_deref()
+    }
+}
+
+impl Drop for SilPort {
+    fn drop(&mut self) {
+        if let Some(c) = self.companion.take() {
+            let tube = c.into_tube();
+            if let Ok(mut pool) = TUBE_POOL.lock() {
+                pool.push(tube);
+            }
+        }
     }
 }
 
 impl Port for SilPort {
     fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
         let mut out = Vec::new();
-        let _request = self.companion.on_bytes(bytes, &mut TwinIo { out: &mut out });
+        let Some(companion) = self.companion.as_deref_mut() else {
+            return Err(PilError("host twin: dropped".into()));
+        };
+        let _request = companion.on_bytes(bytes, &mut TwinIo { out: &mut out });
         for b in out {
             self.framer.push(b);
             while let Some(f) = self.framer.next_frame() {

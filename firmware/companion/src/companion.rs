@@ -159,6 +159,11 @@ impl<'t> Companion<'t> {
         }
     }
 
+    /// Gives the tube storage back (for reuse by another companion; the host twins pool it).
+    pub fn into_tube(self) -> &'t mut CompanionTube {
+        self.core.tube
+    }
+
     /// Feeds received bytes; handles every complete frame (and, in lockstep, runs the control
     /// steps they trigger). Returns a board request if one arrived.
     pub fn on_bytes(&mut self, bytes: &[u8], io: &mut impl Io) -> Option<Request> {
