@@ -32,7 +32,7 @@ use host_sim::scenario::{Scenario, SimTube};
 use host_sim::sim;
 use nalgebra::Vector3;
 use vt_cfo::VelocityLoop;
-use vt_dissipative::{DissipativeController, DissipativeParams, Formation, Measurements, VerticalParams};
+use vt_dissipative::{DissipativeController, Formation, Measurements};
 use vt_tube::{Vec2, Waypoint};
 
 /// Team sizes of the issue.
@@ -122,30 +122,7 @@ impl<const N: usize> Team<N> {
         let uav_f: Vec<Vector3<f32>> = to.uav_pos_m.iter().map(v3f).collect();
         let load_f = v3f(&to.load_pos_m);
         let formation = Formation::<N>::from_takeoff(&uav_f, &load_f, &tray).expect("formation");
-        let c = &s.controller;
-        let cable_m = s.cables.lengths_m[0];
-        let vertical = VerticalParams {
-            tension_share_n: to.share_n as f32,
-            share_gain_mps_per_n: c.share_gain_mps_per_n as f32,
-            load_altitude_gain_per_s: c.load_altitude_gain_per_s as f32,
-            share_offset_max_m: c.share_offset_max_m as f32,
-            load_altitude_ref_m: s.load.altitude_m as f32,
-            cable_length_m: cable_m as f32,
-            cable_stretch_m: to.stretch_m as f32,
-            kz_per_s: c.kz_per_s as f32,
-            vz_max_mps: c.vz_max_mps as f32,
-            min_height_m: 1.0f32.min(0.5 * cable_m as f32),
-        };
-        let params = DissipativeParams {
-            k1: c.k1 as f32,
-            k2: c.k2 as f32,
-            k3: c.k3 as f32,
-            v_max_mps: c.v_max_mps as f32,
-            r_safe_m: c.r_safe_m as f32,
-            r_active_m: c.r_active_m as f32,
-            tray,
-            vertical,
-        };
+        let params = sim::dissipative_params(&s, s.cables.lengths_m[0], &to);
         let mut controller = DissipativeController::<N>::new(0, params, &formation).expect("controller");
         let own_m = uav_f[0];
         // The cable pulls UAV 0 towards the load with its share (what the CFO estimates).

@@ -33,7 +33,7 @@
 use crate::cable::CableParams;
 use crate::link::Link;
 use crate::plant::{LoadParams, Plant, UavParams};
-use crate::scenario::{LoadedScenario, Scenario, SimTube};
+use crate::scenario::{LoadedScenario, Scenario};
 use crate::sim::{self, Takeoff};
 use crate::summary::Summary;
 use mavlink::dialects::common::{
@@ -657,7 +657,7 @@ pub fn team_setup(ls: &LoadedScenario, lockstep: bool) -> Result<TeamSetup, PilE
     let configs = (0..n)
         .map(|i| {
             let cable_m = calibrated_len_m.get(i).copied().unwrap_or(0.0);
-            let v = vertical_params(s, cable_m, &to);
+            let v = sim::vertical_params(s, cable_m, &to);
             let g = p.gains();
             let lim = p.integral_limit_mps2();
             let params = vec![
@@ -712,23 +712,6 @@ pub fn team_setup(ls: &LoadedScenario, lockstep: bool) -> Result<TeamSetup, PilE
         })
         .collect();
     Ok(TeamSetup { configs, takeoff: to, calibrated_len_m })
-}
-
-/// `sim::run`'s altitude-law parameters (a copy of the private `sim::vertical_params`).
-fn vertical_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> vt_dissipative::VerticalParams {
-    let c = &s.controller;
-    vt_dissipative::VerticalParams {
-        tension_share_n: to.share_n as f32,
-        share_gain_mps_per_n: c.share_gain_mps_per_n as f32,
-        load_altitude_gain_per_s: c.load_altitude_gain_per_s as f32,
-        share_offset_max_m: c.share_offset_max_m as f32,
-        load_altitude_ref_m: s.load.altitude_m as f32,
-        cable_length_m: cable_m as f32,
-        cable_stretch_m: to.stretch_m as f32,
-        kz_per_s: c.kz_per_s as f32,
-        vz_max_mps: c.vz_max_mps as f32,
-        min_height_m: 1.0f32.min(0.5 * cable_m as f32),
-    }
 }
 
 fn gcs<D: MessageData>(enc: &mut Encoder, d: &D) -> Vec<u8> {
@@ -997,7 +980,8 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
     let hl_hz = f64::from(r.high_level_hz);
     let mut link: Link<V3f> =
         Link::new(n, (s.link.delay_s * hl_hz).round() as u64, s.link.drop_probability, (s.link.stale_timeout_s * hl_hz).round().max(1.0) as u64, s.seed);
-    let mut metrics = PilMetrics::new(n, f_max, s, tube.length_m());
+    let mut metrics = sim::Metrics::new(n, f_max, s, tube.length_m());
+    let no_thrust_loss = vec![false; n];
     let mut commands = Vec::new();
     let mut hl_cycles = vec![Vec::new(); n];
     let mut ll_cycles = vec![Vec::new(); n];
@@ -1018,7 +1002,7 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
         let hl_due = step % hl_every == 0;
         if hl_due {
             link.exchange(step / hl_every, &sample_pos);
-            metrics.geometry(t, &plant, tube, &mut uav_hints, &mut load_hint);
+            metrics.geometry(t, &plant, tube, &mut uav_hints, &mut load_hint, &no_thrust_loss);
             if metrics.arrived && arrival_step.is_none() {
                 arrival_step = Some(step);
             }
@@ -1076,8 +1060,7 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
         plant.step(&thrust_cmd, &[], V3::zeros(), dt);
         metrics.tensions(plant.tensions_n());
         if step % rec_every == 0 {
-            let ok = |v: &V3| v.iter().all(|x| x.is_finite());
-            if !(ok(&plant.load.pos_m) && plant.uavs.iter().all(|u| ok(&u.pos_m) && ok(&u.vel_mps))) {
+            if !sim::plant_finite(&plant) {
                 metrics.nonfinite = true;
                 break;
             }
@@ -1096,170 +1079,18 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
     let formation = Formation::<MAX_UAVS>::from_takeoff(&uav_f, &v3f(&to.load_pos_m), &tray).map_err(|e| PilError(format!("formation: {e}")))?;
     let formation_error = sim::formation_error(&plant, &formation, &tray);
     let limited = limits.duration_s.is_some_and(|d| d < s.mission.time_limit_s);
-    let summary = metrics.finish(s, step as f64 * dt, wall_s, formation_error, to.capacity_margin, arrival_step.map(|a| a as f64 * dt), limited);
+    let summary = metrics.finish(
+        s,
+        sim::ControllerKind::Dissipative,
+        s.seed,
+        step as f64 * dt,
+        wall_s,
+        formation_error,
+        to.capacity_margin,
+        arrival_step.map(|a| a as f64 * dt),
+        limited,
+    );
     Ok(FlightOutput { summary, commands, hl_cycles, ll_cycles, status, custom_mode })
-}
-
-/// Running metrics of a flight (the subset of `sim::run`'s that applies without faults).
-struct PilMetrics {
-    n: usize,
-    f_max: f64,
-    settle_s: f64,
-    alt_ref: f64,
-    end_s: f32,
-    min_uav_boundary: f64,
-    min_load_boundary: f64,
-    min_uav_uav: f64,
-    max_alt_err: f64,
-    max_tension: f64,
-    tension_sum: f64,
-    tension_count: u64,
-    cap_count: u64,
-    cv_sum: f64,
-    cv_count: u64,
-    max_thrust_fraction: f64,
-    arrived: bool,
-    nonfinite: bool,
-}
-
-impl PilMetrics {
-    fn new(n: usize, f_max: f64, s: &Scenario, tube_len: f32) -> Self {
-        Self {
-            n,
-            f_max,
-            settle_s: s.mission.settle_time_s,
-            alt_ref: s.load.altitude_m,
-            end_s: tube_len - s.mission.end_tolerance_m as f32,
-            min_uav_boundary: f64::INFINITY,
-            min_load_boundary: f64::INFINITY,
-            min_uav_uav: f64::INFINITY,
-            max_alt_err: 0.0,
-            max_tension: 0.0,
-            tension_sum: 0.0,
-            tension_count: 0,
-            cap_count: 0,
-            cv_sum: 0.0,
-            cv_count: 0,
-            max_thrust_fraction: 0.0,
-            arrived: false,
-            nonfinite: false,
-        }
-    }
-
-    fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize) {
-        let xy = |v: &V3| vt_tube::Vec2::new(v.x as f32, v.y as f32);
-        for (u, h) in plant.uavs.iter().zip(uav_hints.iter_mut()) {
-            let q = xy(&u.pos_m);
-            let d = match tube.locate(q, *h) {
-                Some(sec) => {
-                    *h = sec.segment;
-                    f64::from(sec.boundary_distance_m(q))
-                }
-                None => f64::NEG_INFINITY,
-            };
-            self.min_uav_boundary = self.min_uav_boundary.min(d);
-        }
-        let ql = xy(&plant.load.pos_m);
-        let lb = match tube.locate(ql, *load_hint) {
-            Some(sec) => {
-                *load_hint = sec.segment;
-                if sec.s_m >= self.end_s {
-                    self.arrived = true;
-                }
-                f64::from(sec.boundary_distance_m(ql))
-            }
-            None => f64::NEG_INFINITY,
-        };
-        self.min_load_boundary = self.min_load_boundary.min(lb);
-        for i in 0..self.n {
-            for j in i + 1..self.n {
-                self.min_uav_uav = self.min_uav_uav.min((plant.uavs[i].pos_m - plant.uavs[j].pos_m).norm());
-            }
-        }
-        if t >= self.settle_s {
-            self.max_alt_err = self.max_alt_err.max((plant.load.pos_m.z - self.alt_ref).abs());
-        }
-    }
-
-    fn tensions(&mut self, tensions: &[f64]) {
-        for &x in tensions {
-            self.max_tension = self.max_tension.max(x);
-            self.tension_sum += x;
-            self.tension_count += 1;
-            if x >= self.f_max * (1.0 - 1e-9) {
-                self.cap_count += 1;
-            }
-        }
-    }
-
-    fn tension_sample(&mut self, tensions: &[f64]) {
-        const TAUT_N: f64 = 0.1;
-        let taut: Vec<f64> = tensions.iter().copied().filter(|&x| x > TAUT_N).collect();
-        if taut.len() >= 2 {
-            let mean = taut.iter().sum::<f64>() / taut.len() as f64;
-            let var = taut.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / taut.len() as f64;
-            self.cv_sum += var.sqrt() / mean;
-            self.cv_count += 1;
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn finish(self, s: &Scenario, sim_s: f64, wall_s: f64, formation_error: f64, capacity_margin: f64, completion: Option<f64>, limited: bool) -> Summary {
-        let floor = s.mission.safety_distance_m;
-        let mut failures = Vec::new();
-        if !self.arrived {
-            failures.push(if limited {
-                "load did not reach the end terminal (flight shortened by --duration)".to_string()
-            } else {
-                "load did not reach the end terminal within the time limit".to_string()
-            });
-        }
-        if self.min_load_boundary <= 0.0 {
-            failures.push(format!("load left the tube (min boundary distance {:.2} m)", self.min_load_boundary));
-        }
-        if self.min_uav_boundary < floor {
-            failures.push(format!("UAV within {:.2} m of the tube boundary (floor {floor} m)", self.min_uav_boundary));
-        }
-        if self.min_uav_uav < floor {
-            failures.push(format!("UAVs within {:.2} m of each other (floor {floor} m)", self.min_uav_uav));
-        }
-        if self.max_alt_err > s.mission.altitude_tolerance_m {
-            failures.push(format!("load altitude error {:.2} m > {} m", self.max_alt_err, s.mission.altitude_tolerance_m));
-        }
-        if self.nonfinite {
-            failures.push("non-finite state".to_string());
-        }
-        let fin = |x: f64| if x.is_finite() { x } else { -1.0 };
-        let mean = |sum: f64, count: u64| if count > 0 { sum / count as f64 } else { 0.0 };
-        Summary {
-            scenario: s.name.clone(),
-            controller: "dissipative".into(),
-            seed: s.seed,
-            success: failures.is_empty(),
-            failures,
-            reached_end: self.arrived,
-            completion_time_s: completion,
-            min_uav_boundary_m: fin(self.min_uav_boundary),
-            min_load_boundary_m: fin(self.min_load_boundary),
-            min_uav_uav_m: fin(self.min_uav_uav),
-            max_tension_n: self.max_tension,
-            mean_tension_n: mean(self.tension_sum, self.tension_count),
-            tension_cv_mean: mean(self.cv_sum, self.cv_count),
-            time_at_cap_fraction: mean(self.cap_count as f64, self.tension_count),
-            max_load_altitude_error_m: self.max_alt_err,
-            max_thrust_fraction: self.max_thrust_fraction,
-            formation_error_end_m: formation_error,
-            capacity_margin,
-            sim_time_s: sim_s,
-            wall_time_s: wall_s,
-            realtime_factor: if wall_s > 0.0 { sim_s / wall_s } else { f64::INFINITY },
-            n_uavs: self.n,
-            f_max_n: self.f_max,
-            load_mass_kg: s.load.mass_kg,
-            nonfinite: self.nonfinite,
-            invalid_commands: 0,
-        }
-    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -145,8 +145,9 @@ pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64
     Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin }
 }
 
-fn vertical_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> VerticalParams {
-    let stretch_m = to.stretch_m;
+/// The altitude law's parameters for a UAV whose cable is `cable_m` long (calibrated at
+/// take-off), from the scenario and the take-off state.
+pub fn vertical_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> VerticalParams {
     let c = &s.controller;
     VerticalParams {
         tension_share_n: to.share_n as f32,
@@ -155,10 +156,25 @@ fn vertical_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> VerticalParams {
         share_offset_max_m: c.share_offset_max_m as f32,
         load_altitude_ref_m: s.load.altitude_m as f32,
         cable_length_m: cable_m as f32,
-        cable_stretch_m: stretch_m as f32,
-        kz_per_s: s.controller.kz_per_s as f32,
-        vz_max_mps: s.controller.vz_max_mps as f32,
+        cable_stretch_m: to.stretch_m as f32,
+        kz_per_s: c.kz_per_s as f32,
+        vz_max_mps: c.vz_max_mps as f32,
         min_height_m: 1.0f32.min(0.5 * cable_m as f32),
+    }
+}
+
+/// The dissipative controller's parameters (scenario gains, [`tray`], [`vertical_params`]).
+pub fn dissipative_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> DissipativeParams {
+    let c = &s.controller;
+    DissipativeParams {
+        k1: c.k1 as f32,
+        k2: c.k2 as f32,
+        k3: c.k3 as f32,
+        v_max_mps: c.v_max_mps as f32,
+        r_safe_m: c.r_safe_m as f32,
+        r_active_m: c.r_active_m as f32,
+        tray: tray(s),
+        vertical: vertical_params(s, cable_m, to),
     }
 }
 
@@ -260,17 +276,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
         ControllerKind::Dissipative => HighLevel::Dissipative(
             (0..n)
                 .map(|i| {
-                    let c = &s.controller;
-                    let p = DissipativeParams {
-                        k1: c.k1 as f32,
-                        k2: c.k2 as f32,
-                        k3: c.k3 as f32,
-                        v_max_mps: c.v_max_mps as f32,
-                        r_safe_m: c.r_safe_m as f32,
-                        r_active_m: c.r_active_m as f32,
-                        tray,
-                        vertical: vertical_params(s, calibrated_len[i], &to),
-                    };
+                    let p = dissipative_params(s, calibrated_len[i], &to);
                     DissipativeController::new(i, p, &formation).map_err(|e| SimError(format!("controller: {e}")))
                 })
                 .collect::<Result<_, _>>()?,
@@ -436,7 +442,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     let wall_s = wall.elapsed().as_secs_f64();
     let sim_s = step as f64 * dt;
     let formation_error = formation_error(&plant, &formation, &tray);
-    let summary = metrics.finish(s, opts.controller, seed, sim_s, wall_s, formation_error, to.capacity_margin, arrival_step.map(|a| a as f64 * dt));
+    let summary = metrics.finish(s, opts.controller, seed, sim_s, wall_s, formation_error, to.capacity_margin, arrival_step.map(|a| a as f64 * dt), false);
     Ok(RunOutput { summary, record, scene: scene(ls) })
 }
 
@@ -467,7 +473,8 @@ fn ground_contact(p: &mut Plant) {
     }
 }
 
-fn plant_finite(p: &Plant) -> bool {
+/// Every plant state finite (the `nonfinite` criterion of `success`).
+pub(crate) fn plant_finite(p: &Plant) -> bool {
     let ok = |v: &V3| v.iter().all(|x| x.is_finite());
     ok(&p.load.pos_m) && ok(&p.load.vel_mps) && p.uavs.iter().all(|u| ok(&u.pos_m) && ok(&u.vel_mps) && ok(&u.thrust_n))
 }
@@ -504,7 +511,7 @@ pub fn formation_error<const N: usize>(plant: &Plant, formation: &Formation<N>, 
 }
 
 /// Running metrics of a mission.
-struct Metrics {
+pub(crate) struct Metrics {
     n: usize,
     f_max: f64,
     settle_s: f64,
@@ -523,14 +530,14 @@ struct Metrics {
     cap_count: u64,
     cv_sum: f64,
     cv_count: u64,
-    max_thrust_fraction: f64,
-    arrived: bool,
-    nonfinite: bool,
-    invalid_commands: u64,
+    pub(crate) max_thrust_fraction: f64,
+    pub(crate) arrived: bool,
+    pub(crate) nonfinite: bool,
+    pub(crate) invalid_commands: u64,
 }
 
 impl Metrics {
-    fn new(n: usize, f_max: f64, s: &Scenario, tube_len: f32) -> Self {
+    pub(crate) fn new(n: usize, f_max: f64, s: &Scenario, tube_len: f32) -> Self {
         Self {
             n,
             f_max,
@@ -558,7 +565,7 @@ impl Metrics {
     }
 
     /// Safety distances at one instant; UAVs that lost thrust (fallen) are left out.
-    fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
+    pub(crate) fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
         let xy = |v: &V3| vt_tube::Vec2::new(v.x as f32, v.y as f32);
         let mut ub = f64::INFINITY;
         for ((u, h), _) in plant.uavs.iter().zip(uav_hints.iter_mut()).zip(lost.iter()).filter(|(_, l)| !**l) {
@@ -601,7 +608,7 @@ impl Metrics {
         }
     }
 
-    fn tensions(&mut self, tensions: &[f64]) {
+    pub(crate) fn tensions(&mut self, tensions: &[f64]) {
         for &x in tensions {
             self.max_tension = self.max_tension.max(x);
             self.tension_sum += x;
@@ -613,7 +620,7 @@ impl Metrics {
     }
 
     /// std/mean over the taut cables of one sample.
-    fn tension_sample(&mut self, tensions: &[f64]) {
+    pub(crate) fn tension_sample(&mut self, tensions: &[f64]) {
         const TAUT_N: f64 = 0.1;
         let taut: Vec<f64> = tensions.iter().copied().filter(|&x| x > TAUT_N).collect();
         if taut.len() >= 2 {
@@ -624,12 +631,29 @@ impl Metrics {
         }
     }
 
+    /// The summary; `shortened`: the flight was cut before the scenario's time limit (PIL
+    /// `--duration`), which the arrival failure says.
     #[allow(clippy::too_many_arguments)]
-    fn finish(self, s: &Scenario, kind: ControllerKind, seed: u64, sim_s: f64, wall_s: f64, formation_error: f64, capacity_margin: f64, completion: Option<f64>) -> Summary {
+    pub(crate) fn finish(
+        self,
+        s: &Scenario,
+        kind: ControllerKind,
+        seed: u64,
+        sim_s: f64,
+        wall_s: f64,
+        formation_error: f64,
+        capacity_margin: f64,
+        completion: Option<f64>,
+        shortened: bool,
+    ) -> Summary {
         let floor = s.mission.safety_distance_m;
         let mut failures = Vec::new();
         if !self.arrived {
-            failures.push("load did not reach the end terminal within the time limit".to_string());
+            failures.push(if shortened {
+                "load did not reach the end terminal (flight shortened by --duration)".to_string()
+            } else {
+                "load did not reach the end terminal within the time limit".to_string()
+            });
         }
         if self.min_load_boundary <= 0.0 {
             failures.push(format!("load left the tube (min boundary distance {:.2} m)", self.min_load_boundary));
