@@ -147,14 +147,7 @@ impl<'t> Companion<'t> {
                 ll_cycles: 0,
                 ll_cycles_max: 0,
                 request: None,
-                link: LinkCounters {
-                    frames_ok: 0,
-                    crc_errors: 0,
-                    unknown_ids: 0,
-                    framing_errors: 0,
-                    bytes_discarded: 0,
-                    overruns: 0,
-                },
+                link: LinkCounters::ZERO,
             },
         }
     }

@@ -47,6 +47,10 @@ pub struct LinkCounters {
 }
 
 impl LinkCounters {
+    /// All counters at zero (`Default` in `const` contexts).
+    pub const ZERO: Self =
+        Self { frames_ok: 0, crc_errors: 0, unknown_ids: 0, framing_errors: 0, bytes_discarded: 0, overruns: 0 };
+
     /// Every rejected candidate (checksum, unknown id, flags).
     pub fn rejected(&self) -> u32 {
         self.crc_errors.wrapping_add(self.unknown_ids).wrapping_add(self.framing_errors)
@@ -87,14 +91,7 @@ impl Default for Framer {
 impl Framer {
     /// An empty synchroniser.
     pub const fn new() -> Self {
-        Self { buf: [0; MAX_FRAME_LEN], len: 0, consumed: 0, counters: LinkCounters {
-            frames_ok: 0,
-            crc_errors: 0,
-            unknown_ids: 0,
-            framing_errors: 0,
-            bytes_discarded: 0,
-            overruns: 0,
-        } }
+        Self { buf: [0; MAX_FRAME_LEN], len: 0, consumed: 0, counters: LinkCounters::ZERO }
     }
 
     /// The counters so far.
