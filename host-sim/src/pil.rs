@@ -1425,8 +1425,8 @@ fn parse_after(line: &str, prefix: &str) -> Option<u64> {
     line.split(prefix).nth(1)?.split_whitespace().next()?.parse().ok()
 }
 
-/// Measures instructions per high-level and low-level step for [`BENCH_TEAM_SIZES`]: UAV 0
-/// runs in QEMU with `-icount shift=0` (one instruction per virtual ns, so one 25 MHz SysTick
+/// Measures instructions per high-level and low-level step for each team size in `teams`
+/// (`pil-bench` uses [`BENCH_TEAM_SIZES`]), flying `duration_s` each: UAV 0 runs in QEMU with `-icount shift=0` (one instruction per virtual ns, so one 25 MHz SysTick
 /// tick is 40 instructions; the firmware's calibration loop checks that), the rest of the team
 /// as host twins. The counts cover the control steps only (`Flight::high_level`,
 /// `Flight::low_level`), not MAVLink decoding or encoding, and include the few SysTick
@@ -1434,10 +1434,10 @@ fn parse_after(line: &str, prefix: &str) -> Option<u64> {
 ///
 /// # Errors
 /// A flight fails, or the firmware's log lacks the calibration.
-pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, duration_s: f64) -> Result<BenchReport, PilError> {
+pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, teams: &[usize], duration_s: f64) -> Result<BenchReport, PilError> {
     let mut steps = Vec::new();
     let mut calibration = None;
-    for n in BENCH_TEAM_SIZES {
+    for &n in teams {
         let ls = bench_scenario(n)?;
         let o = QemuOptions { qemu: qemu.into(), icount: true, socket_dir: socket_dir.into(), name: format!("bench{n}") };
         let q = QemuPort::spawn(firmware, &o)?;
@@ -1606,7 +1606,7 @@ pub fn cli_bench(out: &Path, firmware: Option<PathBuf>) -> std::process::ExitCod
             return ExitCode::from(1);
         }
     };
-    match bench(&elf, "qemu-system-arm", &out.join("sockets"), 2.0) {
+    match bench(&elf, "qemu-system-arm", &out.join("sockets"), &BENCH_TEAM_SIZES, 2.0) {
         Ok(r) => {
             let _ = std::fs::create_dir_all(out);
             let _ = std::fs::write(out.join("bench.json"), serde_json::to_string_pretty(&r).unwrap_or_default());
