@@ -346,14 +346,18 @@ fn the_twin_survives_random_frames_with_valid_checksums() {
     assert!(c.bad_values > 0 && c.ignored > 0, "{c:?}");
 }
 
+/// Under -icount shift=0 a 25 MHz SysTick tick is 40 instructions; the firmware's own
+/// calibration loop must agree to within its measuring overhead.
+fn assert_icount_calibrated(r: &pil::BenchReport) {
+    assert!((r.instructions_per_tick - 40.0).abs() < 0.2, "calibration {:?}", r.calibration);
+}
+
 #[test]
 #[ignore = "measurement, about a minute: run by firmware/bench.sh (cargo xtask bench's hook)"]
 fn pil_bench_instruction_counts() {
     let Some(elf) = firmware() else { return };
     let r = pil::bench(&elf, QEMU, &out_dir("sockets"), &pil::BENCH_TEAM_SIZES, 2.0).unwrap();
-    // Under -icount shift=0 a 25 MHz SysTick tick is 40 instructions; the firmware's own
-    // calibration loop must agree to within its measuring overhead.
-    assert!((r.instructions_per_tick - 40.0).abs() < 0.2, "calibration {:?}", r.calibration);
+    assert_icount_calibrated(&r);
     for s in &r.steps {
         assert!(s.high_level_mean > 0.0 && s.low_level_mean > 0.0, "{s:?}");
     }
@@ -372,7 +376,7 @@ fn mcu_control_step_stays_within_its_instruction_budget() {
     const BUDGET_N10: f64 = 5_000.0;
     let Some(elf) = firmware() else { return };
     let r = pil::bench(&elf, QEMU, &out_dir("sockets"), &[3, 10], 1.0).unwrap();
-    assert!((r.instructions_per_tick - 40.0).abs() < 0.2, "calibration {:?}", r.calibration);
+    assert_icount_calibrated(&r);
     let per = |n: usize| {
         let s = r.steps.iter().find(|s| s.n_uavs == n).unwrap();
         assert!(s.high_level_steps >= 40 && s.low_level_steps >= 40, "{s:?}");

@@ -33,7 +33,7 @@ use host_sim::sim;
 use nalgebra::Vector3;
 use vt_cfo::VelocityLoop;
 use vt_dissipative::{DissipativeController, Formation, Measurements};
-use vt_tube::{Vec2, Waypoint};
+use vt_tube::Vec2;
 
 /// Team sizes of the issue.
 const TEAM_SIZES: [usize; 4] = [3, 10, 30, 100];
@@ -74,13 +74,7 @@ fn scale_scenario() -> Scenario {
 }
 
 fn tube_of(s: &Scenario) -> SimTube {
-    let wps: Vec<Waypoint> = s
-        .tube
-        .waypoints
-        .iter()
-        .map(|w| Waypoint::new(w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32))
-        .collect();
-    SimTube::from_waypoints(&wps).expect("scale-100uav tube is valid")
+    SimTube::from_waypoints(&s.tube.waypoints_f32()).expect("scale-100uav tube is valid")
 }
 
 /// The scale scenario re-sized for `n` UAVs by its own rule (see the module doc).

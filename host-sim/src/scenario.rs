@@ -233,6 +233,13 @@ pub struct TubeSpec {
     pub waypoints: Vec<[f64; 4]>,
 }
 
+impl TubeSpec {
+    /// The waypoints as the controller crates take them (f32, m).
+    pub fn waypoints_f32(&self) -> Vec<Waypoint> {
+        self.waypoints.iter().map(|w| Waypoint::new(w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32)).collect()
+    }
+}
+
 /// The load.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -675,13 +682,7 @@ impl Validator<'_> {
     }
 
     fn check_tube(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
-        let wps: Vec<Waypoint> = s
-            .tube
-            .waypoints
-            .iter()
-            .map(|w| Waypoint::new(w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32))
-            .collect();
-        let tube = SimTube::from_waypoints(&wps).map_err(|e| self.err("tube", "waypoints", e.to_string()))?;
+        let tube = SimTube::from_waypoints(&s.tube.waypoints_f32()).map_err(|e| self.err("tube", "waypoints", e.to_string()))?;
         // The narrowest section must hold a UAV with its safety margin on both sides.
         let need = s.mission.safety_distance_m + s.controller.r_safe_m;
         if f64::from(tube.min_half_width_m()) <= need {
