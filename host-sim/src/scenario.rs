@@ -4,6 +4,7 @@
 use serde::Deserialize;
 use std::fmt;
 use std::path::Path;
+use crate::models::{check_cable_integration, CableModel, StiffnessError, UavModel, DEFAULT_BREAKING_FACTOR, MAX_DAMPING_H, MAX_OMEGA_H};
 use vt_tube::{Tube, Waypoint};
 
 /// Team capacity of the simulator, UAVs: the controllers' fixed-size arrays are instantiated
@@ -273,6 +274,9 @@ pub struct UavSpec {
     pub tilt_max_deg: f64,
     /// Radius of the take-off node circle on the tray, m.
     pub formation_radius_m: f64,
+    /// UAV model of the plant: `rigid_body` (default) or `point_mass` (the paper's).
+    #[serde(default)]
+    pub model: UavModel,
 }
 
 fn default_tilt() -> f64 {
@@ -289,8 +293,23 @@ pub struct CableSpec {
     pub stiffness_n_per_m: f64,
     /// Damping, N s/m.
     pub damping_ns_per_m: f64,
-    /// Capacity `f_max` (tension cap), N.
-    pub f_max_n: f64,
+    /// Rated capacity per cable, N: the paper's `f_max` (20 N). The `paper_clamp` cable caps the
+    /// tension here; the `elastic` cable reports the time above it. (`f_max_n` is accepted too.)
+    #[serde(alias = "f_max_n")]
+    pub rated_n: f64,
+    /// Cable model of the plant: `elastic` (default) or `paper_clamp` (the paper's).
+    #[serde(default)]
+    pub model: CableModel,
+    /// Breaking strength of the `elastic` cable, N (default `3 x rated_n`).
+    #[serde(default)]
+    pub breaking_n: Option<f64>,
+}
+
+impl CableSpec {
+    /// Breaking strength, N: `breaking_n`, or [`DEFAULT_BREAKING_FACTOR`]` x rated_n`.
+    pub fn breaking_strength_n(&self) -> f64 {
+        self.breaking_n.unwrap_or(DEFAULT_BREAKING_FACTOR * self.rated_n)
+    }
 }
 
 /// High-level controller parameters (paper Table II, REFERENCE §5).
@@ -577,7 +596,12 @@ impl Validator<'_> {
         }
         self.positive("cables", "stiffness_n_per_m", s.cables.stiffness_n_per_m)?;
         self.non_negative("cables", "damping_ns_per_m", s.cables.damping_ns_per_m)?;
-        self.positive("cables", "f_max_n", s.cables.f_max_n)?;
+        self.positive("cables", "rated_n", s.cables.rated_n)?;
+        if let Some(b) = s.cables.breaking_n {
+            if !(b.is_finite() && b > s.cables.rated_n) {
+                return Err(self.err("cables", "breaking_n", format!("must be a finite number > rated_n = {} N (got {b})", s.cables.rated_n)));
+            }
+        }
         // Controller.
         let c = &s.controller;
         for (k, v) in [("k1", c.k1), ("k2", c.k2), ("k3", c.k3), ("v_max_mps", c.v_max_mps), ("r_safe_m", c.r_safe_m),
@@ -672,6 +696,19 @@ impl Validator<'_> {
                     field: Some(format!("faults[{i}].time_s")),
                     message: "must be a finite time >= 0".into(),
                 });
+            }
+        }
+        // Cable stiffness against the integrator's sub-step (docs/plant.md).
+        let h = 1.0 / (f64::from(s.rates.plant_hz) * f64::from(s.rates.plant_substeps.max(1)));
+        match check_cable_integration(s.cables.stiffness_n_per_m, s.cables.damping_ns_per_m, s.uavs.mass_kg, s.load.mass_kg, h) {
+            Ok(()) => {}
+            Err(StiffnessError::Stiffness { omega_h }) => {
+                return Err(self.err("cables", "stiffness_n_per_m", format!(
+                    "too stiff for the plant step: sqrt(k/mu) h = {omega_h:.3} > {MAX_OMEGA_H} (mu: reduced UAV-load mass, h = 1/(plant_hz plant_substeps) = {h:.2e} s); raise rates.plant_substeps or lower the stiffness")));
+            }
+            Err(StiffnessError::Damping { damping_h }) => {
+                return Err(self.err("cables", "damping_ns_per_m", format!(
+                    "too much damping for the plant step: (b/mu) h = {damping_h:.3} > {MAX_DAMPING_H}; raise rates.plant_substeps or lower the damping")));
             }
         }
         // Geometry: tube, obstacles, formation, cables.

@@ -57,6 +57,33 @@ pub struct Summary {
     pub nonfinite: bool,
     /// High-level commands that fell back to hold (invalid input or non-finite synthesis).
     pub invalid_commands: u64,
+    /// UAV model of the plant (`rigid_body` or `point_mass`, docs/plant.md).
+    pub uav_model: String,
+    /// Cable model of the plant (`elastic` or `paper_clamp`, docs/plant.md).
+    pub cable_model: String,
+    /// Rated cable capacity, N (the paper's per-UAV `f_max`).
+    pub rated_n: f64,
+    /// Fraction of cable-time with the tension above `rated_n` (0 for `paper_clamp`, which caps it).
+    pub time_above_rated_fraction: f64,
+    /// Cables that broke (tension above `breaking_n`; an injected `cable_snap` fault is not counted).
+    pub cables_broken: usize,
+    /// Each break: cable, time, tension.
+    pub cable_breaks: Vec<CableBreak>,
+    /// Cables cut by injected `cable_snap` faults.
+    pub cables_cut_by_fault: usize,
+}
+
+/// One cable that broke in flight.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct CableBreak {
+    /// Index of the cable (= its UAV).
+    pub uav: usize,
+    /// Simulated time of the break, s.
+    pub time_s: f64,
+    /// Tension that broke it, N.
+    pub tension_n: f64,
+    /// Its breaking strength, N.
+    pub breaking_n: f64,
 }
 
 impl Summary {
@@ -71,7 +98,9 @@ impl Summary {
             ("min UAV-boundary", format!("{:.3} m", self.min_uav_boundary_m)),
             ("min load-boundary", format!("{:.3} m", self.min_load_boundary_m)),
             ("min UAV-UAV", format!("{:.3} m", self.min_uav_uav_m)),
-            ("max / mean tension", format!("{:.1} / {:.1} N (f_max {:.0} N)", self.max_tension_n, self.mean_tension_n, self.f_max_n)),
+            ("plant", format!("{} UAVs, {} cables", self.uav_model, self.cable_model)),
+            ("max / mean tension", format!("{:.1} / {:.1} N (rated {:.0} N)", self.max_tension_n, self.mean_tension_n, self.rated_n)),
+            ("time above rated", format!("{:.1} %  (cables broken: {})", 100.0 * self.time_above_rated_fraction, self.cables_broken)),
             ("tension std/mean", format!("{:.3}", self.tension_cv_mean)),
             ("time at cap", format!("{:.1} %", 100.0 * self.time_at_cap_fraction)),
             ("max load alt. error", format!("{:.3} m", self.max_load_altitude_error_m)),

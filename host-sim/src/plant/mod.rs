@@ -16,6 +16,13 @@ use core::fmt;
 use nalgebra::Vector3;
 
 use crate::cable::{cable_force, CableForce, CableParams};
+use crate::disturbance::drag_n;
+use vt_companion::flight::Setpoint;
+
+pub mod command;
+mod setup;
+
+pub use setup::build;
 
 /// Gravitational acceleration, m/s^2.
 pub const GRAVITY_MPS2: f64 = 9.81;
@@ -171,6 +178,14 @@ pub struct Plant {
     alphas: Vec<f64>,
     /// Sub-step, s, for which `alphas` holds (NaN: not computed yet).
     alpha_h_s: f64,
+    /// Breaking strength per cable, N (`f64::INFINITY`: never breaks).
+    breaking_n: Vec<f64>,
+    /// Cables that broke since the last [`Plant::take_breaks`]: (index, tension N, strength N).
+    breaks: Vec<(usize, f64, f64)>,
+    /// Scratch of [`Plant::step_setpoints`]: thrust command per point-mass UAV, N.
+    thrust_buf: Vec<Vector3<f64>>,
+    /// Scratch of [`Plant::step_setpoints`]: drag per UAV, N.
+    ext_buf: Vec<Vector3<f64>>,
 }
 
 #[inline]
@@ -281,6 +296,10 @@ impl Plant {
             ext_uav: Vec::new(),
             alphas: Vec::new(),
             alpha_h_s: f64::NAN,
+            breaking_n: Vec::new(),
+            breaks: Vec::new(),
+            thrust_buf: Vec::new(),
+            ext_buf: Vec::new(),
         };
         plant.last_forces = plant.cable_forces();
         plant.tensions_n = plant.last_forces.iter().map(|f| f.tension_n).collect();
@@ -435,6 +454,9 @@ impl Plant {
             {
                 let f = cable_force(uav.pos_m, uav.vel_mps, load_pos_m, load_vel_mps, c);
                 *slot = f;
+                if f.tension_n > self.breaking_n.get(updated).copied().unwrap_or(f64::INFINITY) {
+                    self.breaks.push((updated, f.tension_n, self.breaking_n.get(updated).copied().unwrap_or(f64::INFINITY)));
+                }
                 if let Some(t) = target {
                     uav.thrust_n += (*t - uav.thrust_n) * *alpha;
                 }
@@ -454,6 +476,98 @@ impl Plant {
         self.tensions_n.clear();
         self.tensions_n
             .extend(self.last_forces.iter().map(|f| f.tension_n));
+        self.apply_breaks();
+    }
+
+    /// Cuts the cables that broke in the last step (a broken cable carries no force from the
+    /// next step on; the step in which it broke carried the breaking tension).
+    fn apply_breaks(&mut self) {
+        for k in 0..self.breaks.len() {
+            if let Some(&(i, _, _)) = self.breaks.get(k) {
+                self.cut_cable(i);
+                if let Some(b) = self.breaking_n.get_mut(i) {
+                    *b = f64::INFINITY;
+                }
+            }
+        }
+    }
+
+    /// Sets each cable's breaking strength, N (`f64::INFINITY`: never breaks; missing entries
+    /// never break).
+    pub fn set_breaking_strengths(&mut self, breaking_n: Vec<f64>) {
+        self.breaking_n = breaking_n;
+    }
+
+    /// The cables that broke since the last call: (index, tension N, breaking strength N).
+    pub fn take_breaks(&mut self) -> Vec<(usize, f64, f64)> {
+        let mut seen: Vec<(usize, f64, f64)> = Vec::new();
+        for b in self.breaks.drain(..) {
+            if !seen.iter().any(|s| s.0 == b.0) {
+                seen.push(b);
+            }
+        }
+        seen
+    }
+
+    /// Advances `dt_s` under the autopilots' setpoints (one per UAV, see [`command`]): a
+    /// point-mass UAV's thrust vector follows `collective * thrust_max * R(q) e_z` through its
+    /// lag; `motors_off[i]` forces UAV `i`'s thrust to zero (a thrust-loss fault). `wind_mps`
+    /// (world ENU) drags every body with area `uav_drag_area_m2` / `load_drag_area_m2`
+    /// (quadratic, [`drag_n`]; none in calm air, as in the paper's model). A non-finite
+    /// setpoint holds the previous thrust.
+    pub fn step_setpoints(
+        &mut self,
+        setpoints: &[Setpoint],
+        motors_off: &[bool],
+        wind_mps: &Vector3<f64>,
+        uav_drag_area_m2: f64,
+        load_drag_area_m2: f64,
+        dt_s: f64,
+    ) {
+        let mut thrust = std::mem::take(&mut self.thrust_buf);
+        thrust.clear();
+        thrust.extend(self.uav_params.iter().enumerate().map(|(i, p)| {
+            if motors_off.get(i).copied().unwrap_or(false) {
+                Vector3::zeros()
+            } else {
+                setpoints
+                    .get(i)
+                    .and_then(|sp| command::thrust_vector_n(sp, p.thrust_max_n))
+                    .unwrap_or_else(|| Vector3::repeat(f64::NAN))
+            }
+        }));
+        let calm = *wind_mps == Vector3::zeros();
+        let mut ext = std::mem::take(&mut self.ext_buf);
+        ext.clear();
+        if !calm {
+            ext.extend(self.uavs.iter().map(|u| drag_n(wind_mps, &u.vel_mps, uav_drag_area_m2)));
+        }
+        let ext_load = if calm { Vector3::zeros() } else { drag_n(wind_mps, &self.load.vel_mps, load_drag_area_m2) };
+        self.step(&thrust, &ext, ext_load, dt_s);
+        self.thrust_buf = thrust;
+        self.ext_buf = ext;
+    }
+
+    /// The ground (z = 0) stops a falling UAV or load: position clamped, velocity zeroed.
+    pub fn ground_contact(&mut self) {
+        for u in &mut self.uavs {
+            if u.pos_m.z < 0.0 {
+                u.pos_m.z = 0.0;
+                u.vel_mps = Vector3::zeros();
+            }
+        }
+        if self.load.pos_m.z < 0.0 {
+            self.load.pos_m.z = 0.0;
+            self.load.vel_mps = Vector3::zeros();
+        }
+    }
+
+    /// Every state finite (the `nonfinite` criterion of a mission's success).
+    #[must_use]
+    pub fn is_finite(&self) -> bool {
+        finite3(&self.load.pos_m)
+            && finite3(&self.load.vel_mps)
+            && self.uavs.iter().all(|u| finite3(&u.pos_m) && finite3(&u.vel_mps) && finite3(&u.thrust_n))
     }
 
     /// Mechanical energy of the current state, J: kinetic energy of all bodies, gravitational

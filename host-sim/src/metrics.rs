@@ -1,0 +1,281 @@
+//! Mission metrics: safety distances, tensions, load altitude, formation; the `summary.json`
+//! criteria. Filled by the mission loop ([`crate::mission`]) at the rates it documents.
+
+use crate::plant::Plant;
+use crate::scenario::{Scenario, SimTube};
+use crate::sim::ControllerKind;
+use crate::summary::{CableBreak, Summary};
+use nalgebra::Vector3;
+use vt_dissipative::{Formation, TrayParams};
+
+type V3 = Vector3<f64>;
+
+fn v3f(v: &V3) -> Vector3<f32> {
+    Vector3::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// RMS over UAV node pairs of |current - rest length|, nodes by the tray projection.
+pub fn formation_error<const N: usize>(plant: &Plant, formation: &Formation<N>, tray: &TrayParams) -> f64 {
+    use vt_dissipative::springs::NodeId;
+    let load = v3f(&plant.load.pos_m);
+    let nodes: Vec<_> = plant.uavs.iter().map(|u| tray.project(&v3f(&u.pos_m), &load).0).collect();
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for i in 0..nodes.len() {
+        for j in i + 1..nodes.len() {
+            let l = f64::from((nodes[i] - nodes[j]).norm());
+            let l0 = f64::from(formation.rest_length_m(NodeId::Uav(i), NodeId::Uav(j)));
+            sum += (l - l0).powi(2);
+            count += 1;
+        }
+    }
+    if count == 0 { 0.0 } else { (sum / count as f64).sqrt() }
+}
+
+/// Running metrics of a mission.
+pub struct Metrics {
+    n: usize,
+    f_max: f64,
+    /// Tension above which cable-time counts as over the rated capacity, N.
+    rated: f64,
+    above_rated_count: u64,
+    /// Cables that broke (plant), in order.
+    pub(crate) breaks: Vec<CableBreak>,
+    /// Cables cut by an injected fault.
+    pub(crate) snapped_by_fault: usize,
+    settle_s: f64,
+    alt_ref: f64,
+    end_s: f32,
+    now_uav_boundary: f64,
+    now_load_boundary: f64,
+    now_uav_uav: f64,
+    min_uav_boundary: f64,
+    min_load_boundary: f64,
+    min_uav_uav: f64,
+    max_alt_err: f64,
+    max_tension: f64,
+    tension_sum: f64,
+    tension_count: u64,
+    cap_count: u64,
+    cv_sum: f64,
+    cv_count: u64,
+    pub(crate) max_thrust_fraction: f64,
+    pub(crate) arrived: bool,
+    pub(crate) nonfinite: bool,
+    pub(crate) invalid_commands: u64,
+}
+
+impl Metrics {
+    pub(crate) fn new(n: usize, f_max: f64, s: &Scenario, tube_len: f32) -> Self {
+        Self {
+            n,
+            f_max,
+            rated: f_max,
+            above_rated_count: 0,
+            breaks: Vec::new(),
+            snapped_by_fault: 0,
+            settle_s: s.mission.settle_time_s,
+            alt_ref: s.load.altitude_m,
+            end_s: tube_len - s.mission.end_tolerance_m as f32,
+            now_uav_boundary: f64::INFINITY,
+            now_load_boundary: f64::INFINITY,
+            now_uav_uav: f64::INFINITY,
+            min_uav_boundary: f64::INFINITY,
+            min_load_boundary: f64::INFINITY,
+            min_uav_uav: f64::INFINITY,
+            max_alt_err: 0.0,
+            max_tension: 0.0,
+            tension_sum: 0.0,
+            tension_count: 0,
+            cap_count: 0,
+            cv_sum: 0.0,
+            cv_count: 0,
+            max_thrust_fraction: 0.0,
+            arrived: false,
+            nonfinite: false,
+            invalid_commands: 0,
+        }
+    }
+
+    /// Safety distances at one instant; UAVs that lost thrust (fallen) are left out.
+    pub(crate) fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
+        let xy = |v: &V3| vt_tube::Vec2::new(v.x as f32, v.y as f32);
+        let mut ub = f64::INFINITY;
+        for ((u, h), _) in plant.uavs.iter().zip(uav_hints.iter_mut()).zip(lost.iter()).filter(|(_, l)| !**l) {
+            let q = xy(&u.pos_m);
+            match tube.locate(q, *h) {
+                Some(sec) => {
+                    *h = sec.segment;
+                    ub = ub.min(f64::from(sec.boundary_distance_m(q)));
+                }
+                None => ub = f64::NEG_INFINITY,
+            }
+        }
+        let ql = xy(&plant.load.pos_m);
+        let lb = match tube.locate(ql, *load_hint) {
+            Some(sec) => {
+                *load_hint = sec.segment;
+                if sec.s_m >= self.end_s {
+                    self.arrived = true;
+                }
+                f64::from(sec.boundary_distance_m(ql))
+            }
+            None => f64::NEG_INFINITY,
+        };
+        let mut uu = f64::INFINITY;
+        for i in 0..self.n {
+            for j in i + 1..self.n {
+                if !lost[i] && !lost[j] {
+                    uu = uu.min((plant.uavs[i].pos_m - plant.uavs[j].pos_m).norm());
+                }
+            }
+        }
+        self.now_uav_boundary = ub;
+        self.now_load_boundary = lb;
+        self.now_uav_uav = uu;
+        self.min_uav_boundary = self.min_uav_boundary.min(ub);
+        self.min_load_boundary = self.min_load_boundary.min(lb);
+        self.min_uav_uav = self.min_uav_uav.min(uu);
+        if t >= self.settle_s {
+            self.max_alt_err = self.max_alt_err.max((plant.load.pos_m.z - self.alt_ref).abs());
+        }
+    }
+
+    pub(crate) fn tensions(&mut self, tensions: &[f64]) {
+        for &x in tensions {
+            self.max_tension = self.max_tension.max(x);
+            self.tension_sum += x;
+            self.tension_count += 1;
+            if x >= self.f_max * (1.0 - 1e-9) {
+                self.cap_count += 1;
+            }
+            if x > self.rated {
+                self.above_rated_count += 1;
+            }
+        }
+    }
+
+    /// std/mean over the taut cables of one sample.
+    pub(crate) fn tension_sample(&mut self, tensions: &[f64]) {
+        const TAUT_N: f64 = 0.1;
+        let taut: Vec<f64> = tensions.iter().copied().filter(|&x| x > TAUT_N).collect();
+        if taut.len() >= 2 {
+            let mean = taut.iter().sum::<f64>() / taut.len() as f64;
+            let var = taut.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / taut.len() as f64;
+            self.cv_sum += var.sqrt() / mean;
+            self.cv_count += 1;
+        }
+    }
+
+    /// Sets the rated capacity, N (time above it is reported).
+    pub(crate) fn set_rated(&mut self, rated_n: f64) {
+        self.rated = rated_n;
+    }
+
+    /// Minimum UAV-boundary distance at the last geometry sample, m.
+    pub(crate) fn now_uav_boundary(&self) -> f64 {
+        self.now_uav_boundary
+    }
+
+    /// Load-boundary distance at the last geometry sample, m.
+    pub(crate) fn now_load_boundary(&self) -> f64 {
+        self.now_load_boundary
+    }
+
+    /// Minimum UAV-UAV distance at the last geometry sample, m.
+    pub(crate) fn now_uav_uav(&self) -> f64 {
+        self.now_uav_uav
+    }
+
+    /// The summary of the flight described by `end`.
+    pub(crate) fn finish(self, s: &Scenario, end: &FlightEnd) -> Summary {
+        let FlightEnd { kind, seed, sim_s, wall_s, formation_error, capacity_margin, completion, shortened, uav_model, cable_model } = *end;
+        let floor = s.mission.safety_distance_m;
+        let mut failures = Vec::new();
+        if !self.arrived {
+            failures.push(if shortened {
+                "load did not reach the end terminal (flight shortened by --duration)".to_string()
+            } else {
+                "load did not reach the end terminal within the time limit".to_string()
+            });
+        }
+        if self.min_load_boundary <= 0.0 {
+            failures.push(format!("load left the tube (min boundary distance {:.2} m)", self.min_load_boundary));
+        }
+        if self.min_uav_boundary < floor {
+            failures.push(format!("UAV within {:.2} m of the tube boundary (floor {floor} m)", self.min_uav_boundary));
+        }
+        if self.min_uav_uav < floor {
+            failures.push(format!("UAVs within {:.2} m of each other (floor {floor} m)", self.min_uav_uav));
+        }
+        if self.max_alt_err > s.mission.altitude_tolerance_m {
+            failures.push(format!("load altitude error {:.2} m > {} m", self.max_alt_err, s.mission.altitude_tolerance_m));
+        }
+        if self.nonfinite {
+            failures.push("non-finite state".to_string());
+        }
+        for b in &self.breaks {
+            failures.push(format!("cable {} broke at t = {:.2} s ({:.1} N > breaking {:.0} N)", b.uav, b.time_s, b.tension_n, b.breaking_n));
+        }
+        let fin = |x: f64| if x.is_finite() { x } else { -1.0 };
+        Summary {
+            scenario: s.name.clone(),
+            controller: kind.name().into(),
+            seed,
+            success: failures.is_empty(),
+            failures,
+            reached_end: self.arrived,
+            completion_time_s: completion,
+            min_uav_boundary_m: fin(self.min_uav_boundary),
+            min_load_boundary_m: fin(self.min_load_boundary),
+            min_uav_uav_m: fin(self.min_uav_uav),
+            max_tension_n: self.max_tension,
+            mean_tension_n: if self.tension_count > 0 { self.tension_sum / self.tension_count as f64 } else { 0.0 },
+            tension_cv_mean: if self.cv_count > 0 { self.cv_sum / self.cv_count as f64 } else { 0.0 },
+            time_at_cap_fraction: if self.tension_count > 0 { self.cap_count as f64 / self.tension_count as f64 } else { 0.0 },
+            max_load_altitude_error_m: self.max_alt_err,
+            max_thrust_fraction: self.max_thrust_fraction,
+            formation_error_end_m: formation_error,
+            capacity_margin,
+            sim_time_s: sim_s,
+            wall_time_s: wall_s,
+            realtime_factor: if wall_s > 0.0 { sim_s / wall_s } else { f64::INFINITY },
+            n_uavs: self.n,
+            f_max_n: self.f_max,
+            load_mass_kg: s.load.mass_kg,
+            nonfinite: self.nonfinite,
+            invalid_commands: self.invalid_commands,
+            uav_model: uav_model.into(),
+            cable_model: cable_model.into(),
+            rated_n: self.rated,
+            time_above_rated_fraction: if self.tension_count > 0 { self.above_rated_count as f64 / self.tension_count as f64 } else { 0.0 },
+            cables_broken: self.breaks.len(),
+            cable_breaks: self.breaks,
+            cables_cut_by_fault: self.snapped_by_fault,
+        }
+    }
+}
+
+/// How a flight ended and what it flew, for [`Metrics::finish`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct FlightEnd {
+    /// Controller.
+    pub kind: ControllerKind,
+    /// Seed.
+    pub seed: u64,
+    /// Simulated time, s.
+    pub sim_s: f64,
+    /// Wall time of the loop, s.
+    pub wall_s: f64,
+    /// Formation error at the end, m.
+    pub formation_error: f64,
+    /// Capacity margin at take-off.
+    pub capacity_margin: f64,
+    /// Arrival time, s.
+    pub completion: Option<f64>,
+    /// Cut short by a duration limit.
+    pub shortened: bool,
+    /// UAV model name.
+    pub uav_model: &'static str,
+    /// Cable model name.
+    pub cable_model: &'static str,
+}

@@ -1,0 +1,62 @@
+//! The one mission loop every backend flies through (SIL with the crates, SIL with the
+//! firmware's companion twin, PIL with the firmware in QEMU).
+//!
+//! Per plant step: when the low level is due, the [`World`] measures (a [`Tick`]) and the
+//! [`Team`] answers with one attitude setpoint per UAV; the world then advances one plant step
+//! under the setpoints it holds. Rates, sensing and the order of events are the world's; what
+//! differs between backends is only how the setpoints are computed.
+
+pub mod team;
+pub mod world;
+
+pub use team::{CrateTeam, Meas, Setpoint, Team, TeamStart, Tick};
+pub use world::World;
+
+use crate::record::RunRecord;
+use crate::scenario::LoadedScenario;
+use crate::sim::{ControllerKind, RunOptions, SimError};
+use crate::summary::Summary;
+use std::time::Instant;
+
+/// What a flight produced.
+#[derive(Debug, Clone)]
+pub struct Flown {
+    /// Metrics.
+    pub summary: Summary,
+    /// Time histories (empty unless recording).
+    pub record: RunRecord,
+}
+
+/// Flies `ls` with `team` under `opts` (`kind`: the controller the team flies, for the report).
+///
+/// # Errors
+/// The world cannot be built, the team refuses its configuration, or a backend fails.
+pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Result<Flown, SimError> {
+    let mut world = World::new(ls, opts)?;
+    team.start(ls, &world.start())?;
+    let n = ls.scenario.cables.lengths_m.len();
+    let mut setpoints = vec![Setpoint { q_ned: [1.0, 0.0, 0.0, 0.0], thrust: 0.0 }; n];
+    let bar = crate::sim::progress_bar(opts.progress, world.max_steps(), "{spinner} simulating [{bar:40}] {percent:>3}% (time limit) {elapsed}");
+    let wall = Instant::now();
+    while !world.done() {
+        if world.low_level_due() {
+            let tick = world.measure();
+            team.step(&tick, &mut setpoints)?;
+            if opts.record {
+                world.set_holding(team.holding());
+            }
+        }
+        world.advance(&setpoints);
+        if world.step_count() % 2000 == 0 {
+            if let Some(b) = &bar {
+                b.set_position(world.step_count());
+            }
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let kind: ControllerKind = opts.controller;
+    let (summary, record) = world.finish(kind, wall.elapsed().as_secs_f64(), team.invalid_commands());
+    Ok(Flown { summary, record })
+}

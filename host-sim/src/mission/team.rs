@@ -1,0 +1,226 @@
+//! The team-controller interface of the mission loop, and its first backend: the controller
+//! crates called directly (SIL).
+//!
+//! Every backend receives the same [`Tick`] (what the UAVs' computers measure at one low-level
+//! period) and answers with what the firmware sends its autopilot: one [`Setpoint`]
+//! (`SET_ATTITUDE_TARGET`: FRD-to-NED quaternion and normalised collective) per UAV. The other
+//! backends, the firmware's companion compiled for the host (SIL twin) and the firmware in QEMU
+//! (PIL), speak MAVLink and live in [`crate::pil`].
+
+use crate::scenario::{LoadedScenario, SimTube, SIM_MAX_UAVS};
+use crate::sim::{self, ControllerKind, SimError, Takeoff};
+use nalgebra::{UnitVector2, Vector2, Vector3};
+use vt_cfo::{thrust_to_attitude, VelocityLoop};
+use vt_companion::frames::ned_frd_quaternion;
+use vt_dissipative::{BaselineController, BaselineParams, Command, DissipativeController, Formation, Measurements};
+
+pub use vt_companion::flight::Setpoint;
+
+type V3f = Vector3<f32>;
+
+/// One measured state: position (m) and velocity (m/s), world ENU, `f32` as on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Meas {
+    /// Position, m.
+    pub pos_m: V3f,
+    /// Velocity, m/s.
+    pub vel_mps: V3f,
+}
+
+/// What the team's computers receive at one low-level period.
+#[derive(Debug, Clone, Copy)]
+pub struct Tick<'a> {
+    /// Plant step of this tick.
+    pub step: u64,
+    /// Simulated time, ms (`time_boot_ms` on the wire).
+    pub time_ms: u32,
+    /// The high level is due: `load` and `views` carry this period's data.
+    pub high_level: bool,
+    /// Each UAV's own measured state (from its autopilot).
+    pub own: &'a [Meas],
+    /// The load's measured state (from the load tracker; valid when `high_level`).
+    pub load: Meas,
+    /// Per UAV, the team's positions as its link delivered them (`None`: not delivered; own
+    /// slot: its own position; valid when `high_level`).
+    pub views: &'a [Vec<Option<V3f>>],
+}
+
+/// What the team knows at take-off, before its first tick.
+#[derive(Debug, Clone, Copy)]
+pub struct TeamStart<'a> {
+    /// The take-off measurement (every view complete), stamped at time 0.
+    pub tick: Tick<'a>,
+    /// Cable lengths calibrated at take-off from `tick` (docs/design.md), m.
+    pub calibrated_len_m: &'a [f64],
+    /// The nominal take-off geometry (stretch and share the controllers assume).
+    pub takeoff: &'a Takeoff,
+}
+
+/// A team controller: one computer per UAV, however they are built.
+pub trait Team {
+    /// Configures and arms every UAV (`MAV_CMD_MISSION_START`).
+    ///
+    /// # Errors
+    /// A configuration is refused.
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError>;
+
+    /// One low-level period: every UAV's setpoint for `tick` into `out` (one per UAV).
+    ///
+    /// # Errors
+    /// A backend failed (link closed, reply missing).
+    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError>;
+
+    /// High-level commands so far that fell back to hold (invalid input or non-finite output).
+    fn invalid_commands(&self) -> u64 {
+        0
+    }
+
+    /// Per UAV, whether it is in hold (failsafe) after the last step (empty: not reported).
+    fn holding(&self) -> Vec<bool> {
+        Vec::new()
+    }
+}
+
+enum HighLevel {
+    Dissipative(Vec<DissipativeController<SIM_MAX_UAVS>>),
+    Baseline(Vec<BaselineController>),
+}
+
+/// The controller crates called directly, one instance per UAV: exactly the calls of the
+/// firmware's `Flight` (vt-companion), without MAVLink. The high-level command falls back to
+/// zero (hold) when the controller flags invalid input or a non-finite output, like the
+/// companion's failsafe.
+pub struct CrateTeam {
+    kind: ControllerKind,
+    high: Option<HighLevel>,
+    tube: Option<SimTube>,
+    low: Vec<VelocityLoop>,
+    vel_cmd: Vec<V3f>,
+    f_hat: Vec<V3f>,
+    heading: UnitVector2<f32>,
+    thrust_max_n: f32,
+    hover_n: Vec<f32>,
+    hl_dt: f32,
+    ll_dt: f32,
+    invalid: u64,
+    holding: Vec<bool>,
+}
+
+impl CrateTeam {
+    /// A team flying `kind`, configured at [`Team::start`].
+    pub fn new(kind: ControllerKind) -> Self {
+        Self {
+            kind,
+            high: None,
+            tube: None,
+            low: Vec::new(),
+            vel_cmd: Vec::new(),
+            f_hat: Vec::new(),
+            // VT_YAW = 0: nose east, as the companion's default heading.
+            heading: UnitVector2::new_unchecked(Vector2::new(1.0, 0.0)),
+            thrust_max_n: 0.0,
+            hover_n: Vec::new(),
+            hl_dt: 0.0,
+            ll_dt: 0.0,
+            invalid: 0,
+            holding: Vec::new(),
+        }
+    }
+}
+
+impl Team for CrateTeam {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+        let s = &ls.scenario;
+        let n = start.tick.own.len();
+        let tray = sim::tray(s);
+        let own: Vec<V3f> = start.tick.own.iter().map(|m| m.pos_m).collect();
+        let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own, &start.tick.load.pos_m, &tray)
+            .map_err(|e| SimError(format!("formation: {e}")))?;
+        let cal = |i: usize| start.calibrated_len_m.get(i).copied().unwrap_or(0.0);
+        self.high = Some(match self.kind {
+            ControllerKind::Dissipative => HighLevel::Dissipative(
+                (0..n)
+                    .map(|i| {
+                        DissipativeController::new(i, sim::dissipative_params(s, cal(i), start.takeoff), &formation)
+                            .map_err(|e| SimError(format!("controller: {e}")))
+                    })
+                    .collect::<Result<_, _>>()?,
+            ),
+            ControllerKind::Baseline => HighLevel::Baseline(
+                (0..n)
+                    .map(|i| {
+                        let b = &s.baseline;
+                        let p = BaselineParams {
+                            k1: b.k1 as f32,
+                            k2: b.k2 as f32,
+                            k3: b.k3 as f32,
+                            v_max_mps: b.v_max_mps as f32,
+                            r_safe_m: b.r_safe_m as f32,
+                            r_active_m: b.r_active_m as f32,
+                            vertical: sim::vertical_params(s, cal(i), start.takeoff),
+                        };
+                        BaselineController::new(i, n, p).map_err(|e| SimError(format!("baseline: {e}")))
+                    })
+                    .collect::<Result<_, _>>()?,
+            ),
+        });
+        self.tube = Some(ls.tube.clone());
+        self.low = (0..n).map(|_| sim::velocity_loop(s)).collect::<Result<_, _>>()?;
+        self.thrust_max_n = self.low.first().map_or(0.0, |l| l.params().limits().thrust_max_n());
+        self.hover_n = self.low.iter().map(|l| l.params().hover_thrust_n()).collect();
+        self.vel_cmd = vec![V3f::zeros(); n];
+        self.f_hat = vec![V3f::zeros(); n];
+        self.holding = vec![false; n];
+        self.hl_dt = 1.0 / s.rates.high_level_hz as f32;
+        self.ll_dt = 1.0 / s.rates.low_level_hz as f32;
+        Ok(())
+    }
+
+    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
+        let (Some(high), Some(tube)) = (self.high.as_mut(), self.tube.as_ref()) else {
+            return Err(SimError("team stepped before start".into()));
+        };
+        let n = self.low.len();
+        if tick.own.len() != n || out.len() != n || (tick.high_level && tick.views.len() != n) {
+            return Err(SimError(format!("tick for {} UAVs, team of {n}", tick.own.len())));
+        }
+        for i in 0..n {
+            if tick.high_level {
+                let m = Measurements {
+                    own_pos_m: tick.own[i].pos_m,
+                    load_pos_m: tick.load.pos_m,
+                    load_vel_mps: tick.load.vel_mps,
+                    neighbours_m: &tick.views[i],
+                    own_cable_force_n: Some(self.f_hat[i]),
+                };
+                let cmd: Command = match high {
+                    HighLevel::Dissipative(c) => c[i].update(tube, &m, self.hl_dt),
+                    HighLevel::Baseline(c) => c[i].update(tube, &m, self.hl_dt),
+                };
+                let bad = cmd.status.invalid_input || cmd.status.nonfinite_command || !cmd.vel_mps.iter().all(|x| x.is_finite());
+                self.invalid += u64::from(bad);
+                self.holding[i] = bad;
+                self.vel_cmd[i] = if bad { V3f::zeros() } else { cmd.vel_mps };
+            }
+            let o = self.low[i].update(self.vel_cmd[i], tick.own[i].vel_mps, self.ll_dt);
+            self.f_hat[i] = o.f_hat_n;
+            let att = thrust_to_attitude(o.thrust_n, self.heading, self.thrust_max_n);
+            let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };
+            if !(sp.q_ned.iter().all(|c| c.is_finite()) && sp.thrust.is_finite()) {
+                let hover = thrust_to_attitude(V3f::new(0.0, 0.0, self.hover_n[i].max(0.0)), self.heading, self.thrust_max_n);
+                sp = Setpoint { q_ned: ned_frd_quaternion(&hover.attitude), thrust: hover.collective };
+                self.holding[i] = true;
+            }
+            out[i] = sp;
+        }
+        Ok(())
+    }
+
+    fn invalid_commands(&self) -> u64 {
+        self.invalid
+    }
+
+    fn holding(&self) -> Vec<bool> {
+        self.holding.clone()
+    }
+}

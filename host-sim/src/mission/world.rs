@@ -1,0 +1,345 @@
+//! The world the team flies in: the plant (UAVs, cables, load), the sensors (noise, latency),
+//! the wind, the team link, the faults, the metrics and the recorder. It steps under the
+//! setpoints a [`super::Team`] sends and produces the [`Tick`]s the team reads.
+
+use super::team::{Meas, Setpoint, TeamStart, Tick};
+use crate::disturbance::{ParameterDraw, Sensors, Wind};
+use crate::link::Link;
+use crate::metrics::{formation_error, FlightEnd, Metrics};
+use crate::models::{CableModel, UavModel};
+use crate::plant::Plant;
+use crate::record::RunRecord;
+use crate::scenario::{FaultKind, LoadedScenario, SIM_MAX_UAVS};
+use crate::sim::{self, ControllerKind, RunOptions, SimError, Takeoff};
+use crate::summary::{CableBreak, Summary};
+use nalgebra::Vector3;
+use vt_dissipative::Formation;
+
+type V3 = Vector3<f64>;
+type V3f = Vector3<f32>;
+
+fn v3f(v: &V3) -> V3f {
+    V3f::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// The simulated world of one mission.
+pub struct World<'a> {
+    ls: &'a LoadedScenario,
+    /// The plant.
+    pub plant: Plant,
+    sensors: Sensors,
+    wind: Wind,
+    link: Link<V3f>,
+    faults: Vec<(u64, FaultKind, usize)>,
+    next_fault: usize,
+    motors_off: Vec<bool>,
+    /// Running metrics.
+    pub(crate) metrics: Metrics,
+    /// Recorded histories (when `record`).
+    pub record: RunRecord,
+    record_on: bool,
+    takeoff: Takeoff,
+    calibrated_len_m: Vec<f64>,
+    formation: Formation<SIM_MAX_UAVS>,
+    start_own: Vec<Meas>,
+    start_load: Meas,
+    start_views: Vec<Vec<Option<V3f>>>,
+    own: Vec<Meas>,
+    load: Meas,
+    views: Vec<Vec<Option<V3f>>>,
+    link_pos: Vec<V3f>,
+    uav_hints: Vec<usize>,
+    load_hint: usize,
+    dt: f64,
+    ll_every: u64,
+    hl_every: u64,
+    rec_every: u64,
+    max_steps: u64,
+    shortened: bool,
+    step: u64,
+    arrival_step: Option<u64>,
+    seed: u64,
+    uav_model: UavModel,
+    cable_model: CableModel,
+    uav_drag_area_m2: f64,
+    load_drag_area_m2: f64,
+    holding: Vec<bool>,
+}
+
+impl<'a> World<'a> {
+    /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled,
+    /// cable lengths calibrated from the first measurement).
+    ///
+    /// # Errors
+    /// The plant rejects its parameters, or the take-off formation is degenerate.
+    pub fn new(ls: &'a LoadedScenario, opts: &RunOptions) -> Result<Self, SimError> {
+        let s = &ls.scenario;
+        let n = s.cables.lengths_m.len();
+        let uav_model = opts.uav_model.unwrap_or(s.uavs.model);
+        let cable_model = opts.cable_model.unwrap_or(s.cables.model);
+        let f_max = opts.f_max_n.unwrap_or(s.cables.rated_n);
+        let seed = opts.seed.unwrap_or(s.seed);
+        let dist = &s.disturbances;
+        let draw = ParameterDraw::draw(dist, n, seed);
+        let true_len: Vec<f64> = s.cables.lengths_m.iter().zip(&draw.cable_length).map(|(l, k)| l * k).collect();
+        let true_k: Vec<f64> = draw.cable_stiffness.iter().map(|k| s.cables.stiffness_n_per_m * k).collect();
+        let takeoff = sim::takeoff_with(s, &ls.tube, f_max, &true_len, &true_k);
+        let plant = crate::plant::build(s, &draw, &true_len, &true_k, &takeoff, uav_model, cable_model, f_max)
+            .map_err(|e| SimError(format!("plant: {e}")))?;
+
+        // Sensors first: the controllers calibrate from what they measure at take-off.
+        let r = &s.rates;
+        let latency_steps = (dist.latency_s * dist.intensity * f64::from(r.low_level_hz)).round() as usize;
+        let mut sensors = Sensors::new(dist, latency_steps, seed);
+        sensors.sample(&plant);
+        let start_load = Meas {
+            pos_m: v3f(&sensors.position(&plant.load.pos_m)),
+            vel_mps: v3f(&sensors.velocity(&plant.load.vel_mps)),
+        };
+        let start_own: Vec<Meas> = plant
+            .uavs
+            .iter()
+            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)) })
+            .collect();
+        // Cable length calibrated at take-off from the taut geometry (docs/design.md): measured
+        // UAV-load distance less the nominal stretch.
+        let calibrated_len_m: Vec<f64> = start_own
+            .iter()
+            .map(|m| f64::from((m.pos_m - start_load.pos_m).norm()) - takeoff.stretch_m)
+            .collect();
+        let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
+        let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own_pos, &start_load.pos_m, &sim::tray(s))
+            .map_err(|e| SimError(format!("formation: {e}")))?;
+        let start_views = vec![own_pos.iter().copied().map(Some).collect::<Vec<_>>(); n];
+
+        let hl_hz = f64::from(r.high_level_hz);
+        let link = Link::new(
+            n,
+            (s.link.delay_s * hl_hz).round() as u64,
+            s.link.drop_probability,
+            (s.link.stale_timeout_s * hl_hz).round().max(1.0) as u64,
+            seed,
+        )
+        .with_jitter((dist.link_jitter_s * dist.intensity * hl_hz).round() as u64);
+        let mut faults: Vec<(u64, FaultKind, usize)> =
+            s.faults.iter().map(|f| ((f.time_s * f64::from(r.plant_hz)).round() as u64, f.kind, f.uav)).collect();
+        faults.sort_by_key(|f| f.0);
+        let time_limit = opts.duration_s.map_or(s.mission.time_limit_s, |d| d.min(s.mission.time_limit_s));
+        let mut metrics = Metrics::new(n, f_max, s, ls.tube.length_m());
+        metrics.set_rated(f_max);
+        let record = RunRecord {
+            scenario: s.name.clone(),
+            controller: opts.controller.name().into(),
+            f_max_n: f_max,
+            load_altitude_ref_m: s.load.altitude_m,
+            ..RunRecord::default()
+        };
+        Ok(Self {
+            ls,
+            sensors,
+            wind: Wind::new(dist, seed),
+            link,
+            faults,
+            next_fault: 0,
+            motors_off: vec![false; n],
+            metrics,
+            record,
+            record_on: opts.record,
+            takeoff,
+            calibrated_len_m,
+            formation,
+            own: start_own.clone(),
+            load: start_load,
+            views: start_views.clone(),
+            start_own,
+            start_load,
+            start_views,
+            link_pos: vec![V3f::zeros(); n],
+            uav_hints: vec![0; n],
+            load_hint: 0,
+            dt: 1.0 / f64::from(r.plant_hz),
+            ll_every: u64::from(r.plant_hz / r.low_level_hz),
+            hl_every: u64::from(r.plant_hz / r.high_level_hz),
+            rec_every: u64::from(r.plant_hz / r.record_hz),
+            max_steps: (time_limit * f64::from(r.plant_hz)).ceil() as u64,
+            shortened: opts.duration_s.is_some_and(|d| d < s.mission.time_limit_s),
+            step: 0,
+            arrival_step: None,
+            seed,
+            uav_model,
+            cable_model,
+            uav_drag_area_m2: dist.uav_drag_area_m2,
+            load_drag_area_m2: dist.load_drag_area_m2,
+            holding: vec![false; n],
+            plant,
+        })
+    }
+
+    /// What the team knows at take-off.
+    pub fn start(&self) -> TeamStart<'_> {
+        TeamStart {
+            tick: Tick { step: 0, time_ms: 0, high_level: true, own: &self.start_own, load: self.start_load, views: &self.start_views },
+            calibrated_len_m: &self.calibrated_len_m,
+            takeoff: &self.takeoff,
+        }
+    }
+
+    /// Plant steps so far.
+    pub fn step_count(&self) -> u64 {
+        self.step
+    }
+
+    /// Plant step, s.
+    pub fn dt_s(&self) -> f64 {
+        self.dt
+    }
+
+    /// Step limit of the flight.
+    pub fn max_steps(&self) -> u64 {
+        self.max_steps
+    }
+
+    /// True when the team's low level is due at this step.
+    pub fn low_level_due(&self) -> bool {
+        self.step % self.ll_every == 0
+    }
+
+    /// True when the mission is over: time limit, non-finite plant, or the post-arrival time
+    /// has passed.
+    pub fn done(&self) -> bool {
+        if self.step >= self.max_steps || self.metrics.nonfinite {
+            return true;
+        }
+        self.arrival_step.is_some_and(|a| (self.step - a) as f64 * self.dt >= self.ls.scenario.mission.post_arrival_s)
+    }
+
+    /// The measurements of this low-level period. When the high level is due, the load's state
+    /// and the team's positions come from the last sample (what the high level reads, as the
+    /// firmware receives it before its own state) and pass through the link; then the sensors
+    /// sample the plant and every UAV reads its own state.
+    pub fn measure(&mut self) -> Tick<'_> {
+        let high_level = self.step % self.hl_every == 0;
+        if high_level {
+            let hl_step = self.step / self.hl_every;
+            let snap = self.sensors.delayed().clone();
+            for (p, x) in self.link_pos.iter_mut().zip(&snap.uav_pos_m) {
+                *p = v3f(&self.sensors.position(x));
+            }
+            self.load = Meas {
+                pos_m: v3f(&self.sensors.position(&snap.load_pos_m)),
+                vel_mps: v3f(&self.sensors.velocity(&snap.load_vel_mps)),
+            };
+            self.link.exchange(hl_step, &self.link_pos);
+            for (i, view) in self.views.iter_mut().enumerate() {
+                let own = self.link_pos.get(i).copied().unwrap_or_default();
+                self.link.view(i, hl_step, own, view);
+            }
+        }
+        self.sensors.sample(&self.plant);
+        let snap = self.sensors.delayed().clone();
+        for (m, (p, v)) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)) {
+            *m = Meas { pos_m: v3f(&self.sensors.position(p)), vel_mps: v3f(&self.sensors.velocity(v)) };
+        }
+        Tick {
+            step: self.step,
+            time_ms: (self.step as f64 * self.dt * 1000.0).round() as u32,
+            high_level,
+            own: &self.own,
+            load: self.load,
+            views: &self.views,
+        }
+    }
+
+    /// Per UAV, whether its controller holds (reported by the team, for the record).
+    pub fn set_holding(&mut self, holding: Vec<bool>) {
+        if holding.len() == self.holding.len() {
+            self.holding = holding;
+        }
+    }
+
+    /// One plant step under `setpoints` (one per UAV, held since the last low-level period):
+    /// safety metrics at the high-level rate, faults due now, wind, the plant, ground contact,
+    /// tensions, the record.
+    pub fn advance(&mut self, setpoints: &[Setpoint]) {
+        let t = self.step as f64 * self.dt;
+        if self.step % self.hl_every == 0 {
+            self.metrics.geometry(t, &self.plant, &self.ls.tube, &mut self.uav_hints, &mut self.load_hint, &self.motors_off);
+            if self.metrics.arrived && self.arrival_step.is_none() {
+                self.arrival_step = Some(self.step);
+            }
+        }
+        while let Some(&(due, kind, i)) = self.faults.get(self.next_fault) {
+            if due > self.step {
+                break;
+            }
+            match kind {
+                FaultKind::CableSnap => {
+                    self.plant.cut_cable(i);
+                    self.metrics.snapped_by_fault += 1;
+                }
+                FaultKind::UavSilent => self.link.silence(i),
+                FaultKind::ThrustLoss => {
+                    if let Some(l) = self.motors_off.get_mut(i) {
+                        *l = true;
+                    }
+                }
+            }
+            self.next_fault += 1;
+        }
+        let wind = if self.wind.is_calm() { V3::zeros() } else { self.wind.step(self.dt) };
+        self.plant.step_setpoints(setpoints, &self.motors_off, &wind, self.uav_drag_area_m2, self.load_drag_area_m2, self.dt);
+        for (i, tension_n, breaking_n) in self.plant.take_breaks() {
+            self.metrics.breaks.push(CableBreak { uav: i, time_s: t, tension_n, breaking_n });
+        }
+        self.plant.ground_contact();
+        self.metrics.tensions(self.plant.tensions_n());
+        self.metrics.max_thrust_fraction =
+            setpoints.iter().fold(self.metrics.max_thrust_fraction, |a, sp| a.max(f64::from(sp.thrust)));
+        if self.step % self.rec_every == 0 {
+            if !self.plant.is_finite() {
+                self.metrics.nonfinite = true;
+            } else {
+                self.metrics.tension_sample(self.plant.tensions_n());
+                if self.record_on {
+                    self.push_record(t);
+                }
+            }
+        }
+        self.step += 1;
+    }
+
+    fn push_record(&mut self, t: f64) {
+        let a = |v: &V3| [v.x, v.y, v.z];
+        let (rec, plant, m) = (&mut self.record, &self.plant, &self.metrics);
+        rec.time_s.push(t);
+        rec.uav_pos_m.push(plant.uavs.iter().map(|u| a(&u.pos_m)).collect());
+        rec.uav_vel_mps.push(plant.uavs.iter().map(|u| a(&u.vel_mps)).collect());
+        rec.thrust_n.push(plant.uavs.iter().map(|u| u.thrust_n.norm()).collect());
+        rec.tension_n.push(plant.tensions_n().to_vec());
+        rec.load_pos_m.push(a(&plant.load.pos_m));
+        rec.load_vel_mps.push(a(&plant.load.vel_mps));
+        rec.min_uav_boundary_m.push(m.now_uav_boundary());
+        rec.min_load_boundary_m.push(m.now_load_boundary());
+        rec.min_uav_uav_m.push(m.now_uav_uav());
+    }
+
+    /// Ends the flight: the summary (`wall_s`: wall time of the loop, s; `invalid_commands`:
+    /// the team's hold fallbacks).
+    pub fn finish(mut self, kind: ControllerKind, wall_s: f64, invalid_commands: u64) -> (Summary, RunRecord) {
+        let s = &self.ls.scenario;
+        self.metrics.invalid_commands = invalid_commands;
+        let end = FlightEnd {
+            kind,
+            seed: self.seed,
+            sim_s: self.step as f64 * self.dt,
+            wall_s,
+            formation_error: formation_error(&self.plant, &self.formation, &sim::tray(s)),
+            capacity_margin: self.takeoff.capacity_margin,
+            completion: self.arrival_step.map(|a| a as f64 * self.dt),
+            shortened: self.shortened,
+            uav_model: self.uav_model.name(),
+            cable_model: self.cable_model.name(),
+        };
+        (self.metrics.finish(s, &end), self.record)
+    }
+}

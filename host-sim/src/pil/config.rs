@@ -1,0 +1,246 @@
+//! What the ground station tells each companion before the mission: the parameter table,
+//! the tube as a MAVLink mission, and `MAV_CMD_MISSION_START`.
+
+use super::port::Port;
+use super::wire::{Encoder, Rx};
+use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, LOAD_COMPONENT_ID, LOAD_TIMEOUT_S, OWN_TIMEOUT_S, SYSID_BASE};
+use crate::scenario::LoadedScenario;
+use crate::sim::{self, Takeoff};
+use mavlink::dialects::common::{
+    MavCmd, MavFrame, MavParamType, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_SET_DATA,
+};
+use mavlink::MessageData;
+use vt_companion::{Param, COMPANION_COMPONENT_ID};
+use vt_dissipative::MAX_UAVS;
+
+/// A waypoint as sent in `MISSION_ITEM_INT`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WireWaypoint {
+    /// North, 1e-4 m.
+    pub x: i32,
+    /// East, 1e-4 m.
+    pub y: i32,
+    /// Left half-width, m.
+    pub w_left_m: f32,
+    /// Right half-width, m.
+    pub w_right_m: f32,
+}
+
+/// Everything one UAV's companion is told before the mission.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UavConfig {
+    /// Its MAVLink system id.
+    pub system_id: u8,
+    /// Parameter values (every parameter of the table that the scenario determines).
+    pub params: Vec<(Param, f32)>,
+    /// The tube.
+    pub waypoints: Vec<WireWaypoint>,
+}
+
+/// The team's configuration and take-off state for a scenario, computed as `sim::run` computes
+/// its controllers (nominal case: no disturbances).
+#[derive(Debug, Clone)]
+pub struct TeamSetup {
+    /// One per UAV.
+    pub configs: Vec<UavConfig>,
+    /// Take-off geometry.
+    pub takeoff: Takeoff,
+    /// Cable lengths the controllers use (`sim::run`'s take-off calibration), m.
+    pub calibrated_len_m: Vec<f64>,
+}
+
+/// Configuration of every UAV of `ls` (`lockstep`: `VT_LOCKSTEP = 1`).
+///
+/// # Errors
+/// A waypoint is not representable at 0.1 mm, or the scenario's velocity loop is invalid.
+pub fn team_setup(ls: &LoadedScenario, lockstep: bool) -> Result<TeamSetup, PilError> {
+    let s = &ls.scenario;
+    let n = s.cables.lengths_m.len();
+    if n > MAX_UAVS {
+        return err(format!("{n} UAVs > capacity {MAX_UAVS}"));
+    }
+    let to = sim::takeoff(s, &ls.tube, s.cables.rated_n);
+    // The take-off calibration without sensor noise: |p_i - p_l| - stretch.
+    let calibrated_len_m: Vec<f64> = to.uav_pos_m.iter().map(|p| (p - to.load_pos_m).norm() - to.stretch_m).collect();
+    team_setup_with(ls, to, calibrated_len_m, lockstep)
+}
+
+/// [`team_setup`] for a given take-off geometry and calibrated cable lengths (m): what the
+/// mission loop's world measured at take-off.
+///
+/// # Errors
+/// As [`team_setup`].
+pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f64>, lockstep: bool) -> Result<TeamSetup, PilError> {
+    let s = &ls.scenario;
+    let n = s.cables.lengths_m.len();
+    if n > MAX_UAVS {
+        return err(format!("{n} UAVs > capacity {MAX_UAVS}"));
+    }
+    let mut waypoints = Vec::new();
+    for (k, w) in s.tube.waypoints.iter().enumerate() {
+        let (east, north, wl, wr) = (w[0], w[1], w[2], w[3]);
+        let q = |v: f64| (v * 1e4).round();
+        let (x, y) = (q(north), q(east));
+        // The firmware computes `x as f32 / 1e4`; it must equal the scenario's value as f32.
+        if (x as f32 / 1e4) != north as f32 || (y as f32 / 1e4) != east as f32 || x.abs() > f64::from(i32::MAX) || y.abs() > f64::from(i32::MAX) {
+            return err(format!("tube waypoint {k}: not representable in 0.1 mm units without changing its f32 value"));
+        }
+        waypoints.push(WireWaypoint { x: x as i32, y: y as i32, w_left_m: wl as f32, w_right_m: wr as f32 });
+    }
+    let vl = sim::velocity_loop(s).map_err(|e| PilError(e.to_string()))?;
+    let p = vl.params();
+    let tray = sim::tray(s);
+    let c = &s.controller;
+    let r = &s.rates;
+    let configs = (0..n)
+        .map(|i| {
+            let cable_m = calibrated_len_m.get(i).copied().unwrap_or(0.0);
+            let v = sim::vertical_params(s, cable_m, &to);
+            let g = p.gains();
+            let lim = p.integral_limit_mps2();
+            let params = vec![
+                (Param::NUavs, n as f32),
+                (Param::Id, i as f32),
+                (Param::SysidBase, f32::from(SYSID_BASE)),
+                (Param::LoadComp, f32::from(LOAD_COMPONENT_ID)),
+                (Param::Lockstep, if lockstep { 1.0 } else { 0.0 }),
+                (Param::HlHz, r.high_level_hz as f32),
+                (Param::LlHz, r.low_level_hz as f32),
+                (Param::FsOwnTmo, OWN_TIMEOUT_S),
+                (Param::FsLoadTmo, LOAD_TIMEOUT_S),
+                (Param::FsNbrTmo, s.link.stale_timeout_s as f32),
+                (Param::K1, c.k1 as f32),
+                (Param::K2, c.k2 as f32),
+                (Param::K3, c.k3 as f32),
+                (Param::VMax, c.v_max_mps as f32),
+                (Param::RSafe, c.r_safe_m as f32),
+                (Param::RActive, c.r_active_m as f32),
+                (Param::TrayH, tray.height_above_load_m),
+                (Param::TrayHMin, tray.min_height_above_load_m),
+                (Param::LoadZRef, v.load_altitude_ref_m),
+                (Param::CableL, v.cable_length_m),
+                (Param::CableStretch, v.cable_stretch_m),
+                (Param::Kz, v.kz_per_s),
+                (Param::VzMax, v.vz_max_mps),
+                (Param::ZMin, v.min_height_m),
+                (Param::TShare, v.tension_share_n),
+                (Param::KShare, v.share_gain_mps_per_n),
+                (Param::KLoadAlt, v.load_altitude_gain_per_s),
+                (Param::DzMax, v.share_offset_max_m),
+                (Param::KpX, g.kp.x),
+                (Param::KpY, g.kp.y),
+                (Param::KpZ, g.kp.z),
+                (Param::KiX, g.ki.x),
+                (Param::KiY, g.ki.y),
+                (Param::KiZ, g.ki.z),
+                (Param::KdX, g.kd.x),
+                (Param::KdY, g.kd.y),
+                (Param::KdZ, g.kd.z),
+                (Param::ILimX, lim.x),
+                (Param::ILimY, lim.y),
+                (Param::ILimZ, lim.z),
+                (Param::ThrustMin, p.limits().thrust_min_n()),
+                (Param::ThrustMax, p.limits().thrust_max_n()),
+                (Param::TiltMax, s.uavs.tilt_max_deg.to_radians() as f32),
+                (Param::CfoMu, p.cfo().bandwidth_rad_s()),
+                (Param::Mass, p.mass_kg()),
+                (Param::Yaw, 0.0),
+            ];
+            UavConfig { system_id: SYSID_BASE + i as u8, params, waypoints: waypoints.clone() }
+        })
+        .collect();
+    Ok(TeamSetup { configs, takeoff: to, calibrated_len_m })
+}
+
+fn gcs<D: MessageData>(enc: &mut Encoder, d: &D) -> Vec<u8> {
+    enc.frame(GCS_SYSTEM_ID, GCS_COMPONENT_ID, d)
+}
+
+/// Reads messages until `want` returns `Some`, skipping the others.
+///
+/// # Errors
+/// The port's errors, or more than `limit` other messages in between.
+pub fn recv_until<T, P: Port + ?Sized>(port: &mut P, limit: usize, mut want: impl FnMut(&Rx) -> Option<T>) -> Result<T, PilError> {
+    for _ in 0..limit {
+        let rx = port.recv()?;
+        if let Some(t) = want(&rx) {
+            return Ok(t);
+        }
+    }
+    err("expected reply not received")
+}
+
+/// Sets every parameter (each echoed bit for bit) and uploads the tube.
+///
+/// # Errors
+/// A parameter is refused or echoed differently, or the tube is not accepted.
+pub fn configure<P: Port + ?Sized>(port: &mut P, cfg: &UavConfig, enc: &mut Encoder) -> Result<(), PilError> {
+    for &(p, value) in &cfg.params {
+        let name = p.info().name;
+        let msg = PARAM_SET_DATA {
+            param_value: value,
+            target_system: 0,
+            target_component: COMPANION_COMPONENT_ID,
+            param_id: name.into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        };
+        port.send(&gcs(enc, &msg))?;
+        let echoed = recv_until(port, 64, |rx| match rx {
+            Rx::ParamValue(n, v) if n == name => Some(*v),
+            _ => None,
+        })?;
+        if echoed.to_bits() != value.to_bits() {
+            return err(format!("parameter {name}: sent {value}, companion holds {echoed}"));
+        }
+    }
+    let count = MISSION_COUNT_DATA { count: cfg.waypoints.len() as u16, target_system: cfg.system_id, target_component: COMPANION_COMPONENT_ID };
+    port.send(&gcs(enc, &count))?;
+    loop {
+        let rx = recv_until(port, 64, |rx| match rx {
+            Rx::MissionRequest(_) | Rx::MissionAck(_) => Some(rx.clone()),
+            _ => None,
+        })?;
+        match rx {
+            Rx::MissionRequest(seq) => {
+                let Some(w) = cfg.waypoints.get(usize::from(seq)) else {
+                    return err(format!("companion asked for waypoint {seq}"));
+                };
+                let item = MISSION_ITEM_INT_DATA {
+                    param1: w.w_left_m,
+                    param2: w.w_right_m,
+                    x: w.x,
+                    y: w.y,
+                    seq,
+                    command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                    target_system: cfg.system_id,
+                    target_component: COMPANION_COMPONENT_ID,
+                    frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    autocontinue: 1,
+                    ..MISSION_ITEM_INT_DATA::default()
+                };
+                port.send(&gcs(enc, &item))?;
+            }
+            Rx::MissionAck(0) => return Ok(()),
+            Rx::MissionAck(code) => return err(format!("tube refused (MAV_MISSION_RESULT {code})")),
+            _ => {}
+        }
+    }
+}
+
+/// `MAV_CMD_MISSION_START`; returns the `MAV_RESULT` value.
+///
+/// # Errors
+/// No acknowledgement.
+pub fn start_mission<P: Port + ?Sized>(port: &mut P, system_id: u8, enc: &mut Encoder) -> Result<u32, PilError> {
+    let cmd = COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_MISSION_START,
+        target_system: system_id,
+        target_component: COMPANION_COMPONENT_ID,
+        ..COMMAND_LONG_DATA::default()
+    };
+    port.send(&gcs(enc, &cmd))?;
+    recv_until(port, 64, |rx| match rx {
+        Rx::CommandAck(c, r) if *c == MavCmd::MAV_CMD_MISSION_START as u32 => Some(*r),
+        _ => None,
+    })
+}

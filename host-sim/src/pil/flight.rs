@@ -1,0 +1,208 @@
+//! The companions as a team backend of the mission loop ([`PortTeam`]): each UAV's companion,
+//! the firmware in QEMU or its host twin, fed the tick's frames over MAVLink, every command it
+//! answers recorded for the bit-for-bit comparison.
+
+use super::config::{configure, start_mission, team_setup_with, UavConfig};
+use super::port::Port;
+use super::wire::{Encoders, Rx, TickFrames};
+use super::{err, PilError};
+use crate::mission::{self, Setpoint, Team, TeamStart, Tick};
+use crate::record::RunRecord;
+use crate::scenario::LoadedScenario;
+use crate::sim::{RunOptions, SimError};
+use crate::summary::Summary;
+use serde::Serialize;
+
+/// What one UAV's companion produced at one step.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum CommandKind {
+    /// Low level: `q[0..4]`, collective.
+    Attitude,
+    /// High level: velocity NED, cable force NED.
+    Velocity,
+}
+
+/// One recorded command.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandRecord {
+    /// Plant step.
+    pub step: u64,
+    /// UAV index.
+    pub uav: usize,
+    /// Which command.
+    pub kind: CommandKind,
+    /// Values (5 for attitude, 6 for velocity).
+    pub values: Vec<f32>,
+}
+
+/// Field names of a record's values.
+pub(crate) fn field_name(kind: CommandKind, k: usize) -> &'static str {
+    const A: [&str; 5] = ["q_w", "q_x", "q_y", "q_z", "collective"];
+    const V: [&str; 6] = ["vel_north", "vel_east", "vel_down", "f_hat_north", "f_hat_east", "f_hat_down"];
+    match kind {
+        CommandKind::Attitude => A.get(k).copied().unwrap_or("?"),
+        CommandKind::Velocity => V.get(k).copied().unwrap_or("?"),
+    }
+}
+
+/// One flight's outputs.
+#[derive(Debug, Clone)]
+pub struct FlightOutput {
+    /// Metrics, as `summary.json`.
+    pub summary: Summary,
+    /// Time histories (when the options asked for them).
+    pub record: RunRecord,
+    /// Every command, in order.
+    pub commands: Vec<CommandRecord>,
+    /// High-level step cycles reported by each companion (`DEBUG_VECT CYCLES.x`).
+    pub hl_cycles: Vec<Vec<f32>>,
+    /// Low-level step cycles reported by each companion (`DEBUG_VECT CYCLES.y`).
+    pub ll_cycles: Vec<Vec<f32>>,
+    /// Last `SYS_STATUS` counters of each companion.
+    pub status: Vec<[u16; 5]>,
+    /// Last `HEARTBEAT.custom_mode` of each companion.
+    pub custom_mode: Vec<u32>,
+}
+
+/// The companions behind `ports` (one per UAV, fresh) as a [`Team`].
+pub struct PortTeam<'p, P: Port> {
+    ports: &'p mut [P],
+    label: String,
+    configs: Vec<UavConfig>,
+    enc: Vec<Encoders>,
+    /// Every command, in order.
+    pub commands: Vec<CommandRecord>,
+    /// High-level step cycles per companion.
+    pub hl_cycles: Vec<Vec<f32>>,
+    /// Low-level step cycles per companion.
+    pub ll_cycles: Vec<Vec<f32>>,
+    /// Last `SYS_STATUS` counters per companion.
+    pub status: Vec<[u16; 5]>,
+    /// Last `HEARTBEAT.custom_mode` per companion.
+    pub custom_mode: Vec<u32>,
+}
+
+impl<'p, P: Port> PortTeam<'p, P> {
+    /// A team over `ports`; `label` names it in errors (`SIL`, `PIL`).
+    pub fn new(ports: &'p mut [P], label: &str) -> Self {
+        let n = ports.len();
+        Self {
+            ports,
+            label: label.into(),
+            configs: Vec::new(),
+            enc: (0..n).map(|_| Encoders::default()).collect(),
+            commands: Vec::new(),
+            hl_cycles: vec![Vec::new(); n],
+            ll_cycles: vec![Vec::new(); n],
+            status: vec![[0u16; 5]; n],
+            custom_mode: vec![0u32; n],
+        }
+    }
+
+    fn tick_frames(&mut self, i: usize, tick: &Tick<'_>) -> Vec<u8> {
+        let own = tick.own.get(i).copied().unwrap_or_default();
+        let frames = TickFrames {
+            time_ms: tick.time_ms,
+            system_id: self.configs.get(i).map_or(0, |c| c.system_id),
+            load: tick.high_level.then_some((tick.load.pos_m, tick.load.vel_mps)),
+            neighbours: if tick.high_level { tick.views.get(i).map_or(&[], Vec::as_slice) } else { &[] },
+            own: (own.pos_m, own.vel_mps),
+            id: i,
+        };
+        let e = &mut self.enc[i];
+        frames.encode(&mut e.autopilot, &mut e.tracker, &mut e.network)
+    }
+
+    fn fail(&self, i: usize, what: impl std::fmt::Display) -> SimError {
+        SimError(format!("{} UAV {i}: {what}", self.label))
+    }
+}
+
+impl<P: Port> Team for PortTeam<'_, P> {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+        let n = ls.scenario.cables.lengths_m.len();
+        if self.ports.len() != n {
+            return Err(SimError(format!("{} ports for {n} UAVs", self.ports.len())));
+        }
+        let setup = team_setup_with(ls, start.takeoff.clone(), start.calibrated_len_m.to_vec(), true).map_err(|e| SimError(e.0))?;
+        self.configs = setup.configs;
+        for i in 0..n {
+            let cfg = self.configs[i].clone();
+            configure(&mut self.ports[i], &cfg, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+            let bytes = self.tick_frames(i, &start.tick);
+            self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
+            let r = start_mission(&mut self.ports[i], cfg.system_id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+            if r != 0 {
+                return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r})")));
+            }
+        }
+        Ok(())
+    }
+
+    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
+        let n = self.ports.len();
+        if out.len() != n {
+            return Err(SimError(format!("{n} companions, {} setpoints", out.len())));
+        }
+        // Send every UAV its tick first (the emulators compute in parallel), then collect.
+        for i in 0..n {
+            let bytes = self.tick_frames(i, tick);
+            self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
+        }
+        let t = tick.step;
+        for (i, slot) in out.iter_mut().enumerate() {
+            let mut hl_values: Vec<f32> = Vec::new();
+            let (q, thrust) = loop {
+                let rx = self.ports[i].recv().map_err(|e| SimError(format!("{} UAV {i} at tick {}: {e}", self.label, tick.time_ms)))?;
+                match rx {
+                    Rx::Setpoint { time_ms, q, thrust } if time_ms == tick.time_ms => break (q, thrust),
+                    Rx::VelocityTarget { v_ned, .. } => hl_values.extend_from_slice(&v_ned),
+                    Rx::CableForce(f) => hl_values.extend_from_slice(&f),
+                    Rx::Cycles([h, l, _]) => {
+                        self.hl_cycles[i].push(h);
+                        self.ll_cycles[i].push(l);
+                    }
+                    Rx::Status(c) => self.status[i] = c,
+                    Rx::Heartbeat(m) => self.custom_mode[i] = m,
+                    _ => {}
+                }
+            };
+            if tick.high_level {
+                if hl_values.len() != 6 {
+                    return Err(SimError(format!("{} UAV {i} at t = {} ms: incomplete high-level telemetry", self.label, tick.time_ms)));
+                }
+                self.commands.push(CommandRecord { step: t, uav: i, kind: CommandKind::Velocity, values: hl_values });
+            }
+            self.commands.push(CommandRecord { step: t, uav: i, kind: CommandKind::Attitude, values: vec![q[0], q[1], q[2], q[3], thrust] });
+            *slot = Setpoint { q_ned: q, thrust };
+        }
+        Ok(())
+    }
+
+    fn holding(&self) -> Vec<bool> {
+        // HEARTBEAT.custom_mode = mode | hold reasons << 8 (docs/protocol.md).
+        self.custom_mode.iter().map(|m| (m >> 8) & 0xff != 0).collect()
+    }
+}
+
+/// Flies the mission through the one mission loop with one port per UAV (lockstep). Ports
+/// must be fresh companions.
+///
+/// # Errors
+/// Configuration refused, a link failure, or a missing reply.
+pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], opts: &RunOptions, label: &str) -> Result<FlightOutput, PilError> {
+    if ports.is_empty() {
+        return err("no companions");
+    }
+    let mut team = PortTeam::new(ports, label);
+    let flown = mission::fly(ls, opts, &mut team).map_err(|e| PilError(e.0))?;
+    Ok(FlightOutput {
+        summary: flown.summary,
+        record: flown.record,
+        commands: team.commands,
+        hl_cycles: team.hl_cycles,
+        ll_cycles: team.ll_cycles,
+        status: team.status,
+        custom_mode: team.custom_mode,
+    })
+}

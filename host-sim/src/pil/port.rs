@@ -1,0 +1,404 @@
+//! One UAV's link to its companion ([`Port`]): the firmware in QEMU over a Unix socket
+//! ([`QemuPort`]), or its host twin ([`SilPort`]); building and finding the firmware.
+
+use mavlink::dialects::common::{
+    MavCmd, COMMAND_LONG_DATA,
+};
+use nalgebra::Vector3;
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use vt_companion::{Companion, CompanionTube, Framer, Io, COMPANION_COMPONENT_ID};
+use super::wire::*;
+use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, REPLY_TIMEOUT};
+type V3 = Vector3<f64>;
+type V3f = Vector3<f32>;
+
+/// One UAV's link to its companion: the firmware in QEMU, or its host twin.
+pub trait Port {
+    /// Sends bytes (frames or anything else).
+    ///
+    /// # Errors
+    /// The link is closed.
+    fn send(&mut self, bytes: &[u8]) -> Result<(), PilError>;
+    /// The next message from the companion.
+    ///
+    /// # Errors
+    /// Nothing arrives within the timeout (QEMU), or nothing is pending (host twin).
+    fn recv(&mut self) -> Result<Rx, PilError>;
+    /// Waits for the companion to stop (after a shutdown request) and returns its exit code
+    /// and raw log; a host twin has neither.
+    ///
+    /// # Errors
+    /// It does not stop in time.
+    fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        Ok((Some(0), Vec::new()))
+    }
+}
+
+impl Port for Box<dyn Port> {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        self.as_mut().send(bytes)
+    }
+    fn recv(&mut self) -> Result<Rx, PilError> {
+        self.as_mut().recv()
+    }
+    fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        (*self).finish()
+    }
+}
+
+/// The board side of the host twin: frames into a byte queue, no clock (lockstep needs none).
+struct TwinIo<'a> {
+    out: &'a mut Vec<u8>,
+}
+
+impl Io for TwinIo<'_> {
+    fn now_ms(&self) -> u32 {
+        0
+    }
+    fn cycles(&self) -> u32 {
+        0
+    }
+    fn send(&mut self, frame: &[u8]) {
+        self.out.extend_from_slice(frame);
+    }
+}
+
+/// Tube storage of dropped twins, reused by new ones: a companion borrows its tube for its
+/// lifetime (`'static` on the MCU), so the twins take theirs from this pool (leaked once,
+/// about 9 KiB each); memory is bounded by the most twins alive at once.
+static TUBE_POOL: std::sync::Mutex<Vec<&'static mut CompanionTube>> = std::sync::Mutex::new(Vec::new());
+
+/// The firmware's companion compiled for the host (software in the loop).
+pub struct SilPort {
+    /// Always `Some` until dropped (then its tube goes back to the pool).
+    companion: Option<Box<Companion<'static>>>,
+    framer: Framer,
+    pending: VecDeque<Rx>,
+}
+
+impl Default for SilPort {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SilPort {
+    /// A fresh companion.
+    pub fn new() -> Self {
+        let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
+        let tube: &'static mut CompanionTube = pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())));
+        Self { companion: Some(Box::new(Companion::new(tube))), framer: Framer::new(), pending: VecDeque::new() }
+    }
+
+    /// The companion (for inspection in tests); `None` only while the twin is being dropped.
+    pub fn companion(&self) -> Option<&Companion<'static>> {
+        self.companion.as_deref()
+    }
+}
+
+impl Drop for SilPort {
+    fn drop(&mut self) {
+        if let Some(c) = self.companion.take() {
+            let tube = c.into_tube();
+            if let Ok(mut pool) = TUBE_POOL.lock() {
+                pool.push(tube);
+            }
+        }
+    }
+}
+
+impl Port for SilPort {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        let mut out = Vec::new();
+        let Some(companion) = self.companion.as_deref_mut() else {
+            return Err(PilError("host twin: dropped".into()));
+        };
+        let _request = companion.on_bytes(bytes, &mut TwinIo { out: &mut out });
+        for b in out {
+            self.framer.push(b);
+            while let Some(f) = self.framer.next_frame() {
+                if let Some(rx) = decode(f.message_id, f.payload) {
+                    self.pending.push_back(rx);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn recv(&mut self) -> Result<Rx, PilError> {
+        self.pending.pop_front().ok_or_else(|| PilError("host twin: no reply pending".into()))
+    }
+}
+
+/// How to start QEMU.
+#[derive(Debug, Clone)]
+pub struct QemuOptions {
+    /// The emulator binary.
+    pub qemu: String,
+    /// `-icount shift=0`: one instruction per virtual nanosecond (for instruction counts).
+    pub icount: bool,
+    /// Directory for the sockets.
+    pub socket_dir: PathBuf,
+    /// Instance name (socket file name).
+    pub name: String,
+}
+
+/// The firmware in one QEMU instance.
+pub struct QemuPort {
+    child: Child,
+    stream: UnixStream,
+    framer: Framer,
+    pending: VecDeque<Rx>,
+    defmt: Arc<Mutex<Vec<u8>>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+    socket: PathBuf,
+}
+
+impl QemuPort {
+    /// Starts QEMU on `elf` with UART0 connected to a fresh Unix socket.
+    ///
+    /// # Errors
+    /// The emulator cannot start or does not connect.
+    pub fn spawn(elf: &Path, o: &QemuOptions) -> Result<Self, PilError> {
+        if !elf.is_file() {
+            return err(format!("firmware ELF {} not found (build it: cd firmware && cargo build --release --features qemu)", elf.display()));
+        }
+        std::fs::create_dir_all(&o.socket_dir).map_err(|e| PilError(format!("{}: {e}", o.socket_dir.display())))?;
+        let socket = o.socket_dir.join(format!("{}.sock", o.name));
+        let _ = std::fs::remove_file(&socket);
+        let listener = UnixListener::bind(&socket).map_err(|e| PilError(format!("{}: {e}", socket.display())))?;
+        let mut cmd = Command::new(&o.qemu);
+        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-display", "none", "-monitor", "none", "-nodefaults", "-nic", "none"])
+            .args(["-chardev", &format!("socket,id=link,path={}", socket.display()), "-serial", "chardev:link"])
+            .args(["-semihosting-config", "enable=on,target=native"]);
+        if o.icount {
+            cmd.args(["-icount", "shift=0"]);
+        }
+        cmd.arg("-kernel").arg(elf).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+        let mut child = cmd.spawn().map_err(|e| PilError(format!("cannot start {}: {e}", o.qemu)))?;
+        // Forward the emulator's messages, less the one about the board's unused Ethernet.
+        if let Some(err_pipe) = child.stderr.take() {
+            std::thread::spawn(move || {
+                use std::io::BufRead;
+                for line in std::io::BufReader::new(err_pipe).lines().map_while(Result::ok) {
+                    if !line.contains("has no peer") {
+                        eprintln!("{line}");
+                    }
+                }
+            });
+        }
+        listener.set_nonblocking(true).map_err(|e| PilError(e.to_string()))?;
+        let t0 = Instant::now();
+        let stream = loop {
+            match listener.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    if let Ok(Some(status)) = child.try_wait() {
+                        return err(format!("{} exited before connecting ({status})", o.qemu));
+                    }
+                    if t0.elapsed() > REPLY_TIMEOUT {
+                        let _ = child.kill();
+                        return err(format!("{} did not connect to {}", o.qemu, socket.display()));
+                    }
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return err(e.to_string()),
+            }
+        };
+        stream.set_nonblocking(false).map_err(|e| PilError(e.to_string()))?;
+        stream.set_read_timeout(Some(REPLY_TIMEOUT)).map_err(|e| PilError(e.to_string()))?;
+        let defmt = Arc::new(Mutex::new(Vec::new()));
+        let reader = child.stdout.take().map(|mut out| {
+            let sink = Arc::clone(&defmt);
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 4096];
+                while let Ok(n) = out.read(&mut buf) {
+                    if n == 0 {
+                        break;
+                    }
+                    if let (Ok(mut v), Some(chunk)) = (sink.lock(), buf.get(..n)) {
+                        v.extend_from_slice(chunk);
+                    }
+                }
+            })
+        });
+        Ok(Self { child, stream, framer: Framer::new(), pending: VecDeque::new(), defmt, reader, socket })
+    }
+
+    /// Link counters of the host's receiver (frames from the firmware).
+    pub fn host_rx_counters(&self) -> vt_companion::LinkCounters {
+        *self.framer.counters()
+    }
+
+    /// Asks the firmware to shut down (`MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN`, param1 = 2) and
+    /// waits for the emulator to exit. Returns its exit code and the raw defmt bytes.
+    ///
+    /// # Errors
+    /// The emulator does not exit in time (it is then killed).
+    pub fn shutdown(mut self, enc: &mut Encoder, system_id: u8) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        let cmd = COMMAND_LONG_DATA {
+            param1: 2.0,
+            command: MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+            target_system: system_id,
+            target_component: COMPANION_COMPONENT_ID,
+            ..COMMAND_LONG_DATA::default()
+        };
+        let _ = self.send(&enc.frame(GCS_SYSTEM_ID, GCS_COMPONENT_ID, &cmd));
+        self.wait_exit()
+    }
+
+    /// Waits for the emulator to exit by itself (e.g. after a shutdown request or a failure).
+    ///
+    /// # Errors
+    /// It does not exit within the timeout (it is then killed).
+    pub fn wait_exit(mut self) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        let t0 = Instant::now();
+        // Keep draining the link: a firmware blocked on a full socket could not act on the
+        // shutdown request.
+        let _ = self.stream.set_nonblocking(true);
+        let mut sink = [0u8; 4096];
+        let status = loop {
+            while matches!(self.stream.read(&mut sink), Ok(n) if n > 0) {}
+            match self.child.try_wait() {
+                Ok(Some(s)) => break Some(s),
+                Ok(None) if t0.elapsed() < REPLY_TIMEOUT => std::thread::sleep(Duration::from_millis(5)),
+                _ => break None,
+            }
+        };
+        let timed_out = status.is_none();
+        if timed_out {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
+        }
+        let _ = std::fs::remove_file(&self.socket);
+        let bytes = self.defmt.lock().map(|v| v.clone()).unwrap_or_default();
+        if timed_out {
+            return err("emulator did not exit in time (killed)");
+        }
+        Ok((status.and_then(|s| s.code()), bytes))
+    }
+
+    /// The defmt bytes received so far.
+    pub fn defmt_bytes(&self) -> Vec<u8> {
+        self.defmt.lock().map(|v| v.clone()).unwrap_or_default()
+    }
+}
+
+impl Drop for QemuPort {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+        let _ = std::fs::remove_file(&self.socket);
+    }
+}
+
+impl Port for QemuPort {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        self.stream.write_all(bytes).map_err(|e| PilError(format!("link write: {e}")))
+    }
+
+    fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
+        (*self).wait_exit()
+    }
+
+    fn recv(&mut self) -> Result<Rx, PilError> {
+        let mut buf = [0u8; 1024];
+        loop {
+            if let Some(rx) = self.pending.pop_front() {
+                return Ok(rx);
+            }
+            let n = self.stream.read(&mut buf).map_err(|e| PilError(format!("link read: {e}")))?;
+            if n == 0 {
+                return err("link closed by the emulator");
+            }
+            for &b in buf.get(..n).unwrap_or(&[]) {
+                self.framer.push(b);
+                while let Some(f) = self.framer.next_frame() {
+                    if let Some(rx) = decode(f.message_id, f.payload) {
+                        self.pending.push_back(rx);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Decodes defmt bytes (the firmware's semihosting output) with the ELF's table.
+///
+/// # Errors
+/// The ELF has no defmt table or cannot be read.
+pub fn decode_defmt(elf: &Path, bytes: &[u8]) -> Result<Vec<String>, PilError> {
+    let data = std::fs::read(elf).map_err(|e| PilError(format!("{}: {e}", elf.display())))?;
+    let table = defmt_decoder::Table::parse(&data)
+        .map_err(|e| PilError(format!("defmt table: {e}")))?
+        .ok_or_else(|| PilError("the ELF has no defmt table".into()))?;
+    let mut dec = table.new_stream_decoder();
+    dec.received(bytes);
+    let mut lines = Vec::new();
+    loop {
+        match dec.decode() {
+            Ok(frame) => lines.push(format!("{}", frame.display_message())),
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => lines.push("<malformed defmt frame>".into()),
+        }
+    }
+    Ok(lines)
+}
+
+/// True when the emulator can be started.
+pub fn qemu_available(qemu: &str) -> bool {
+    Command::new(qemu).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
+}
+
+/// Where the firmware workspace is.
+pub fn firmware_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("firmware")
+}
+
+/// The `qemu` firmware ELF: `$VT_FIRMWARE_ELF` if set, else the release build in the firmware
+/// workspace.
+pub fn default_firmware_path() -> PathBuf {
+    std::env::var_os("VT_FIRMWARE_ELF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| firmware_dir().join("target/thumbv7em-none-eabihf/release/vt-firmware-qemu"))
+}
+
+/// Builds the `qemu` firmware (release) in its own workspace and target directory; cargo's
+/// own caching makes this cheap when nothing changed.
+///
+/// # Errors
+/// cargo fails.
+pub fn build_firmware() -> Result<PathBuf, PilError> {
+    let dir = firmware_dir();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(&dir).args(["build", "--release", "--features", "qemu"]);
+    // Do not inherit the outer build's settings (target dir, flags, target, profile); keep the
+    // rest (CARGO_HOME, registries, proxies).
+    for (k, _) in std::env::vars_os() {
+        if let Some(k) = k.to_str() {
+            let outer = ["CARGO_BUILD_", "CARGO_PROFILE_", "CARGO_TARGET_"].iter().any(|p| k.starts_with(p))
+                || ["CARGO_ENCODED_RUSTFLAGS", "RUSTFLAGS", "RUSTDOCFLAGS", "CARGO_INCREMENTAL", "CARGO_MAKEFLAGS", "CARGO_PRIMARY_PACKAGE"].contains(&k);
+            if outer {
+                cmd.env_remove(k);
+            }
+        }
+    }
+    cmd.env("CARGO_TARGET_DIR", dir.join("target"));
+    let status = cmd.status().map_err(|e| PilError(format!("cannot run cargo: {e}")))?;
+    if !status.success() {
+        return err(format!("firmware build failed ({status})"));
+    }
+    Ok(dir.join("target/thumbv7em-none-eabihf/release/vt-firmware-qemu"))
+}

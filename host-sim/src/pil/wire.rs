@@ -1,0 +1,166 @@
+//! The MAVLink 2 wire between the host and a companion: frame encoding, the messages the
+//! companion sends decoded into [`Rx`], and the frames of one lockstep tick.
+
+use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
+use mavlink::dialects::common::{
+    COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA,
+    NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, SYS_STATUS_DATA,
+};
+use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
+use nalgebra::Vector3;
+use vt_companion::companion::{NAME_CABLE_FORCE, NAME_CYCLES};
+
+type V3f = Vector3<f32>;
+
+/// Frames sent by the host, with one sequence counter per sending component.
+#[derive(Debug, Default)]
+pub struct Encoder {
+    seq: u8,
+}
+
+impl Encoder {
+    /// One MAVLink 2 frame from (`system`, `component`).
+    pub fn frame<D: MessageData>(&mut self, system: u8, component: u8, data: &D) -> Vec<u8> {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        raw.serialize_message_data(MavHeader { system_id: u32::from(system), component_id: component, sequence: self.seq }, data);
+        self.seq = self.seq.wrapping_add(1);
+        raw.raw_bytes().to_vec()
+    }
+}
+
+/// `LOCAL_POSITION_NED` for an ENU position and velocity.
+pub fn local_position(time_ms: u32, pos_enu: &V3f, vel_enu: &V3f) -> LOCAL_POSITION_NED_DATA {
+    LOCAL_POSITION_NED_DATA { time_boot_ms: time_ms, x: pos_enu.y, y: pos_enu.x, z: -pos_enu.z, vx: vel_enu.y, vy: vel_enu.x, vz: -vel_enu.z }
+}
+
+/// What the companion sent, decoded.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Rx {
+    /// `SET_ATTITUDE_TARGET`.
+    Setpoint {
+        /// `time_boot_ms`.
+        time_ms: u32,
+        /// Quaternion FRD -> NED, `[w, x, y, z]`.
+        q: [f32; 4],
+        /// Collective, `[0, 1]`.
+        thrust: f32,
+    },
+    /// `POSITION_TARGET_LOCAL_NED`: the high-level velocity command (NED, m/s).
+    VelocityTarget {
+        /// `time_boot_ms`.
+        time_ms: u32,
+        /// Velocity, NED.
+        v_ned: [f32; 3],
+    },
+    /// `DEBUG_VECT` `FHAT_NED`: the CFO's cable-force estimate (NED, N).
+    CableForce([f32; 3]),
+    /// `DEBUG_VECT` `CYCLES`: last high-level, last low-level, worst low-level step (cycles).
+    Cycles([f32; 3]),
+    /// `HEARTBEAT`: `custom_mode` (mode | hold reasons << 8).
+    Heartbeat(u32),
+    /// `SYS_STATUS` error counters: comm (checksum + framing), unknown ids, bad values,
+    /// overruns, discarded bytes.
+    Status([u16; 5]),
+    /// `PARAM_VALUE`.
+    ParamValue(String, f32),
+    /// `MISSION_REQUEST_INT`.
+    MissionRequest(u16),
+    /// `MISSION_ACK` (`MAV_MISSION_RESULT` value).
+    MissionAck(u32),
+    /// `COMMAND_ACK` (command, `MAV_RESULT` value).
+    CommandAck(u32, u32),
+    /// `NAMED_VALUE_INT`.
+    NamedInt(String, i32),
+    /// Anything else (message id).
+    Other(u32),
+}
+
+pub(crate) fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
+    let v2 = MavlinkVersion::V2;
+    Some(match id {
+        SET_ATTITUDE_TARGET_DATA::ID => {
+            let d = SET_ATTITUDE_TARGET_DATA::deser(v2, payload).ok()?;
+            Rx::Setpoint { time_ms: d.time_boot_ms, q: d.q, thrust: d.thrust }
+        }
+        POSITION_TARGET_LOCAL_NED_DATA::ID => {
+            let d = POSITION_TARGET_LOCAL_NED_DATA::deser(v2, payload).ok()?;
+            Rx::VelocityTarget { time_ms: d.time_boot_ms, v_ned: [d.vx, d.vy, d.vz] }
+        }
+        DEBUG_VECT_DATA::ID => {
+            let d = DEBUG_VECT_DATA::deser(v2, payload).ok()?;
+            match d.name.to_str().unwrap_or("") {
+                n if n == NAME_CABLE_FORCE => Rx::CableForce([d.x, d.y, d.z]),
+                n if n == NAME_CYCLES => Rx::Cycles([d.x, d.y, d.z]),
+                _ => Rx::Other(id),
+            }
+        }
+        HEARTBEAT_DATA::ID => Rx::Heartbeat(HEARTBEAT_DATA::deser(v2, payload).ok()?.custom_mode),
+        SYS_STATUS_DATA::ID => {
+            let d = SYS_STATUS_DATA::deser(v2, payload).ok()?;
+            Rx::Status([d.errors_comm, d.errors_count1, d.errors_count2, d.errors_count3, d.errors_count4])
+        }
+        PARAM_VALUE_DATA::ID => {
+            let d = PARAM_VALUE_DATA::deser(v2, payload).ok()?;
+            Rx::ParamValue(d.param_id.to_str().unwrap_or("").to_string(), d.param_value)
+        }
+        MISSION_REQUEST_INT_DATA::ID => Rx::MissionRequest(MISSION_REQUEST_INT_DATA::deser(v2, payload).ok()?.seq),
+        MISSION_ACK_DATA::ID => Rx::MissionAck(MISSION_ACK_DATA::deser(v2, payload).ok()?.mavtype as u32),
+        COMMAND_ACK_DATA::ID => {
+            let d = COMMAND_ACK_DATA::deser(v2, payload).ok()?;
+            Rx::CommandAck(d.command as u32, d.result as u32)
+        }
+        NAMED_VALUE_INT_DATA::ID => {
+            let d = NAMED_VALUE_INT_DATA::deser(v2, payload).ok()?;
+            Rx::NamedInt(d.name.to_str().unwrap_or("").to_string(), d.value)
+        }
+        other => Rx::Other(other),
+    })
+}
+
+/// The frames of one lockstep tick for one UAV: load and neighbours (when the high level is
+/// due), then the own state that triggers the steps.
+pub struct TickFrames<'a> {
+    /// Simulated time, ms.
+    pub time_ms: u32,
+    /// Own system id.
+    pub system_id: u8,
+    /// Load state (position, velocity), ENU, when the high level is due.
+    pub load: Option<(V3f, V3f)>,
+    /// Neighbours' positions by UAV index (`None`: not delivered), when the high level is due.
+    pub neighbours: &'a [Option<V3f>],
+    /// Own position and velocity, ENU.
+    pub own: (V3f, V3f),
+    /// This UAV's index (skipped among the neighbours).
+    pub id: usize,
+}
+
+impl TickFrames<'_> {
+    /// Encodes the tick.
+    pub fn encode(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
+        let mut out = Vec::with_capacity(64 * (2 + self.neighbours.len()));
+        if let Some((p, v)) = &self.load {
+            out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(self.time_ms, p, v)));
+            for (j, nb) in self.neighbours.iter().enumerate() {
+                if let (Some(p), true) = (nb, j != self.id) {
+                    let sys = SYSID_BASE + j as u8;
+                    out.extend(network.frame(sys, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, p, &V3f::zeros())));
+                }
+            }
+        }
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, &self.own.0, &self.own.1)));
+        out
+    }
+}
+
+/// Per-UAV encoders (autopilot, load tracker, network relay) and the ground station's.
+#[derive(Debug, Default)]
+pub struct Encoders {
+    /// The UAV's autopilot.
+    pub autopilot: Encoder,
+    /// Its load tracker.
+    pub tracker: Encoder,
+    /// The team network relay.
+    pub network: Encoder,
+    /// The ground station.
+    pub gcs: Encoder,
+}
