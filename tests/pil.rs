@@ -127,7 +127,7 @@ fn pil_experiment_3uav_is_bit_exact() {
     let Some(elf) = firmware() else { return };
     let ls = experiment();
     let dir = out_dir("experiment-3uav");
-    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir.clone(), duration_s: None };
+    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir.clone(), duration_s: None, uav_model: None, cable_model: None };
     let r = pil::run(&ls, &opts).unwrap();
     eprintln!(
         "PIL: {} commands compared, bit_exact {}, max |diff| {}, wall SIL {:.1} s / PIL {:.1} s",

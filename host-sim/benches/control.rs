@@ -111,7 +111,7 @@ impl<const N: usize> Team<N> {
     fn new(base: &Scenario, n: usize) -> Self {
         let s = team_scenario(base, n);
         let tube = tube_of(&s);
-        let to = sim::takeoff(&s, &tube, s.cables.f_max_n);
+        let to = sim::takeoff(&s, &tube, s.cables.rated_n);
         let tray = sim::tray(&s);
         let uav_f: Vec<Vector3<f32>> = to.uav_pos_m.iter().map(v3f).collect();
         let load_f = v3f(&to.load_pos_m);
@@ -357,7 +357,7 @@ fn plant_step(c: &mut Criterion) {
     for n in [10usize, 100] {
         let s = team_scenario(&base, n);
         let tube = tube_of(&s);
-        let to = sim::takeoff(&s, &tube, s.cables.f_max_n);
+        let to = sim::takeoff(&s, &tube, s.cables.rated_n);
         let uavs = vec![
             UavParams { mass_kg: s.uavs.mass_kg, thrust_max_n: s.uavs.thrust_max_n, thrust_lag_s: s.uavs.thrust_lag_s };
             n
@@ -370,7 +370,7 @@ fn plant_step(c: &mut Criterion) {
                 rest_length_m: l,
                 stiffness_n_per_m: s.cables.stiffness_n_per_m,
                 damping_ns_per_m: s.cables.damping_ns_per_m,
-                f_max_n: s.cables.f_max_n,
+                f_max_n: s.cables.rated_n,
             })
             .collect();
         let load = LoadParams { mass_kg: s.load.mass_kg };

@@ -1,6 +1,7 @@
 //! `host-sim`: fly the cooperative-transport mission software-in-the-loop.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use host_sim::models::{CableModel, UavModel};
 use host_sim::scenario;
 use host_sim::sim::{self, ControllerKind, RunOptions};
 use std::path::PathBuf;
@@ -24,6 +25,17 @@ enum Controller {
     Baseline,
 }
 
+/// The plant to fly on, overriding the scenario's `[uavs] model` and `[cables] model`.
+#[derive(clap::Args, Clone, Copy)]
+struct PlantArgs {
+    /// UAV model (default: the scenario's, `rigid_body` unless it says otherwise).
+    #[arg(long, value_enum)]
+    uav_model: Option<UavModel>,
+    /// Cable model (default: the scenario's, `elastic` unless it says otherwise).
+    #[arg(long = "cable", value_enum)]
+    cable_model: Option<CableModel>,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Fly one mission and write summary.json, trajectory.csv and plots.
@@ -42,6 +54,8 @@ enum Cmd {
         /// Random seed (overrides the scenario's).
         #[arg(long)]
         seed: Option<u64>,
+        #[command(flatten)]
+        plant: PlantArgs,
     },
     /// Fly both controllers on the same scenario and write paired plots and summaries.
     Compare {
@@ -56,6 +70,8 @@ enum Cmd {
         /// Random seed.
         #[arg(long)]
         seed: Option<u64>,
+        #[command(flatten)]
+        plant: PlantArgs,
     },
     /// Fly many seeded runs (a scenario or a campaign under scenarios/campaigns/) in parallel
     /// and write sweep.csv, sweep.json (success rate, percentiles) and, for campaigns with
@@ -91,6 +107,8 @@ enum Cmd {
         /// Stop the flight after this many simulated seconds.
         #[arg(long)]
         duration: Option<f64>,
+        #[command(flatten)]
+        plant: PlantArgs,
     },
     /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
     /// `qemu-system-arm -icount shift=0`; writes DIR/bench.json.
@@ -107,23 +125,23 @@ enum Cmd {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Cmd::Run { scenario, controller, f_max, out, seed } => {
+        Cmd::Run { scenario, controller, f_max, out, seed, plant } => {
             let kind = match controller {
                 Controller::Dissipative => ControllerKind::Dissipative,
                 Controller::Baseline => ControllerKind::Baseline,
             };
-            run(scenario, kind, f_max, &out, seed)
+            run(scenario, kind, f_max, &out, seed, plant)
         }
-        Cmd::Compare { scenario, f_max, out, seed } => compare(scenario, f_max, &out, seed),
+        Cmd::Compare { scenario, f_max, out, seed, plant } => compare(scenario, f_max, &out, seed, plant),
         Cmd::Sweep { scenario, runs, jobs, seed, out } => sweep(scenario, runs, jobs, seed, &out),
-        Cmd::Pil { scenario, out, firmware, duration } => {
+        Cmd::Pil { scenario, out, firmware, duration, plant } => {
             if let Some(d) = duration {
                 if !(d.is_finite() && d > 0.0) {
                     eprintln!("error: --duration must be a finite number of seconds > 0 (got {d})");
                     return ExitCode::from(EXIT_BAD_INPUT);
                 }
             }
-            host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration)
+            host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration, plant.uav_model, plant.cable_model)
         }
         Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
     }
@@ -136,7 +154,7 @@ fn load(path: Option<PathBuf>) -> Result<scenario::LoadedScenario, ExitCode> {
     })
 }
 
-fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, seed: Option<u64>) -> Result<sim::RunOutput, ExitCode> {
+fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, seed: Option<u64>, plant: PlantArgs) -> Result<sim::RunOutput, ExitCode> {
     if let Some(f) = f_max {
         if !(f.is_finite() && f > 0.0) {
             eprintln!("error: --f-max must be a finite number > 0 (got {f})");
@@ -144,7 +162,8 @@ fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, 
         }
     }
     eprintln!("flying {} with the {} controller ...", ls.source_name, kind.name());
-    sim::run(ls, &RunOptions { controller: kind, f_max_n: f_max, seed, progress: true, record: true }).map_err(|e| {
+    let opts = RunOptions { controller: kind, f_max_n: f_max, seed, progress: true, record: true, uav_model: plant.uav_model, cable_model: plant.cable_model, duration_s: None };
+    sim::run(ls, &opts).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(EXIT_BAD_INPUT)
     })
@@ -165,10 +184,10 @@ fn write(dir: &std::path::Path, out: &sim::RunOutput) -> Result<(), ExitCode> {
     }
 }
 
-fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>) -> ExitCode {
+fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, plant: PlantArgs) -> ExitCode {
     let result = (|| {
         let ls = load(path)?;
-        let o = fly(&ls, kind, f_max, seed)?;
+        let o = fly(&ls, kind, f_max, seed, plant)?;
         println!("{}", o.summary.table());
         write(out, &o)?;
         Ok::<_, ExitCode>(if o.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) })
@@ -176,11 +195,11 @@ fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &st
     result.unwrap_or_else(|c| c)
 }
 
-fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>) -> ExitCode {
+fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, plant: PlantArgs) -> ExitCode {
     let result = (|| {
         let ls = load(path)?;
-        let a = fly(&ls, ControllerKind::Dissipative, f_max, seed)?;
-        let b = fly(&ls, ControllerKind::Baseline, f_max, seed)?;
+        let a = fly(&ls, ControllerKind::Dissipative, f_max, seed, plant)?;
+        let b = fly(&ls, ControllerKind::Baseline, f_max, seed, plant)?;
         println!("dissipative:\n{}\nbaseline:\n{}", a.summary.table(), b.summary.table());
         write(&out.join("dissipative"), &a)?;
         write(&out.join("baseline"), &b)?;

@@ -4,18 +4,15 @@ use crate::scenario::LoadedScenario;
 use mavlink::dialects::common::{
     MavCmd, COMMAND_LONG_DATA,
 };
-use nalgebra::Vector3;
 use serde::Serialize;
-use std::io::Read;
+
 use std::path::Path;
-use vt_companion::{Io, COMPANION_COMPONENT_ID};
+use vt_companion::COMPANION_COMPONENT_ID;
 use vt_dissipative::MAX_UAVS;
 use super::flight::*;
 use super::port::*;
 use super::wire::*;
 use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, SYSID_BASE};
-type V3 = Vector3<f64>;
-type V3f = Vector3<f32>;
 
 /// Team sizes the instruction counts are measured for.
 pub const BENCH_TEAM_SIZES: [usize; 3] = [3, 10, 30];

@@ -1,19 +1,23 @@
 //! Command-line entry points of `host-sim pil` and `host-sim pil-bench` (wired by main.rs).
 
-use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 use super::bench::*;
 use super::port::*;
 use super::report::*;
-type V3 = Vector3<f64>;
-type V3f = Vector3<f32>;
 
 /// `host-sim pil [SCENARIO] [--out DIR] [--firmware ELF] [--duration S]`: flies the scenario
 /// (default: the 3-UAV experiment) SIL and PIL, writes `DIR/pil_report.json` and
 /// `DIR/summary.json`, prints the comparison. Builds the firmware when no ELF is given and the
 /// default one is missing. Exit 0 when bit-exact and the PIL mission succeeded, 1 otherwise,
 /// 2 on bad input.
-pub fn cli(scenario: Option<&Path>, out: &Path, firmware: Option<PathBuf>, duration_s: Option<f64>) -> std::process::ExitCode {
+pub fn cli(
+    scenario: Option<&Path>,
+    out: &Path,
+    firmware: Option<PathBuf>,
+    duration_s: Option<f64>,
+    uav_model: Option<crate::models::UavModel>,
+    cable_model: Option<crate::models::CableModel>,
+) -> std::process::ExitCode {
     use std::process::ExitCode;
     let default_scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
     let ls = match crate::scenario::load(Some(scenario.unwrap_or(&default_scenario))) {
@@ -45,7 +49,7 @@ pub fn cli(scenario: Option<&Path>, out: &Path, firmware: Option<PathBuf>, durat
         },
     };
     eprintln!("flying {} SIL (host twins) and PIL ({} x QEMU, {}) ...", ls.source_name, ls.scenario.cables.lengths_m.len(), elf.display());
-    let opts = PilOptions { firmware: elf, qemu: qemu.into(), out_dir: out.to_path_buf(), duration_s, uav_model: None, cable_model: None };
+    let opts = PilOptions { firmware: elf, qemu: qemu.into(), out_dir: out.to_path_buf(), duration_s, uav_model, cable_model };
     match run(&ls, &opts) {
         Ok(r) => {
             println!("{}", r.summary.table());

@@ -4,7 +4,6 @@
 use mavlink::dialects::common::{
     MavCmd, COMMAND_LONG_DATA,
 };
-use nalgebra::Vector3;
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -15,8 +14,6 @@ use std::time::{Duration, Instant};
 use vt_companion::{Companion, CompanionTube, Framer, Io, COMPANION_COMPONENT_ID};
 use super::wire::*;
 use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, REPLY_TIMEOUT};
-type V3 = Vector3<f64>;
-type V3f = Vector3<f32>;
 
 /// One UAV's link to its companion: the firmware in QEMU, or its host twin.
 pub trait Port {

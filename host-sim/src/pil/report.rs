@@ -4,18 +4,14 @@
 use crate::scenario::LoadedScenario;
 use crate::sim::{self};
 use crate::summary::Summary;
-use nalgebra::Vector3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-use vt_companion::Io;
 use super::flight::*;
 use super::port::*;
 use super::wire::*;
 use super::{err, PilError, SYSID_BASE};
-type V3 = Vector3<f64>;
-type V3f = Vector3<f32>;
 
 /// Options of `host-sim pil`.
 #[derive(Debug, Clone)]
