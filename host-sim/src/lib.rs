@@ -12,6 +12,7 @@ pub mod mission;
 pub mod models;
 pub mod pil;
 pub mod plant;
+pub mod quadrotor;
 pub mod plots;
 pub mod record;
 pub mod report;

@@ -4,17 +4,21 @@
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use vt_companion::flight::Setpoint;
+use vt_companion::frames::ned_frd_quaternion;
 
 /// Body (FLU) to world (ENU) attitude of a setpoint, or `None` when it is not finite or not
 /// a rotation (norm far from 1).
 ///
-/// The FRD-to-NED quaternion `q'` and the FLU-to-ENU one `q` are related by
-/// `q' = (w + z, x + y, x - y, w - z) / sqrt 2` (`vt_companion::frames::ned_frd_quaternion`);
-/// the map is its own inverse, so the same formula converts back (here in `f64`).
+/// The firmware forms its FRD-to-NED quaternion with `vt_companion::frames::ned_frd_quaternion`
+/// (`q' = (w + z, x + y, x - y, w - z) / sqrt 2`); that map is its own inverse, so the same
+/// function converts the setpoint back to FLU-to-ENU.
 pub fn attitude_enu_flu(sp: &Setpoint) -> Option<UnitQuaternion<f64>> {
-    let [w, x, y, z] = sp.q_ned.map(f64::from);
-    let s = std::f64::consts::FRAC_1_SQRT_2;
-    let q = Quaternion::new((w + z) * s, (x + y) * s, (x - y) * s, (w - z) * s);
+    let [w, x, y, z] = sp.q_ned;
+    // `new_unchecked`: the map is linear and defined for any quaternion; the norm is checked
+    // below, on the converted value.
+    let back = ned_frd_quaternion(&UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z)));
+    let [w, x, y, z] = back.map(f64::from);
+    let q = Quaternion::new(w, x, y, z);
     let norm = q.norm();
     if !(norm.is_finite() && (norm - 1.0).abs() < 1e-3) {
         return None;

@@ -20,6 +20,7 @@ use crate::disturbance::drag_n;
 use vt_companion::flight::Setpoint;
 
 pub mod command;
+mod rigid;
 mod setup;
 
 pub use setup::build;
@@ -116,6 +117,13 @@ pub enum PlantError {
     LoadPosition,
     /// `substeps` is 0.
     ZeroSubsteps,
+    /// A rigid-body UAV's parameters were rejected.
+    Quadrotor {
+        /// Index of the UAV.
+        index: usize,
+        /// The parameter and what it must satisfy.
+        error: crate::quadrotor::QuadError,
+    },
 }
 
 impl fmt::Display for PlantError {
@@ -144,6 +152,7 @@ impl fmt::Display for PlantError {
             Self::UavPosition { index } => write!(f, "UAV {index}: initial position is not finite"),
             Self::LoadPosition => write!(f, "load: initial position is not finite"),
             Self::ZeroSubsteps => write!(f, "substeps must be >= 1"),
+            Self::Quadrotor { index, error } => write!(f, "UAV {index}: {error}"),
         }
     }
 }
@@ -186,6 +195,10 @@ pub struct Plant {
     thrust_buf: Vec<Vector3<f64>>,
     /// Scratch of [`Plant::step_setpoints`]: drag per UAV, N.
     ext_buf: Vec<Vector3<f64>>,
+    /// The `rigid_body` UAVs, one per UAV (empty: point-mass UAVs); see [`rigid`].
+    quads: Vec<crate::quadrotor::Quadrotor>,
+    /// Last valid setpoint of each quadrotor, held when a setpoint is lost.
+    rigid_targets: Vec<crate::quadrotor::AttitudeTarget>,
 }
 
 #[inline]
@@ -300,6 +313,8 @@ impl Plant {
             breaks: Vec::new(),
             thrust_buf: Vec::new(),
             ext_buf: Vec::new(),
+            quads: Vec::new(),
+            rigid_targets: Vec::new(),
         };
         plant.last_forces = plant.cable_forces();
         plant.tensions_n = plant.last_forces.iter().map(|f| f.tension_n).collect();
@@ -349,10 +364,10 @@ impl Plant {
     /// Cable forces evaluated at the current state, one per UAV (N, m).
     #[must_use]
     pub fn cable_forces(&self) -> Vec<CableForce> {
-        self.uavs
+        self.cables
             .iter()
-            .zip(&self.cables)
-            .map(|(u, c)| cable_force(u.pos_m, u.vel_mps, self.load.pos_m, self.load.vel_mps, c))
+            .enumerate()
+            .filter_map(|(i, c)| self.hook(i).map(|(p, v)| cable_force(p, v, self.load.pos_m, self.load.vel_mps, c)))
             .collect()
     }
 
@@ -509,7 +524,8 @@ impl Plant {
         seen
     }
 
-    /// Advances `dt_s` under the autopilots' setpoints (one per UAV, see [`command`]): a
+    /// Advances `dt_s` under the autopilots' setpoints (one per UAV, see [`command`]). A
+    /// rigid-body plant flies them through each quadrotor's autopilot ([`rigid`]); a
     /// point-mass UAV's thrust vector follows `collective * thrust_max * R(q) e_z` through its
     /// lag; `motors_off[i]` forces UAV `i`'s thrust to zero (a thrust-loss fault). `wind_mps`
     /// (world ENU) drags every body with area `uav_drag_area_m2` / `load_drag_area_m2`
@@ -524,6 +540,10 @@ impl Plant {
         load_drag_area_m2: f64,
         dt_s: f64,
     ) {
+        if !self.quads.is_empty() {
+            self.step_rigid(setpoints, motors_off, wind_mps, load_drag_area_m2, dt_s);
+            return;
+        }
         let mut thrust = std::mem::take(&mut self.thrust_buf);
         thrust.clear();
         thrust.extend(self.uav_params.iter().enumerate().map(|(i, p)| {
@@ -550,6 +570,9 @@ impl Plant {
 
     /// The ground (z = 0) stops a falling UAV or load: position clamped, velocity zeroed.
     pub fn ground_contact(&mut self) {
+        if !self.quads.is_empty() {
+            self.ground_quadrotors();
+        }
         for u in &mut self.uavs {
             if u.pos_m.z < 0.0 {
                 u.pos_m.z = 0.0;

@@ -5,7 +5,9 @@ use crate::cable::CableParams;
 use crate::disturbance::ParameterDraw;
 use crate::models::{CableModel, UavModel, DEFAULT_BREAKING_FACTOR};
 use crate::scenario::Scenario;
+use crate::quadrotor::{QuadParams, Quadrotor};
 use crate::sim::Takeoff;
+use nalgebra::Vector3;
 
 /// The plant of scenario `s` with its true parameters (`draw`: the disturbance draw of UAV and
 /// load masses; `true_len_m`, `true_k_n_per_m`: each cable's true rest length and stiffness),
@@ -56,7 +58,21 @@ pub fn build(
                 u.thrust_n = *t;
             }
         }
-        UavModel::RigidBody => return Err(PlantError::ZeroSubsteps),
+        UavModel::RigidBody => {
+            // Each UAV's airframe sized from its (drawn) mass and the scenario's thrust limit,
+            // so that normalised thrust 1 is `thrust_max_n` for the plant as for the firmware.
+            let quads = draw
+                .uav_mass
+                .iter()
+                .zip(&to.uav_pos_m)
+                .enumerate()
+                .map(|(index, (k, p))| {
+                    Quadrotor::new(QuadParams::sized(s.uavs.mass_kg * k, s.uavs.thrust_max_n), *p, Vector3::zeros())
+                        .map_err(|error| PlantError::Quadrotor { index, error })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            plant.fit_quadrotors(quads).map_err(|error| PlantError::Quadrotor { index: 0, error })?;
+        }
     }
     Ok(plant)
 }

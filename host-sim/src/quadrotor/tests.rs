@@ -1,0 +1,1 @@
+//! Tests of the rigid-body quadrotor.
