@@ -387,6 +387,37 @@ pub struct VelocityLoopSpec {
     pub kd: [f64; 3],
     /// CFO bandwidth `mu`, rad/s.
     pub cfo_bandwidth_rad_s: f64,
+    /// Time constant of the thrust the vehicle realises behind its autopilot, as the CFO
+    /// models it, s (default 0: the paper's thrust = command).
+    #[serde(default)]
+    pub actuator_lag_s: f64,
+    /// Tuning used instead when the UAVs are `rigid_body` (flying behind an attitude
+    /// autopilot); fields left out keep the values above.
+    #[serde(default)]
+    pub rigid_body: Option<VelocityLoopTuning>,
+}
+
+/// Observer tuning of the velocity loop for one UAV model (`[velocity_loop.rigid_body]`).
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VelocityLoopTuning {
+    /// CFO bandwidth `mu`, rad/s.
+    pub cfo_bandwidth_rad_s: Option<f64>,
+    /// Actuator lag the CFO models, s.
+    pub actuator_lag_s: Option<f64>,
+}
+
+impl VelocityLoopSpec {
+    /// `(cfo_bandwidth_rad_s, actuator_lag_s)` flown on UAV model `model`.
+    #[must_use]
+    pub fn tuning(&self, model: UavModel) -> (f64, f64) {
+        match (model, self.rigid_body) {
+            (UavModel::RigidBody, Some(t)) => {
+                (t.cfo_bandwidth_rad_s.unwrap_or(self.cfo_bandwidth_rad_s), t.actuator_lag_s.unwrap_or(self.actuator_lag_s))
+            }
+            _ => (self.cfo_bandwidth_rad_s, self.actuator_lag_s),
+        }
+    }
 }
 
 /// Loop rates, Hz. The plant rate must be a multiple of the others.
@@ -629,6 +660,15 @@ impl Validator<'_> {
             }
         }
         self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
+        self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
+        if let Some(t) = vl.rigid_body {
+            if let Some(bw) = t.cfo_bandwidth_rad_s {
+                self.positive("velocity_loop.rigid_body", "cfo_bandwidth_rad_s", bw)?;
+            }
+            if let Some(lag) = t.actuator_lag_s {
+                self.non_negative("velocity_loop.rigid_body", "actuator_lag_s", lag)?;
+            }
+        }
         // Rates.
         let r = &s.rates;
         for (k, v) in [("plant_hz", r.plant_hz), ("plant_substeps", r.plant_substeps), ("low_level_hz", r.low_level_hz),
@@ -645,10 +685,14 @@ impl Validator<'_> {
         if r.low_level_hz % r.high_level_hz != 0 {
             return Err(self.err("rates", "high_level_hz", "must divide low_level_hz evenly".into()));
         }
-        if vl.cfo_bandwidth_rad_s / f64::from(r.low_level_hz) > 0.5 {
-            return Err(self.err("velocity_loop", "cfo_bandwidth_rad_s", format!(
-                "mu * h = {:.3} > 0.5: the discrete observer would be unstable at low_level_hz = {}",
-                vl.cfo_bandwidth_rad_s / f64::from(r.low_level_hz), r.low_level_hz)));
+        let rigid_bw = vl.rigid_body.and_then(|t| t.cfo_bandwidth_rad_s);
+        for (table, bw) in [("velocity_loop", Some(vl.cfo_bandwidth_rad_s)), ("velocity_loop.rigid_body", rigid_bw)] {
+            let Some(bw) = bw else { continue };
+            if bw / f64::from(r.low_level_hz) > 0.5 {
+                return Err(self.err(table, "cfo_bandwidth_rad_s", format!(
+                    "mu * h = {:.3} > 0.5: the discrete observer would be unstable at low_level_hz = {}",
+                    bw / f64::from(r.low_level_hz), r.low_level_hz)));
+            }
         }
         // Link and mission.
         self.non_negative("link", "delay_s", s.link.delay_s)?;

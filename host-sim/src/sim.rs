@@ -176,7 +176,8 @@ pub fn tray(s: &Scenario) -> TrayParams {
     TrayParams { height_above_load_m: s.controller.tray_height_m as f32, ..TrayParams::default() }
 }
 
-/// Builds the velocity loop of one UAV from the scenario.
+/// Builds the velocity loop of one UAV from the scenario, with the observer tuning of its UAV
+/// model (`[velocity_loop.rigid_body]` for `rigid_body`).
 pub fn velocity_loop(s: &Scenario) -> Result<VelocityLoop, SimError> {
     let f = |a: [f64; 3]| V3f::new(a[0] as f32, a[1] as f32, a[2] as f32);
     let vl = &s.velocity_loop;
@@ -184,9 +185,12 @@ pub fn velocity_loop(s: &Scenario) -> Result<VelocityLoop, SimError> {
     let thrust_max = s.uavs.thrust_max_n as f32;
     let limits = ThrustLimits::new(0.05 * thrust_max, thrust_max, s.uavs.tilt_max_deg.to_radians() as f32)
         .map_err(|e| SimError(format!("uavs: {e}")))?;
-    let cfo = CfoParams::new(vl.cfo_bandwidth_rad_s as f32, s.uavs.mass_kg as f32, 1.0 / s.rates.low_level_hz as f32)
+    let (bandwidth, lag) = vl.tuning(s.uavs.model);
+    let cfo = CfoParams::new(bandwidth as f32, s.uavs.mass_kg as f32, 1.0 / s.rates.low_level_hz as f32)
         .map_err(|e| SimError(format!("velocity_loop: {e}")))?;
-    let params = VelocityLoopParams::new(gains, limits, V3f::repeat(2.0), cfo).map_err(|e| SimError(format!("velocity_loop: {e}")))?;
+    let params = VelocityLoopParams::new(gains, limits, V3f::repeat(2.0), cfo)
+        .and_then(|p| p.with_actuator_lag(lag as f32))
+        .map_err(|e| SimError(format!("velocity_loop: {e}")))?;
     Ok(VelocityLoop::new(params))
 }
 

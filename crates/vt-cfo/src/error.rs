@@ -43,6 +43,8 @@ pub enum CfoError {
         /// Axis index.
         axis: usize,
     },
+    /// `actuator_lag_s` is NaN, infinite or < 0.
+    InvalidActuatorLag,
     /// The hover thrust `mass_kg * g` lies outside `[thrust_min_n, thrust_max_n]`.
     HoverOutsideThrustLimits {
         /// The hover thrust, N.
@@ -72,6 +74,7 @@ impl fmt::Display for CfoError {
             Self::InvalidIntegralLimit { axis } => {
                 write!(f, "integral_limit_mps2[{axis}] must be finite and >= 0")
             }
+            Self::InvalidActuatorLag => write!(f, "actuator_lag_s must be finite and >= 0"),
             Self::HoverOutsideThrustLimits { hover_n } => write!(
                 f,
                 "hover thrust mass_kg * g = {hover_n:.2} N lies outside [thrust_min_n, thrust_max_n]"

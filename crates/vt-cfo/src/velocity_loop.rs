@@ -68,6 +68,8 @@ pub struct VelocityLoopParams {
     limits: ThrustLimits,
     integral_limit_mps2: Vector3<f32>,
     cfo: CfoParams,
+    /// Time constant of the vehicle's thrust response, s (0: the thrust is the command).
+    actuator_lag_s: f32,
 }
 
 impl VelocityLoopParams {
@@ -112,7 +114,30 @@ impl VelocityLoopParams {
             limits,
             integral_limit_mps2,
             cfo,
+            actuator_lag_s: 0.0,
         })
+    }
+
+    /// The same parameters with the time constant `lag_s` (s, >= 0) of the thrust the vehicle
+    /// realises behind its autopilot: the observer is then told the first-order response
+    /// `T_a += (T_cmd - T_a)(1 - exp(-dt / lag_s))` instead of the command (docs/design.md,
+    /// "Velocity loop behind an attitude autopilot"). 0 (the default) keeps the paper's model,
+    /// thrust = command.
+    ///
+    /// # Errors
+    ///
+    /// [`CfoError::InvalidActuatorLag`] when `lag_s` is NaN, infinite or negative.
+    pub fn with_actuator_lag(self, lag_s: f32) -> Result<Self, CfoError> {
+        if !(lag_s.is_finite() && lag_s >= 0.0) {
+            return Err(CfoError::InvalidActuatorLag);
+        }
+        Ok(Self { actuator_lag_s: lag_s, ..self })
+    }
+
+    /// Time constant of the vehicle's thrust response the observer assumes, s.
+    #[must_use]
+    pub fn actuator_lag_s(&self) -> f32 {
+        self.actuator_lag_s
     }
 
     /// The PID gains.
@@ -161,6 +186,7 @@ impl Default for VelocityLoopParams {
             limits: ThrustLimits::default(),
             integral_limit_mps2: Vector3::repeat(DEFAULT_INTEGRAL_LIMIT_MPS2),
             cfo: CfoParams::default(),
+            actuator_lag_s: 0.0,
         }
     }
 }
@@ -232,8 +258,11 @@ pub struct VelocityLoop {
     cfo: Cfo,
     /// `Ki int e_v`, m/s².
     integral_mps2: Vector3<f32>,
-    /// The thrust returned by the last update, N.
+    /// The thrust the vehicle applies, as the observer models it, N: the last update's output
+    /// (no actuator lag) or its first-order response (`actuator_lag_s > 0`).
     thrust_applied_n: Vector3<f32>,
+    /// `(dt, 1 - exp(-dt / actuator_lag_s))` of the last step (`exp` is costly on the MCU).
+    lag_gain: (f32, f32),
     status: Status,
 }
 
@@ -246,6 +275,7 @@ impl VelocityLoop {
             cfo: Cfo::new(params.cfo),
             integral_mps2: Vector3::zeros(),
             thrust_applied_n: hover_vector_n(&params),
+            lag_gain: (0.0, 1.0),
             status: Status::Ok,
         }
     }
@@ -341,12 +371,35 @@ impl VelocityLoop {
         } else {
             status
         };
-        self.thrust_applied_n = thrust_n;
+        self.thrust_applied_n = self.applied_after(thrust_n, dt_s);
         self.status = status;
         ThrustOutput {
             thrust_n,
             f_hat_n,
             status,
+        }
+    }
+
+    /// The thrust applied over the next step when `thrust_n` is commanded now: the command
+    /// itself, or the vehicle's first-order response to it over `dt_s` (exact discretisation,
+    /// `T_a += (T_cmd - T_a)(1 - exp(-dt / lag))`); a `dt_s` that is not finite and > 0 holds
+    /// the response.
+    fn applied_after(&mut self, thrust_n: Vector3<f32>, dt_s: f32) -> Vector3<f32> {
+        let lag_s = self.params.actuator_lag_s;
+        if lag_s <= 0.0 {
+            return thrust_n;
+        }
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return self.thrust_applied_n;
+        }
+        if self.lag_gain.0 != dt_s {
+            self.lag_gain = (dt_s, -libm::expm1f(-dt_s / lag_s));
+        }
+        let next = self.thrust_applied_n + (thrust_n - self.thrust_applied_n) * self.lag_gain.1;
+        if is_finite(&next) {
+            next
+        } else {
+            thrust_n
         }
     }
 

@@ -108,6 +108,7 @@ params! {
     ThrustMax => real("VL_T_MAX", 30.0, 0.0, FORCE_MAX_N), "Thrust limit, N (collective 1 in `SET_ATTITUDE_TARGET`).";
     TiltMax => real("VL_TILT_MAX", core::f32::consts::FRAC_PI_6, 0.0, 1.57), "Tilt limit, rad.";
     CfoMu => real("VL_CFO_MU", 15.0, 0.0, 1.0e4), "CFO bandwidth `mu`, rad/s (REFERENCE §4).";
+    ActLag => real("VL_ACT_LAG", 0.0, 0.0, 1.0), "Time constant of the thrust the autopilot realises, as the CFO models it, s (0: thrust = command).";
     Mass => real("VL_MASS", 1.47, 0.0, 1.0e3), "UAV mass, kg.";
     Yaw => real("VL_YAW", 0.0, -3.15, 3.15), "Heading held while transporting, rad (NED yaw: 0 north, pi/2 east).";
 }
@@ -253,7 +254,7 @@ impl Params {
         let gains = PidGains { kp: v(Param::KpX, Param::KpY, Param::KpZ), ki: v(Param::KiX, Param::KiY, Param::KiZ), kd: v(Param::KdX, Param::KdY, Param::KdZ) };
         let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?;
         let cfo = CfoParams::new(g(Param::CfoMu), g(Param::Mass), self.low_level_dt_s())?;
-        VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)
+        VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)?.with_actuator_lag(g(Param::ActLag))
     }
 
     /// High-level period `1 / VT_HL_HZ`, s (as host-sim computes it: `1.0 / hz as f32`).

@@ -32,6 +32,18 @@ pub struct Flown {
 /// # Errors
 /// The world cannot be built, the team refuses its configuration, or a backend fails.
 pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Result<Flown, SimError> {
+    // The plant the options ask for becomes the scenario's: every backend (and the tuning
+    // that depends on the UAV model) then reads one scenario.
+    let with_plant;
+    let ls = if opts.uav_model.is_some() || opts.cable_model.is_some() {
+        let mut l = ls.clone();
+        l.scenario.uavs.model = opts.uav_model.unwrap_or(l.scenario.uavs.model);
+        l.scenario.cables.model = opts.cable_model.unwrap_or(l.scenario.cables.model);
+        with_plant = l;
+        &with_plant
+    } else {
+        ls
+    };
     let mut world = World::new(ls, opts)?;
     team.start(ls, &world.start())?;
     let n = ls.scenario.cables.lengths_m.len();

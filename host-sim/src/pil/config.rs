@@ -143,6 +143,7 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
                 (Param::ThrustMax, p.limits().thrust_max_n()),
                 (Param::TiltMax, s.uavs.tilt_max_deg.to_radians() as f32),
                 (Param::CfoMu, p.cfo().bandwidth_rad_s()),
+                (Param::ActLag, p.actuator_lag_s()),
                 (Param::Mass, p.mass_kg()),
                 (Param::Yaw, 0.0),
             ];
