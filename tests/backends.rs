@@ -70,3 +70,15 @@ fn crates_and_twin_agree_on_the_paper_mission_point_mass() {
     let (a, b) = both("paper-10uav.toml", UavModel::PointMass, CableModel::PaperClamp);
     assert_agree("paper-10uav point_mass/paper_clamp", &a, &b);
 }
+
+#[test]
+fn crates_and_twin_agree_on_the_experiment_rigid_body() {
+    let (a, b) = both("experiment-3uav.toml", UavModel::RigidBody, CableModel::Elastic);
+    assert_agree("experiment-3uav rigid_body/elastic", &a, &b);
+}
+
+#[test]
+fn crates_and_twin_agree_on_the_paper_mission_rigid_body() {
+    let (a, b) = both("paper-10uav.toml", UavModel::RigidBody, CableModel::Elastic);
+    assert_agree("paper-10uav rigid_body/elastic", &a, &b);
+}

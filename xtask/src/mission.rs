@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use host_sim::models::{CableModel, UavModel};
 use host_sim::scenario;
 use host_sim::sim::{self, RunOptions};
 use serde_json::{json, Value};
@@ -14,19 +15,25 @@ pub struct MissionBench {
     pub realtime_factor: f64,
     /// Every run's realtime factor.
     pub runs: Vec<f64>,
+    /// Team size.
+    pub n_uavs: usize,
     /// Summary of the first run (success, distances, times) as JSON.
     pub summary: Value,
 }
 
-/// Flies `path` `runs` times (at least once) with the scenario's defaults.
+/// Flies `path` `runs` times (at least once) with the scenario's defaults on UAV model
+/// `uav_model` (with the paper's clamped cable for `point_mass`, whose figures continue the
+/// project's history; `None`: the scenario's plant).
 ///
 /// # Errors
 /// The scenario does not load (the message is host-sim's), or the run cannot start.
-pub fn run(path: &Path, runs: usize) -> Result<MissionBench, String> {
+pub fn run(path: &Path, runs: usize, uav_model: Option<UavModel>) -> Result<MissionBench, String> {
     let ls = scenario::load(Some(path)).map_err(|e| e.to_string())?;
-    let opts = RunOptions { progress: false, ..RunOptions::default() };
+    let cable_model = (uav_model == Some(UavModel::PointMass)).then_some(CableModel::PaperClamp);
+    let opts = RunOptions { progress: false, uav_model, cable_model, ..RunOptions::default() };
     let mut factors = Vec::with_capacity(runs.max(1));
     let mut summary = Value::Null;
+    let n_uavs = ls.scenario.cables.lengths_m.len();
     for k in 0..runs.max(1) {
         let out = sim::run(&ls, &opts).map_err(|e| e.to_string())?;
         let s = &out.summary;
@@ -35,6 +42,8 @@ pub fn run(path: &Path, runs: usize) -> Result<MissionBench, String> {
             summary = json!({
                 "scenario": s.scenario,
                 "n_uavs": s.n_uavs,
+                "uav_model": s.uav_model,
+                "cable_model": s.cable_model,
                 "success": s.success,
                 "failures": s.failures,
                 "completion_time_s": s.completion_time_s,
@@ -49,7 +58,7 @@ pub fn run(path: &Path, runs: usize) -> Result<MissionBench, String> {
             });
         }
     }
-    Ok(MissionBench { realtime_factor: median(&factors), runs: factors, summary })
+    Ok(MissionBench { realtime_factor: median(&factors), runs: factors, n_uavs, summary })
 }
 
 /// Median of a non-empty list (mean of the middle two for an even length); NaN when empty.

@@ -1,6 +1,7 @@
 //! `bench`: runs the measurements, checks the budgets, writes `bench.json` and the plot, and
 //! prints the table.
 
+use host_sim::models::UavModel;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -44,6 +45,8 @@ const QP_OVER_CONTROLLER_N10_MIN: f64 = 10.0;
 const SLOPE_MAX: f64 = 1.1;
 const REALTIME_10_MIN: f64 = 2_000.0;
 const REALTIME_100_MIN: f64 = 100.0;
+/// Issue 14: the 10-UAV mission on the rigid-body plant at >= 500 UAV-seconds per wall second.
+const RIGID_UAV_S_10_MIN: f64 = 500.0;
 const FLASH_MAX_BYTES: f64 = 128.0 * 1024.0;
 const RAM_MAX_BYTES: f64 = 32.0 * 1024.0;
 /// Team sizes the MCU figures are measured for (the firmware's capacity is 32).
@@ -75,18 +78,21 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     };
 
     // 2. Missions.
-    let fly = |file: &str, runs: usize| -> Result<MissionBench, String> { mission::run(&paths.root.join("scenarios").join(file), runs) };
-    let (m10, m100) = if plan.missions {
-        eprintln!("[2/3] missions: paper-10uav x{} ...", plan.runs_10);
-        let m10 = fly("paper-10uav.toml", plan.runs_10);
-        eprintln!("      scale-100uav x{} ...", plan.runs_100);
-        let m100 = fly("scale-100uav.toml", plan.runs_100);
-        (m10, m100)
+    let fly = |file: &str, runs: usize, model| -> Result<MissionBench, String> {
+        mission::run(&paths.root.join("scenarios").join(file), runs, Some(model))
+    };
+    let (m10, m10_rigid, m100) = if plan.missions {
+        eprintln!("[2/3] missions: paper-10uav x{} (point mass, rigid body) ...", plan.runs_10);
+        let m10 = fly("paper-10uav.toml", plan.runs_10, UavModel::PointMass);
+        let m10_rigid = fly("paper-10uav.toml", plan.runs_10, UavModel::RigidBody);
+        eprintln!("      scale-100uav x{} (point mass) ...", plan.runs_100);
+        let m100 = fly("scale-100uav.toml", plan.runs_100, UavModel::PointMass);
+        (m10, m10_rigid, m100)
     } else {
         let skipped = || Err("skipped (--skip missions)".to_string());
-        (skipped(), skipped())
+        (skipped(), skipped(), skipped())
     };
-    for (key, m) in [("sil_realtime_factor_10uav", &m10), ("sil_realtime_factor_100uav", &m100)] {
+    for (key, m) in [("sil_realtime_factor_10uav", &m10), ("sil_realtime_factor_10uav_rigid", &m10_rigid), ("sil_realtime_factor_100uav", &m100)] {
         if let Err(e) = m {
             if plan.missions {
                 all_ran = false;
@@ -136,7 +142,8 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
             "host_ns_per_uav_step": "criterion median of one UAV's high-level (DissipativeController::update) + low-level (VelocityLoop::update incl. CFO) step, warmed state, team of n (host-sim/benches/control.rs)",
             "allocation_ns": "criterion median of one clarabel solve of the n-cable tension allocation QP/SOCP (data update + solve), same bench run",
             "allocation_over_controller": "allocation_ns[n] / host_ns_per_uav_step[n]",
-            "sil_realtime_factor": "simulated s / wall s of host-sim's mission loop (one thread), median over runs",
+            "sil_realtime_factor": "simulated s / wall s of host-sim's mission loop (one thread), median over runs; point-mass UAVs and the paper's clamped cable",
+            "sil_realtime_factor_10uav_rigid": "UAV-seconds simulated per wall second (10 x simulated s / wall s), rigid-body UAVs and elastic cables, one thread, median over runs; sil_uav_seconds_per_s_10uav_point_mass: the same for point-mass UAVs, same bench run",
             "firmware_flash_bytes": "ALLOC non-NOBITS sections of the release ELF (vector table, text, rodata, data initialisers)",
             "firmware_static_ram_bytes": "ALLOC+WRITE sections (data, bss, uninit); the stack is separate",
         }),
@@ -155,10 +162,16 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     let rt = |m: &Result<MissionBench, String>| m.as_ref().map_or(Value::Null, |m| json!(m.realtime_factor));
     doc.insert("sil_realtime_factor_10uav".into(), rt(&m10));
     doc.insert("sil_realtime_factor_100uav".into(), rt(&m100));
+    let uav_s = |m: &Result<MissionBench, String>| m.as_ref().map_or(Value::Null, |m| json!(m.realtime_factor * m.n_uavs as f64));
+    doc.insert("sil_realtime_factor_10uav_rigid".into(), uav_s(&m10_rigid));
+    doc.insert("sil_uav_seconds_per_s_10uav_point_mass".into(), uav_s(&m10));
     let mission_json = |m: &Result<MissionBench, String>| {
         m.as_ref().map_or(Value::Null, |m| json!({"runs": m.runs, "summary": m.summary}))
     };
-    doc.insert("missions".into(), json!({"paper-10uav": mission_json(&m10), "scale-100uav": mission_json(&m100)}));
+    doc.insert(
+        "missions".into(),
+        json!({"paper-10uav": mission_json(&m10), "paper-10uav-rigid": mission_json(&m10_rigid), "scale-100uav": mission_json(&m100)}),
+    );
     // MCU figures from the hook (null until the firmware tooling provides them).
     let mcu_steps = hook.get("mcu_instructions_per_uav_step").cloned().unwrap_or(Value::Null);
     doc.insert("mcu_instructions_per_uav_step".into(), mcu_steps.clone());
@@ -263,6 +276,7 @@ fn budgets(doc: &Map<String, Value>) -> Vec<Value> {
         budget("per-UAV step cost growth in n (log-log slope, MCU)", max_slope(doc, "mcu_instructions_per_uav_step", &MCU_SIZES), SLOPE_MAX, true, "slope"),
         budget("10-UAV mission realtime factor (one core)", num(doc, "sil_realtime_factor_10uav"), REALTIME_10_MIN, false, "x"),
         budget("100-UAV mission realtime factor", num(doc, "sil_realtime_factor_100uav"), REALTIME_100_MIN, false, "x"),
+        budget("10-UAV mission on the rigid-body plant, UAV-s per wall s (one core)", num(doc, "sil_realtime_factor_10uav_rigid"), RIGID_UAV_S_10_MIN, false, "UAV-s/s"),
     ];
     for board in BOARDS {
         let flash = at(doc, "firmware_flash_bytes", board);
@@ -318,9 +332,11 @@ fn table(doc: &Map<String, Value>, budgets: &[Value], notes: &BTreeMap<String, S
     );
     let _ = writeln!(
         t,
-        "mission realtime factor: 10 UAVs {}, 100 UAVs {}",
+        "mission realtime factor (point mass): 10 UAVs {}, 100 UAVs {}; 10 UAVs rigid body: {} (point mass {})",
         fmt_num(num(doc, "sil_realtime_factor_10uav"), "x"),
-        fmt_num(num(doc, "sil_realtime_factor_100uav"), "x")
+        fmt_num(num(doc, "sil_realtime_factor_100uav"), "x"),
+        fmt_num(num(doc, "sil_realtime_factor_10uav_rigid"), " UAV-s/s"),
+        fmt_num(num(doc, "sil_uav_seconds_per_s_10uav_point_mass"), " UAV-s/s")
     );
     for board in BOARDS {
         let _ = writeln!(
