@@ -82,3 +82,51 @@ fn crates_and_twin_agree_on_the_paper_mission_rigid_body() {
     let (a, b) = both("paper-10uav.toml", UavModel::RigidBody, CableModel::Elastic);
     assert_agree("paper-10uav rigid_body/elastic", &a, &b);
 }
+
+#[test]
+#[ignore]
+fn probe_point_mass_with_rigid_tuning() {
+    let mut ls = load("paper-10uav.toml");
+    ls.scenario.velocity_loop.actuator_lag_s = 0.05;
+    ls.scenario.velocity_loop.cfo_bandwidth_rad_s = 8.0;
+    let opts = RunOptions { record: false, uav_model: Some(UavModel::PointMass), cable_model: Some(CableModel::PaperClamp), ..RunOptions::default() };
+    let a = sim::run(&ls, &opts).expect("crates").summary;
+    let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
+    let b = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin").summary;
+    report("probe lag", &a, &b);
+    ls.scenario.velocity_loop.actuator_lag_s = 0.0;
+    let a = sim::run(&ls, &opts).expect("crates").summary;
+    let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
+    let b = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin").summary;
+    report("probe mu8 no lag", &a, &b);
+}
+
+struct Rec(host_sim::mission::CrateTeam, Vec<(u64, usize, [f32; 5])>);
+impl host_sim::mission::Team for Rec {
+    fn start(&mut self, ls: &LoadedScenario, st: &host_sim::mission::TeamStart<'_>) -> Result<(), sim::SimError> { self.0.start(ls, st) }
+    fn step(&mut self, t: &host_sim::mission::Tick<'_>, out: &mut [host_sim::mission::Setpoint]) -> Result<(), sim::SimError> {
+        self.0.step(t, out)?;
+        for (i, sp) in out.iter().enumerate() { self.1.push((t.step, i, [sp.q_ned[0], sp.q_ned[1], sp.q_ned[2], sp.q_ned[3], sp.thrust])); }
+        Ok(())
+    }
+}
+
+#[test]
+#[ignore]
+fn probe_first_difference_rigid() {
+    let ls = load("experiment-3uav.toml");
+    let opts = RunOptions { record: false, ..RunOptions::default() };
+    let mut r = Rec(host_sim::mission::CrateTeam::new(sim::ControllerKind::Dissipative), Vec::new());
+    let _ = host_sim::mission::fly(&ls, &opts, &mut r).expect("crates");
+    let mut ports: Vec<SilPort> = (0..3).map(|_| SilPort::new()).collect();
+    let b = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin");
+    let tw: Vec<_> = b.commands.iter().filter(|c| c.kind == pil::CommandKind::Attitude).collect();
+    println!("crates {} twin {}", r.1.len(), tw.len());
+    for (a, c) in r.1.iter().zip(&tw) {
+        let v: Vec<f32> = c.values.clone();
+        if a.0 != c.step || a.1 != c.uav || a.2.to_vec() != v {
+            println!("first difference at step {} uav {}: crates {:?} twin step {} uav {} {:?}", a.0, a.1, a.2, c.step, c.uav, v);
+            break;
+        }
+    }
+}

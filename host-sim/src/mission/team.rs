@@ -104,6 +104,9 @@ pub struct CrateTeam {
     ll_dt: f32,
     invalid: u64,
     holding: Vec<bool>,
+    /// Each UAV's own position as last measured, ENU, m: what the high level reads (the
+    /// firmware's high level runs before it takes the new own state; `lockstep_tick`).
+    own_prev: Vec<V3f>,
 }
 
 impl CrateTeam {
@@ -124,6 +127,7 @@ impl CrateTeam {
             ll_dt: 0.0,
             invalid: 0,
             holding: Vec::new(),
+            own_prev: Vec::new(),
         }
     }
 }
@@ -171,6 +175,7 @@ impl Team for CrateTeam {
         self.vel_cmd = vec![V3f::zeros(); n];
         self.f_hat = vec![V3f::zeros(); n];
         self.holding = vec![false; n];
+        self.own_prev = start.tick.own.iter().map(|m| m.pos_m).collect();
         self.hl_dt = 1.0 / s.rates.high_level_hz as f32;
         self.ll_dt = 1.0 / s.rates.low_level_hz as f32;
         Ok(())
@@ -187,7 +192,7 @@ impl Team for CrateTeam {
         for i in 0..n {
             if tick.high_level {
                 let m = Measurements {
-                    own_pos_m: tick.own[i].pos_m,
+                    own_pos_m: self.own_prev.get(i).copied().unwrap_or(tick.own[i].pos_m),
                     load_pos_m: tick.load.pos_m,
                     load_vel_mps: tick.load.vel_mps,
                     neighbours_m: &tick.views[i],
@@ -212,6 +217,9 @@ impl Team for CrateTeam {
                 self.holding[i] = true;
             }
             out[i] = sp;
+            if let Some(p) = self.own_prev.get_mut(i) {
+                *p = tick.own[i].pos_m;
+            }
         }
         Ok(())
     }
