@@ -10,6 +10,7 @@ pub mod link;
 pub mod pil;
 pub mod plant;
 pub mod plots;
+pub mod quadrotor;
 pub mod record;
 pub mod report;
 pub mod scenario;

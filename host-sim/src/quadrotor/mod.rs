@@ -1,0 +1,391 @@
+//! 6-DOF rigid-body quadrotor behind a PX4-style autopilot (issue 14, model `rigid_body`).
+//!
+//! # Frames
+//!
+//! World ENU (z up, gravity `-g z`); body FLU (x forward, y left, z up along the thrust);
+//! attitude `q` rotates body FLU to world ENU (Hamilton, scalar first), as
+//! `vt_cfo::AttitudeSetpoint`. Body rates `omega` are in FLU.
+//!
+//! # Equations of motion (docs/plant.md; Mahony, Kumar & Corke 2012, eqs. 1-3; Mellinger &
+//! Kumar 2011, eqs. 1-3; RotorPy, Folk et al. 2023, `multirotor.py`)
+//!
+//! ```text
+//! m v'  = R (F_rot + D_body + D_rot) + F_ext - m g z
+//! L'    = R (tau_rot + tau_drag + r_a x R^T F_ext)      (L = R I omega, world, about the CoM)
+//! q'    = q (0, omega) / 2
+//! T_i'  = (T_cmd,i - T_i) / tau_m                      (first-order motors)
+//! ```
+//!
+//! `L' = R tau` is Euler's `I omega' = tau - omega x I omega` written in the world frame.
+//! Drag, RotorPy's model with the air-relative velocity `v_a = v - w` (body frame):
+//! `D_body = -|v_a| c_D .* v_a` (quadratic, per body axis) and, per rotor hub `i` at `r_i`,
+//! `D_rot,i = -k_d omega_i (v_a + omega x r_i)_xy` with `omega_i = sqrt(T_i / k_T)` (H-force,
+//! in the rotor plane), which also gives the torque `r_i x D_rot,i`.
+//!
+//! # Integrator (one call of [`Quadrotor::step`])
+//!
+//! Autopilot (when due) and mixer; motors by their exact first-order discretisation
+//! `T += (T_cmd - T)(1 - exp(-h / tau_m))`; translation by semi-implicit Euler (`v` then `p`
+//! with the new `v`); rotation by `L += h R tau`, then the quaternion exponential map
+//! `q <- q exp(omega_mid h / 2)` (renormalised) with the midpoint rates
+//! `omega_mid = I^-1 R(q exp(omega h / 4))^T L`, `omega = I^-1 R^T L`, then `omega` again from
+//! the new `q`. Integrating `L` in the world frame keeps the momentum of a torque-free
+//! body exact (an explicit body-frame Euler step of `omega` grows the energy by
+//! `h^2 |omega'|^2` per step); the exponential map keeps `q` on the unit sphere for any rate.
+//!
+//! # Defined behaviour on bad input
+//!
+//! A non-finite target keeps the last valid one; a non-finite external force or wind counts
+//! as zero; forces beyond [`EXT_FORCE_LIMIT_N`] and winds beyond [`WIND_LIMIT_MPS`] are
+//! clamped in magnitude; drag never reverses the airspeed within one step; a step that is not
+//! finite and positive does nothing, one longer than [`MAX_SUBSTEP_S`] is split.
+
+mod autopilot;
+mod mixer;
+mod params;
+
+pub use autopilot::{attitude_rate_setpoint, AttitudeTarget, Autopilot, AutopilotOutput};
+pub use mixer::{Mixer, Saturation};
+pub use params::{AutopilotParams, QuadError, QuadParams};
+
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+
+/// Gravitational acceleration, m/s^2 (the value of `plant::GRAVITY_MPS2` and
+/// `vt_cfo::GRAVITY_MPS2`, REFERENCE §1).
+pub const GRAVITY_MPS2: f64 = 9.81;
+/// Largest external (cable) force magnitude applied, N (project bound: 500 times a 2 kg UAV's
+/// weight, far beyond any cable's breaking load; keeps the state finite for any input).
+pub const EXT_FORCE_LIMIT_N: f64 = 1.0e4;
+/// Largest wind speed applied, m/s (project bound, well beyond any flyable wind).
+pub const WIND_LIMIT_MPS: f64 = 100.0;
+/// Longest physics sub-step, s (longer steps are split; the plant runs at 1-2 kHz).
+pub const MAX_SUBSTEP_S: f64 = 0.005;
+/// Rotor hub positions in units of the rotor offset `d`, body FLU (PX4 Quadrotor X order:
+/// front-right, rear-left, front-left, rear-right).
+const ROTOR_XY: [[f64; 2]; 4] = [[1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [-1.0, -1.0]];
+/// Below this angle per step (rad) the exponential map uses its series (no division by |w|).
+const SMALL_ANGLE_RAD: f64 = 1e-9;
+
+/// One quadrotor: rigid body, four lagged rotors, drag, and its autopilot.
+#[derive(Debug, Clone)]
+pub struct Quadrotor {
+    /// Validated parameters.
+    params: QuadParams,
+    /// Allocation (from `params`).
+    mixer: Mixer,
+    /// Position of the centre of mass, world ENU, m.
+    pos_m: Vector3<f64>,
+    /// Velocity, world ENU, m/s.
+    vel_mps: Vector3<f64>,
+    /// Attitude, body FLU to world ENU.
+    attitude: UnitQuaternion<f64>,
+    /// Body rates, FLU, rad/s (from `ang_mom_world`).
+    body_rates_rps: Vector3<f64>,
+    /// Angular momentum about the centre of mass, world ENU, kg m^2/s (integrated state).
+    ang_mom_world: Vector3<f64>,
+    /// Actual rotor thrusts, N.
+    rotor_thrusts_n: [f64; 4],
+    /// Commanded rotor thrusts (mixer output), N.
+    rotor_cmd_n: [f64; 4],
+    /// What the mixer had to give up at its last run.
+    saturation: Saturation,
+    /// Inner loops.
+    autopilot: Autopilot,
+    /// `(h, 1 - exp(-h / tau_m))` of the last step length (saves an `exp` per step).
+    motor_gain: (f64, f64),
+}
+
+impl Quadrotor {
+    /// A quadrotor at `pos_m` (m, ENU) moving at `vel_mps` (m/s, ENU), level, nose east, not
+    /// rotating, rotors at idle and the autopilot holding level at zero thrust. Call
+    /// [`trim_hover`](Self::trim_hover) for a start at equilibrium.
+    ///
+    /// # Errors
+    ///
+    /// [`QuadError`] naming the bad field of `params`, or `pos_m` / `vel_mps` when not finite.
+    pub fn new(params: QuadParams, pos_m: Vector3<f64>, vel_mps: Vector3<f64>) -> Result<Self, QuadError> {
+        params.validate()?;
+        let finite = |v: &Vector3<f64>| v.iter().all(|x| x.is_finite());
+        if !finite(&pos_m) {
+            return Err(QuadError { field: "pos_m", expected: "three finite numbers" });
+        }
+        if !finite(&vel_mps) {
+            return Err(QuadError { field: "vel_mps", expected: "three finite numbers" });
+        }
+        let mixer = Mixer {
+            rotor_offset_m: params.rotor_offset_m(),
+            yaw_moment_coeff_m: params.yaw_moment_coeff_m,
+            thrust_min_n: params.rotor_thrust_min_n,
+            thrust_max_n: params.rotor_thrust_max_n,
+        };
+        let level = AttitudeTarget { attitude: UnitQuaternion::identity(), thrust_norm: 0.0 };
+        let idle = [params.rotor_thrust_min_n; 4];
+        Ok(Self {
+            params,
+            mixer,
+            pos_m,
+            vel_mps,
+            attitude: UnitQuaternion::identity(),
+            body_rates_rps: Vector3::zeros(),
+            ang_mom_world: Vector3::zeros(),
+            rotor_thrusts_n: idle,
+            rotor_cmd_n: idle,
+            saturation: Saturation::default(),
+            autopilot: Autopilot::new(params.autopilot, params.inertia_kgm2, params.thrust_max_total_n(), level),
+            motor_gain: (0.0, 0.0),
+        })
+    }
+
+    /// Puts the vehicle at rest in the equilibrium that balances gravity and the constant
+    /// external force `ext_force_world_n` (N, ENU) at the attachment point: thrust axis along
+    /// `m g z - F_ext` (level when the force is vertical; heading kept), rotor thrusts that
+    /// also cancel the cable's torque `r_a x F_ext`, and the autopilot holding that attitude
+    /// and thrust with its rate integral preloaded with that torque. Position is kept. A
+    /// non-finite force counts as zero; a required thrust beyond the rotors' is saturated.
+    pub fn trim_hover(&mut self, ext_force_world_n: Vector3<f64>) {
+        let f_ext = sanitise(ext_force_world_n, EXT_FORCE_LIMIT_N);
+        let p = &self.params;
+        let thrust_w = Vector3::z() * (p.mass_kg * GRAVITY_MPS2) - f_ext;
+        let thrust_n = thrust_w.norm();
+        let heading = self.attitude * Vector3::x();
+        self.attitude = if thrust_n > 1e-9 { body_z_to_attitude(&(thrust_w / thrust_n), &heading) } else { level_with_heading(&heading) };
+        let f_body = self.attitude.inverse() * f_ext;
+        let torque = -p.attach_point_body_m.cross(&f_body);
+        let (thrusts, sat) = self.mixer.mix(thrust_n, [torque.x, torque.y, torque.z]);
+        self.rotor_thrusts_n = thrusts;
+        self.rotor_cmd_n = thrusts;
+        self.saturation = sat;
+        self.vel_mps = Vector3::zeros();
+        self.body_rates_rps = Vector3::zeros();
+        self.ang_mom_world = Vector3::zeros();
+        let target = AttitudeTarget { attitude: self.attitude, thrust_norm: thrust_n / p.thrust_max_total_n() };
+        self.autopilot.reset(target, torque);
+    }
+
+    /// Advances by `h_s` (s): the autopilot when its loops are due (tracking `target`), the
+    /// mixer, the motors and one integration step (module doc) under the external force
+    /// `ext_force_at_attach_world_n` (N, ENU) applied at the attachment point and the wind
+    /// `wind_world_mps` (m/s, ENU). Bad input: module doc.
+    pub fn step(&mut self, target: &AttitudeTarget, ext_force_at_attach_world_n: Vector3<f64>, wind_world_mps: Vector3<f64>, h_s: f64) {
+        if !(h_s > 0.0) || !h_s.is_finite() {
+            return;
+        }
+        let f_ext = sanitise(ext_force_at_attach_world_n, EXT_FORCE_LIMIT_N);
+        let wind = sanitise(wind_world_mps, WIND_LIMIT_MPS);
+        let n = (h_s / MAX_SUBSTEP_S).ceil().max(1.0);
+        let h = h_s / n;
+        let mut remaining = n;
+        while remaining > 0.0 {
+            self.substep(target, &f_ext, &wind, h);
+            remaining -= 1.0;
+        }
+    }
+
+    /// One step of at most [`MAX_SUBSTEP_S`] with sanitised inputs.
+    fn substep(&mut self, target: &AttitudeTarget, f_ext: &Vector3<f64>, wind: &Vector3<f64>, h: f64) {
+        let (demand, ran) = self.autopilot.update(target, &self.attitude, &self.body_rates_rps, h);
+        if ran {
+            let (cmd, sat) = self.mixer.mix(demand.force_n, [demand.torque_nm.x, demand.torque_nm.y, demand.torque_nm.z]);
+            self.rotor_cmd_n = cmd;
+            self.saturation = sat;
+        }
+        if self.motor_gain.0 != h {
+            self.motor_gain = (h, 1.0 - (-h / self.params.motor_time_constant_s).exp());
+        }
+        let k = self.motor_gain.1;
+        for (t, c) in self.rotor_thrusts_n.iter_mut().zip(self.rotor_cmd_n) {
+            *t += (c - *t) * k;
+        }
+
+        let p = &self.params;
+        let rot: Matrix3<f64> = *self.attitude.to_rotation_matrix().matrix();
+        let omega = self.body_rates_rps;
+        let (thrust_n, rotor_torque) = self.mixer.wrench(&self.rotor_thrusts_n);
+        let mut torque_b = Vector3::from(rotor_torque);
+
+        // Drag (RotorPy): body quadratic + rotor H-force, on the body-frame airspeed.
+        let v_air_b = rot.transpose() * (self.vel_mps - wind);
+        let mut drag_b = -v_air_b.norm() * p.body_drag_n_per_mps2.component_mul(&v_air_b);
+        let d = p.rotor_offset_m();
+        for (&[rx, ry], &t) in ROTOR_XY.iter().zip(&self.rotor_thrusts_n) {
+            let r = Vector3::new(rx * d, ry * d, 0.0);
+            let v_hub = v_air_b + omega.cross(&r);
+            let rotor_speed = (t.max(0.0) / p.thrust_coeff_n_per_rps2).sqrt();
+            let h_force = Vector3::new(v_hub.x, v_hub.y, 0.0) * (-p.rotor_drag_coeff * rotor_speed);
+            drag_b += h_force;
+            torque_b += r.cross(&h_force);
+        }
+        // Drag cannot reverse the airspeed within one step (explicit-Euler stability bound).
+        let v_air = v_air_b.norm();
+        let drag = drag_b.norm();
+        if drag * h > p.mass_kg * v_air && drag > 0.0 {
+            drag_b *= p.mass_kg * v_air / (drag * h);
+        }
+
+        // Cable force at the attachment point: force at the CoM plus the torque r_a x F.
+        let f_ext_b = rot.transpose() * f_ext;
+        torque_b += p.attach_point_body_m.cross(&f_ext_b);
+
+        // Translation: semi-implicit Euler.
+        let force_w = rot * (Vector3::new(0.0, 0.0, thrust_n) + drag_b) + f_ext;
+        let accel = force_w / p.mass_kg - Vector3::z() * GRAVITY_MPS2;
+        self.vel_mps += accel * h;
+        self.pos_m += self.vel_mps * h;
+
+        // Rotation: world angular momentum, then the exponential map with the new rates.
+        self.ang_mom_world += rot * torque_b * h;
+        // Midpoint rates: omega at the attitude half a step ahead (second order, so the
+        // torque-free energy error is O(h^2) per unit time, not O(h)).
+        let inv_i = p.inertia_kgm2.map(|x| 1.0 / x);
+        let omega_start = inv_i.component_mul(&(rot.transpose() * self.ang_mom_world));
+        let q_half = exp_step(&self.attitude, &omega_start, 0.5 * h);
+        let omega_mid = inv_i.component_mul(&(q_half.inverse() * self.ang_mom_world));
+        self.attitude = exp_step(&self.attitude, &omega_mid, h);
+        let rot_new = self.attitude.to_rotation_matrix();
+        self.body_rates_rps = inv_i.component_mul(&(rot_new.inverse() * self.ang_mom_world));
+    }
+
+    /// Parameters in use.
+    #[must_use]
+    pub fn params(&self) -> &QuadParams {
+        &self.params
+    }
+
+    /// Position of the centre of mass, world ENU, m.
+    #[must_use]
+    pub fn pos_m(&self) -> Vector3<f64> {
+        self.pos_m
+    }
+
+    /// Velocity of the centre of mass, world ENU, m/s.
+    #[must_use]
+    pub fn vel_mps(&self) -> Vector3<f64> {
+        self.vel_mps
+    }
+
+    /// Attitude, body FLU to world ENU (Hamilton).
+    #[must_use]
+    pub fn attitude(&self) -> UnitQuaternion<f64> {
+        self.attitude
+    }
+
+    /// Body rates, FLU, rad/s.
+    #[must_use]
+    pub fn body_rates_rps(&self) -> Vector3<f64> {
+        self.body_rates_rps
+    }
+
+    /// Actual rotor thrusts (after the motor lag), PX4 X order, N.
+    #[must_use]
+    pub fn rotor_thrusts_n(&self) -> [f64; 4] {
+        self.rotor_thrusts_n
+    }
+
+    /// What the mixer had to give up at its last run.
+    #[must_use]
+    pub fn saturation(&self) -> Saturation {
+        self.saturation
+    }
+
+    /// The autopilot's inner loops (target held, rate setpoint).
+    #[must_use]
+    pub fn autopilot(&self) -> &Autopilot {
+        &self.autopilot
+    }
+
+    /// Current collective thrust vector (actual rotor thrusts along body z), world ENU, N.
+    #[must_use]
+    pub fn thrust_world_n(&self) -> Vector3<f64> {
+        self.attitude * Vector3::z() * self.rotor_thrusts_n.iter().sum::<f64>()
+    }
+
+    /// Position of the cable attachment point, world ENU, m.
+    #[must_use]
+    pub fn attach_point_world_m(&self) -> Vector3<f64> {
+        self.pos_m + self.attitude * self.params.attach_point_body_m
+    }
+
+    /// Velocity of the cable attachment point, `v + R (omega x r_a)`, world ENU, m/s.
+    #[must_use]
+    pub fn attach_velocity_world_mps(&self) -> Vector3<f64> {
+        self.vel_mps + self.attitude * self.body_rates_rps.cross(&self.params.attach_point_body_m)
+    }
+
+    /// Kinetic energy, translational plus rotational, J.
+    #[must_use]
+    pub fn kinetic_energy_j(&self) -> f64 {
+        let w = self.body_rates_rps;
+        0.5 * self.params.mass_kg * self.vel_mps.norm_squared() + 0.5 * w.dot(&self.params.inertia_kgm2.component_mul(&w))
+    }
+
+    /// Linear momentum `m v`, world ENU, kg m/s.
+    #[must_use]
+    pub fn linear_momentum(&self) -> Vector3<f64> {
+        self.vel_mps * self.params.mass_kg
+    }
+
+    /// Angular momentum about the centre of mass, `R I omega`, world ENU, kg m^2/s.
+    #[must_use]
+    pub fn angular_momentum_world(&self) -> Vector3<f64> {
+        self.ang_mom_world
+    }
+
+    /// Sets the body rates (rad/s, FLU), keeping the rest of the state (tests, initial
+    /// conditions); non-finite rates are ignored.
+    pub fn set_body_rates_rps(&mut self, omega_rps: Vector3<f64>) {
+        if omega_rps.iter().all(|x| x.is_finite()) {
+            self.body_rates_rps = omega_rps;
+            self.ang_mom_world = self.attitude * self.params.inertia_kgm2.component_mul(&omega_rps);
+        }
+    }
+}
+
+/// `v`, or zero when a component is not finite, clamped to magnitude `limit`.
+fn sanitise(v: Vector3<f64>, limit: f64) -> Vector3<f64> {
+    if !v.iter().all(|x| x.is_finite()) {
+        return Vector3::zeros();
+    }
+    let n = v.norm();
+    if n > limit { v * (limit / n) } else { v }
+}
+
+/// `q exp(omega h / 2)`: the rotation by `omega h` in the body frame, renormalised.
+fn exp_step(q: &UnitQuaternion<f64>, omega: &Vector3<f64>, h: f64) -> UnitQuaternion<f64> {
+    let angle = omega.norm() * h;
+    let dq = if angle > SMALL_ANGLE_RAD {
+        let (s, c) = (0.5 * angle).sin_cos();
+        let axis = omega * (s * h / angle);
+        Quaternion::new(c, axis.x, axis.y, axis.z)
+    } else {
+        let v = omega * (0.5 * h);
+        Quaternion::new(1.0, v.x, v.y, v.z)
+    };
+    UnitQuaternion::new_normalize(q.into_inner() * dq)
+}
+
+/// Attitude whose body z is `z_b` (unit, ENU) with the nose as close as possible to `heading`
+/// (PX4 `ControlMath::bodyzToAttitude`, as `vt_cfo::thrust_to_attitude`).
+fn body_z_to_attitude(z_b: &Vector3<f64>, heading: &Vector3<f64>) -> UnitQuaternion<f64> {
+    let psi = heading.y.atan2(heading.x);
+    let y_c = Vector3::new(-psi.sin(), psi.cos(), 0.0);
+    let mut x_b = y_c.cross(z_b);
+    if z_b.z < 0.0 {
+        x_b = -x_b;
+    }
+    let n = x_b.norm();
+    if !(n > 1e-9) {
+        return level_with_heading(heading);
+    }
+    let x_b = x_b / n;
+    let y_b = z_b.cross(&x_b);
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x_b, y_b, *z_b])))
+}
+
+/// Level attitude with the nose along the horizontal part of `heading` (east if vertical).
+fn level_with_heading(heading: &Vector3<f64>) -> UnitQuaternion<f64> {
+    let psi = if heading.x.abs() + heading.y.abs() > 1e-12 { heading.y.atan2(heading.x) } else { 0.0 };
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), psi)
+}
+
+#[cfg(test)]
+mod tests;
