@@ -60,7 +60,8 @@ impl AttitudeTarget {
     fn sanitised(&self) -> Option<Self> {
         let q = self.attitude.as_ref();
         let norm = q.norm();
-        if !(norm > 1e-6) || !norm.is_finite() || !self.thrust_norm.is_finite() {
+        let usable = norm > 1e-6 && norm.is_finite() && self.thrust_norm.is_finite();
+        if !usable {
             return None;
         }
         Some(Self {

@@ -167,7 +167,8 @@ impl Quadrotor {
     /// `ext_force_at_attach_world_n` (N, ENU) applied at the attachment point and the wind
     /// `wind_world_mps` (m/s, ENU). Bad input: module doc.
     pub fn step(&mut self, target: &AttitudeTarget, ext_force_at_attach_world_n: Vector3<f64>, wind_world_mps: Vector3<f64>, h_s: f64) {
-        if !(h_s > 0.0) || !h_s.is_finite() {
+        let usable = h_s > 0.0 && h_s.is_finite();
+        if !usable {
             return;
         }
         let f_ext = sanitise(ext_force_at_attach_world_n, EXT_FORCE_LIMIT_N);
@@ -373,7 +374,7 @@ fn body_z_to_attitude(z_b: &Vector3<f64>, heading: &Vector3<f64>) -> UnitQuatern
         x_b = -x_b;
     }
     let n = x_b.norm();
-    if !(n > 1e-9) {
+    if n <= 1e-9 || !n.is_finite() {
         return level_with_heading(heading);
     }
     let x_b = x_b / n;

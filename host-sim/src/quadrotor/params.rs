@@ -300,7 +300,7 @@ impl AutopilotParams {
         check("autopilot.rate_i_per_s2", all(&a.rate_i_per_s2, &non_neg), "three finite numbers >= 0")?;
         // D on the measured acceleration adds `D` to the effective inertia of a discrete
         // difference: D >= 1 makes the one-step recursion marginal (as vt-cfo's Kd < 1).
-        check("autopilot.rate_d", all(&a.rate_d, &|x| x >= 0.0 && x < 1.0), "three numbers in [0, 1)")?;
+        check("autopilot.rate_d", all(&a.rate_d, &|x| (0.0..1.0).contains(&x)), "three numbers in [0, 1)")?;
         check("autopilot.rate_int_lim_radps2", all(&a.rate_int_lim_radps2, &non_neg), "three finite numbers >= 0")
     }
 }
