@@ -1,13 +1,16 @@
-//! One mission loop, three backends (issue #14): the crates called directly (`sim::run`) and
-//! the companion twin (`pil::fly` over in-process `SilPort`s, MAVLink v2 on the wire) fly the
-//! same scenario on the same plant. Both hand the plant the attitude + normalised thrust the
-//! firmware sends, so they must agree: the companion runs the same crates, and what differs is
-//! only what the wire does to the numbers (docs/design.md, "One mission loop").
+//! One mission loop, three backends (issue 14): the crates called directly (`CrateTeam`, what
+//! `sim::run` flies) and the companion twin (`pil::fly` over in-process `SilPort`s, MAVLink v2
+//! on the wire) fly the same scenario on the same plant. Both hand the plant the attitude +
+//! normalised thrust the firmware sends, the companion runs the same crates with the same
+//! parameters, and the high level of both reads the last own sample (the firmware's lockstep
+//! order), so the two must agree command for command, bit for bit. (The third backend, the
+//! firmware in QEMU, is held to the twin in tests/pil.rs.)
 
+use host_sim::mission::{self, CrateTeam, Setpoint, Team, TeamStart, Tick};
 use host_sim::models::{CableModel, UavModel};
-use host_sim::pil::{self, SilPort};
+use host_sim::pil::{self, CommandKind, SilPort};
 use host_sim::scenario::{self, LoadedScenario};
-use host_sim::sim::{self, RunOptions};
+use host_sim::sim::{ControllerKind, RunOptions, SimError};
 use host_sim::summary::Summary;
 use std::path::Path;
 
@@ -16,117 +19,85 @@ fn load(file: &str) -> LoadedScenario {
     scenario::load(Some(&path)).expect("valid scenario")
 }
 
-fn both(file: &str, uav: UavModel, cable: CableModel) -> (Summary, Summary) {
-    let ls = load(file);
-    let opts = RunOptions { record: false, uav_model: Some(uav), cable_model: Some(cable), ..RunOptions::default() };
-    let crates = sim::run(&ls, &opts).expect("crates backend starts").summary;
-    let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
-    let twin = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin backend flies").summary;
-    (crates, twin)
+/// The crates' team, recording every setpoint as the twin's command log does.
+struct Recording {
+    team: CrateTeam,
+    commands: Vec<(u64, usize, Vec<f32>)>,
 }
 
-fn report(label: &str, a: &Summary, b: &Summary) {
-    println!(
-        "{label}: crates / twin: success {} / {}, completion {:?} / {:?} s, UAV-bnd {:.4} / {:.4} m, UAV-UAV {:.4} / {:.4} m, \
-         max tension {:.3} / {:.3} N, load alt err {:.4} / {:.4} m, formation end {:.4} / {:.4} m",
-        a.success, b.success, a.completion_time_s, b.completion_time_s, a.min_uav_boundary_m, b.min_uav_boundary_m,
-        a.min_uav_uav_m, b.min_uav_uav_m, a.max_tension_n, b.max_tension_n, a.max_load_altitude_error_m,
-        b.max_load_altitude_error_m, a.formation_error_end_m, b.formation_error_end_m
-    );
-}
-
-/// The agreement both backends must reach. The wire carries positions and velocities as f32
-/// NED (the crates' own f32 inputs are rounded from the same f64 values, in ENU), so
-/// sums are formed in a different order and round differently in the last bit; a chaotic
-/// 30-s closed loop amplifies that, but not past a centimetre of clearance or a second of
-/// completion time.
-fn assert_agree(label: &str, a: &Summary, b: &Summary) {
-    report(label, a, b);
-    assert!(a.success && b.success, "{label}: failures crates {:?}, twin {:?}", a.failures, b.failures);
-    assert_eq!((&a.uav_model, &a.cable_model), (&b.uav_model, &b.cable_model), "{label}: same plant");
-    assert_eq!(a.invalid_commands, b.invalid_commands, "{label}: invalid commands");
-    assert_eq!(a.cables_broken, b.cables_broken, "{label}: cables broken");
-    let t = |s: &Summary| s.completion_time_s.unwrap_or(f64::NAN);
-    assert!((t(a) - t(b)).abs() <= 1.0, "{label}: completion {} vs {} s", t(a), t(b));
-    for (what, x, y, tol) in [
-        ("min UAV-boundary", a.min_uav_boundary_m, b.min_uav_boundary_m, 0.01),
-        ("min UAV-UAV", a.min_uav_uav_m, b.min_uav_uav_m, 0.01),
-        ("min load-boundary", a.min_load_boundary_m, b.min_load_boundary_m, 0.01),
-        ("max load altitude error", a.max_load_altitude_error_m, b.max_load_altitude_error_m, 0.01),
-        ("max tension", a.max_tension_n, b.max_tension_n, 0.5),
-    ] {
-        assert!((x - y).abs() <= tol, "{label}: {what} {x} (crates) vs {y} (twin), tolerance {tol}");
+impl Team for Recording {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+        self.team.start(ls, start)
     }
-}
 
-#[test]
-fn crates_and_twin_agree_on_the_experiment_point_mass() {
-    let (a, b) = both("experiment-3uav.toml", UavModel::PointMass, CableModel::PaperClamp);
-    assert_agree("experiment-3uav point_mass/paper_clamp", &a, &b);
-}
-
-#[test]
-fn crates_and_twin_agree_on_the_paper_mission_point_mass() {
-    let (a, b) = both("paper-10uav.toml", UavModel::PointMass, CableModel::PaperClamp);
-    assert_agree("paper-10uav point_mass/paper_clamp", &a, &b);
-}
-
-#[test]
-fn crates_and_twin_agree_on_the_experiment_rigid_body() {
-    let (a, b) = both("experiment-3uav.toml", UavModel::RigidBody, CableModel::Elastic);
-    assert_agree("experiment-3uav rigid_body/elastic", &a, &b);
-}
-
-#[test]
-fn crates_and_twin_agree_on_the_paper_mission_rigid_body() {
-    let (a, b) = both("paper-10uav.toml", UavModel::RigidBody, CableModel::Elastic);
-    assert_agree("paper-10uav rigid_body/elastic", &a, &b);
-}
-
-#[test]
-#[ignore]
-fn probe_point_mass_with_rigid_tuning() {
-    let mut ls = load("paper-10uav.toml");
-    ls.scenario.velocity_loop.actuator_lag_s = 0.05;
-    ls.scenario.velocity_loop.cfo_bandwidth_rad_s = 8.0;
-    let opts = RunOptions { record: false, uav_model: Some(UavModel::PointMass), cable_model: Some(CableModel::PaperClamp), ..RunOptions::default() };
-    let a = sim::run(&ls, &opts).expect("crates").summary;
-    let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
-    let b = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin").summary;
-    report("probe lag", &a, &b);
-    ls.scenario.velocity_loop.actuator_lag_s = 0.0;
-    let a = sim::run(&ls, &opts).expect("crates").summary;
-    let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
-    let b = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin").summary;
-    report("probe mu8 no lag", &a, &b);
-}
-
-struct Rec(host_sim::mission::CrateTeam, Vec<(u64, usize, [f32; 5])>);
-impl host_sim::mission::Team for Rec {
-    fn start(&mut self, ls: &LoadedScenario, st: &host_sim::mission::TeamStart<'_>) -> Result<(), sim::SimError> { self.0.start(ls, st) }
-    fn step(&mut self, t: &host_sim::mission::Tick<'_>, out: &mut [host_sim::mission::Setpoint]) -> Result<(), sim::SimError> {
-        self.0.step(t, out)?;
-        for (i, sp) in out.iter().enumerate() { self.1.push((t.step, i, [sp.q_ned[0], sp.q_ned[1], sp.q_ned[2], sp.q_ned[3], sp.thrust])); }
+    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
+        self.team.step(tick, out)?;
+        for (i, sp) in out.iter().enumerate() {
+            let [w, x, y, z] = sp.q_ned;
+            self.commands.push((tick.step, i, vec![w, x, y, z, sp.thrust]));
+        }
         Ok(())
     }
+
+    fn invalid_commands(&self) -> u64 {
+        self.team.invalid_commands()
+    }
+}
+
+/// The summary without the fields that measure the host (wall time, realtime factor).
+fn comparable(s: &Summary) -> serde_json::Value {
+    let mut v = serde_json::to_value(s).expect("serialises");
+    if let Some(o) = v.as_object_mut() {
+        o.remove("wall_time_s");
+        o.remove("realtime_factor");
+    }
+    v
+}
+
+fn assert_same(file: &str, uav: UavModel, cable: CableModel) {
+    let ls = load(file);
+    let opts = RunOptions { record: false, uav_model: Some(uav), cable_model: Some(cable), ..RunOptions::default() };
+    let mut crates = Recording { team: CrateTeam::new(ControllerKind::Dissipative), commands: Vec::new() };
+    let a = mission::fly(&ls, &opts, &mut crates).expect("crates backend flies").summary;
+    let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
+    let twin = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin backend flies");
+    let b = twin.summary;
+    let label = format!("{file} {}/{}", uav.name(), cable.name());
+    println!(
+        "{label}: success {} / {}, completion {:?} s, UAV-bnd {:.4} m, UAV-UAV {:.4} m, {} setpoints each",
+        a.success,
+        b.success,
+        a.completion_time_s,
+        a.min_uav_boundary_m,
+        a.min_uav_uav_m,
+        crates.commands.len()
+    );
+    assert!(a.success, "{label}: {:?}", a.failures);
+    let twin_cmds: Vec<(u64, usize, Vec<f32>)> =
+        twin.commands.iter().filter(|c| c.kind == CommandKind::Attitude).map(|c| (c.step, c.uav, c.values.clone())).collect();
+    assert_eq!(crates.commands.len(), twin_cmds.len(), "{label}: number of setpoints");
+    if let Some((x, y)) = crates.commands.iter().zip(&twin_cmds).find(|(x, y)| x != y) {
+        panic!("{label}: first differing setpoint: crates {x:?}, twin {y:?}");
+    }
+    assert_eq!(comparable(&a), comparable(&b), "{label}: summaries");
 }
 
 #[test]
-#[ignore]
-fn probe_first_difference_rigid() {
-    let ls = load("experiment-3uav.toml");
-    let opts = RunOptions { record: false, ..RunOptions::default() };
-    let mut r = Rec(host_sim::mission::CrateTeam::new(sim::ControllerKind::Dissipative), Vec::new());
-    let _ = host_sim::mission::fly(&ls, &opts, &mut r).expect("crates");
-    let mut ports: Vec<SilPort> = (0..3).map(|_| SilPort::new()).collect();
-    let b = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin");
-    let tw: Vec<_> = b.commands.iter().filter(|c| c.kind == pil::CommandKind::Attitude).collect();
-    println!("crates {} twin {}", r.1.len(), tw.len());
-    for (a, c) in r.1.iter().zip(&tw) {
-        let v: Vec<f32> = c.values.clone();
-        if a.0 != c.step || a.1 != c.uav || a.2.to_vec() != v {
-            println!("first difference at step {} uav {}: crates {:?} twin step {} uav {} {:?}", a.0, a.1, a.2, c.step, c.uav, v);
-            break;
-        }
-    }
+fn crates_and_twin_fly_the_experiment_identically_on_the_point_mass_plant() {
+    assert_same("experiment-3uav.toml", UavModel::PointMass, CableModel::PaperClamp);
+}
+
+#[test]
+fn crates_and_twin_fly_the_paper_mission_identically_on_the_point_mass_plant() {
+    assert_same("paper-10uav.toml", UavModel::PointMass, CableModel::PaperClamp);
+}
+
+#[test]
+fn crates_and_twin_fly_the_experiment_identically_on_the_rigid_body_plant() {
+    assert_same("experiment-3uav.toml", UavModel::RigidBody, CableModel::Elastic);
+}
+
+#[test]
+fn crates_and_twin_fly_the_paper_mission_identically_on_the_rigid_body_plant() {
+    assert_same("paper-10uav.toml", UavModel::RigidBody, CableModel::Elastic);
 }

@@ -119,8 +119,9 @@ impl CrateTeam {
             low: Vec::new(),
             vel_cmd: Vec::new(),
             f_hat: Vec::new(),
-            // VT_YAW = 0: nose east, as the companion's default heading.
-            heading: UnitVector2::new_unchecked(Vector2::new(1.0, 0.0)),
+            // VL_YAW = 0 (NED yaw 0): nose north, the heading the PIL configuration sends and
+            // the companion computes as (sin 0, cos 0) = (0, 1) in ENU.
+            heading: UnitVector2::new_unchecked(Vector2::new(0.0, 1.0)),
             thrust_max_n: 0.0,
             hover_n: Vec::new(),
             hl_dt: 0.0,

@@ -30,6 +30,10 @@ use crate::quadrotor::{AttitudeTarget, QuadError, Quadrotor};
 /// map contracts by `|r_a| |F| / (m g)`, well below 1, so three passes reach micrometres.
 const TRIM_PASSES: usize = 3;
 
+/// Heading of every UAV at take-off, ENU: north, what the firmware holds at its default
+/// `VL_YAW = 0` (NED yaw 0) and what `mission::CrateTeam` commands.
+const HEADING_ENU: Vector3<f64> = Vector3::new(0.0, 1.0, 0.0);
+
 impl Plant {
     /// Replaces the point-mass UAVs by `quads` (one per UAV, in order), each moved so that its
     /// attachment point lies where the point-mass UAV was (the take-off node the cables were
@@ -45,6 +49,7 @@ impl Plant {
             for _ in 0..TRIM_PASSES {
                 let offset = q.attach_point_world_m() - q.pos_m();
                 *q = Quadrotor::new(*q.params(), node - offset, Vector3::zeros())?;
+                q.face(HEADING_ENU);
                 q.trim_hover(f.on_uav_n);
             }
         }

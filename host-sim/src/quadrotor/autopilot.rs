@@ -60,7 +60,8 @@ impl AttitudeTarget {
     fn sanitised(&self) -> Option<Self> {
         let q = self.attitude.as_ref();
         let norm = q.norm();
-        if !(norm > 1e-6) || !norm.is_finite() || !self.thrust_norm.is_finite() {
+        let usable = norm > 1e-6 && norm.is_finite() && self.thrust_norm.is_finite();
+        if !usable {
             return None;
         }
         Some(Self {
@@ -225,7 +226,7 @@ pub fn attitude_rate_setpoint(q: &UnitQuaternion<f64>, q_d: &UnitQuaternion<f64>
     let w = 1.0 + e_z.dot(&e_z_d);
     let q_red = if w > OPPOSITE_AXES_EPS {
         let v = e_z.cross(&e_z_d);
-        UnitQuaternion::new_normalize(Quaternion::new(w, v.x, v.y, v.z)) * q
+        super::unit(Quaternion::new(w, v.x, v.y, v.z)) * q
     } else {
         *q_d
     };
@@ -237,7 +238,7 @@ pub fn attitude_rate_setpoint(q: &UnitQuaternion<f64>, q_d: &UnitQuaternion<f64>
     let half_yaw_w = yaw_w * q_mix.w.clamp(-1.0, 1.0).acos();
     let half_yaw_z = yaw_w * q_mix.k.clamp(-1.0, 1.0).asin();
     let q_yaw = Quaternion::new(half_yaw_w.cos(), 0.0, 0.0, half_yaw_z.sin());
-    let q_d_mixed = UnitQuaternion::new_normalize(q_red.into_inner() * q_yaw);
+    let q_d_mixed = super::unit(q_red.into_inner() * q_yaw);
     let mut q_e = (q.inverse() * q_d_mixed).into_inner();
     if q_e.w < 0.0 {
         q_e = -q_e;
