@@ -139,6 +139,8 @@ fn pil_experiment_3uav_is_bit_exact() {
     assert!(r.commands_compared > 3 * 550 * 30, "{} commands", r.commands_compared);
     assert!(r.summary.success, "PIL mission failed: {:?}", r.summary.failures);
     assert!(r.summary.reached_end);
+    // Issue 14: PIL flies the default plant, rigid-body quadrotors on elastic cables.
+    assert_eq!((r.summary.uav_model.as_str(), r.summary.cable_model.as_str()), ("rigid_body", "elastic"));
     assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "clean link: no error counted");
     assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "every emulator shut down on command");
     assert!(r.defmt_log_uav0.iter().any(|l| l.contains("mission started")), "defmt log decoded: {:?}", r.defmt_log_uav0);

@@ -72,6 +72,16 @@ fn nan_and_infinite_values_are_rejected() {
     expect_error(&text, "inf.toml", &["load.altitude_m"]);
 }
 
+/// Issue 14: a cable the plant's integrator cannot hold (sqrt(k / mu) h > 0.2) is rejected,
+/// naming the field, before anything flies.
+#[test]
+fn a_cable_too_stiff_for_the_integrator_is_rejected() {
+    let text = paper().replacen("stiffness_n_per_m = 500.0", "stiffness_n_per_m = 2.0e6", 1);
+    expect_error(&text, "stiff.toml", &["cables.stiffness_n_per_m", "sqrt(k/mu) h", &format!(":{}:", line_of("stiffness_n_per_m = 500.0"))]);
+    let text = paper().replacen("damping_ns_per_m = 30.0", "damping_ns_per_m = 9000.0", 1);
+    expect_error(&text, "damped.toml", &["cables.damping_ns_per_m"]);
+}
+
 #[test]
 fn zero_and_uneven_rates_are_rejected() {
     let text = paper().replacen("high_level_hz = 50", "high_level_hz = 0", 1);

@@ -89,11 +89,11 @@ pub enum StiffnessError {
 pub fn check_cable_integration(k: f64, b: f64, m_uav_kg: f64, m_load_kg: f64, h_s: f64) -> Result<(), StiffnessError> {
     let mu = m_uav_kg * m_load_kg / (m_uav_kg + m_load_kg);
     let omega_h = (k / mu).sqrt() * h_s;
-    if !(omega_h <= MAX_OMEGA_H) {
+    if omega_h.is_nan() || omega_h > MAX_OMEGA_H {
         return Err(StiffnessError::Stiffness { omega_h });
     }
     let damping_h = b / mu * h_s;
-    if !(damping_h <= MAX_DAMPING_H) {
+    if damping_h.is_nan() || damping_h > MAX_DAMPING_H {
         return Err(StiffnessError::Damping { damping_h });
     }
     Ok(())
