@@ -11,6 +11,7 @@ pub mod pil;
 pub mod plant;
 pub mod plots;
 pub mod record;
+pub mod replay;
 pub mod report;
 pub mod scenario;
 pub mod sim;

@@ -801,7 +801,7 @@ fn min_max_decimate(run: Vec<(f64, f64)>, xr: Range<f64>, buckets: usize) -> Vec
 }
 
 /// Distinct colour for UAV `i` (tab10, then a golden-ratio hue walk).
-fn uav_color(i: usize) -> RGBColor {
+pub(crate) fn uav_color(i: usize) -> RGBColor {
     const TAB10: [RGBColor; 10] = [
         RGBColor(31, 119, 180),
         RGBColor(255, 127, 14),

@@ -7,7 +7,7 @@ use crate::cable::CableParams;
 use crate::disturbance::{drag_n, ParameterDraw, Sensors, Wind};
 use crate::link::Link;
 use crate::plant::{LoadParams, Plant, UavParams, GRAVITY_MPS2};
-use crate::record::{Obstacle, RunRecord, SceneGeometry};
+use crate::record::{EventKind, Obstacle, RecordEvent, RunRecord, SceneGeometry, MODE_HOLD, MODE_TRANSPORT};
 use crate::scenario::{FaultKind, LoadedScenario, Scenario, SimTube};
 use crate::summary::Summary;
 use nalgebra::Vector3;
@@ -332,8 +332,10 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
         controller: opts.controller.name().into(),
         f_max_n: f_max,
         load_altitude_ref_m: s.load.altitude_m,
+        tray_height_m: s.controller.tray_height_m, // issue 17 (replay)
         ..RunRecord::default()
     };
+    let mut mode = vec![MODE_TRANSPORT; n]; // issue 17 (replay): controller mode per UAV
     let mut vel_cmd = vec![V3f::zeros(); n];
     let mut thrust_cmd = vec![V3::zeros(); n];
     let mut f_hat = vec![V3f::zeros(); n];
@@ -369,6 +371,13 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                 };
                 metrics.invalid_commands += u64::from(cmd.status.invalid_input || cmd.status.nonfinite_command);
                 vel_cmd[i] = cmd.vel_mps;
+                // issue 17 (replay): hold entered / left.
+                let now = if cmd.status.invalid_input || cmd.status.nonfinite_command { MODE_HOLD } else { MODE_TRANSPORT };
+                if opts.record && now != mode[i] {
+                    let kind = if now == MODE_HOLD { EventKind::Hold } else { EventKind::Resume };
+                    record.events.push(RecordEvent { time_s: t, kind, uav: i });
+                }
+                mode[i] = now;
             }
             // Safety metrics at the high-level rate.
             metrics.geometry(t, &plant, tube, &mut uav_hints, &mut load_hint, &thrust_lost);
@@ -391,6 +400,9 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                 }
             }
             next_fault += 1;
+            if opts.record {
+                record.events.push(RecordEvent { time_s: t, kind: kind.into(), uav: i }); // issue 17 (replay)
+            }
         }
         if step % ll_every == 0 {
             sensors.sample(&plant);
@@ -422,6 +434,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
             metrics.tension_sample(plant.tensions_n());
             if opts.record {
                 push_record(&mut record, t, &plant, &metrics);
+                push_record_controller(&mut record, &mode, &vel_cmd, &f_hat); // issue 17 (replay, MCAP)
             }
         }
         step += 1;
@@ -491,6 +504,15 @@ fn push_record(rec: &mut RunRecord, t: f64, plant: &Plant, m: &Metrics) {
     rec.min_uav_boundary_m.push(m.now_uav_boundary);
     rec.min_load_boundary_m.push(m.now_load_boundary);
     rec.min_uav_uav_m.push(m.now_uav_uav);
+}
+
+/// issue 17 (replay, MCAP): the controller side of one record sample: mode, velocity
+/// command and CFO force estimate of every UAV.
+fn push_record_controller(rec: &mut RunRecord, mode: &[u8], vel_cmd: &[V3f], f_hat: &[V3f]) {
+    let a = |v: &V3f| [f64::from(v.x), f64::from(v.y), f64::from(v.z)];
+    rec.uav_mode.push(mode.to_vec());
+    rec.vel_cmd_mps.push(vel_cmd.iter().map(a).collect());
+    rec.f_hat_n.push(f_hat.iter().map(a).collect());
 }
 
 /// RMS over UAV node pairs of |current - rest length|, nodes by the tray projection.
