@@ -193,6 +193,28 @@ pub fn fly(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool) ->
     rows
 }
 
+/// The run `sweep --replay-worst` re-flies (issue 17): the first failed run in (level, seed)
+/// order, else the run with the smallest minimum UAV-boundary distance. `None` without rows.
+pub fn worst(rows: &[Row]) -> Option<&Row> {
+    rows.iter().find(|r| !r.summary.success).or_else(|| {
+        rows.iter().min_by(|a, b| a.summary.min_uav_boundary_m.total_cmp(&b.summary.min_uav_boundary_m))
+    })
+}
+
+/// Flies `row`'s run again (same level, same seed) with recording on, for its replay: campaign
+/// runs keep no time histories. Deterministic, so it is the same flight (tests/determinism.rs).
+///
+/// # Errors
+/// The row's level is not in the campaign, or a crate rejects the scenario.
+pub fn refly(c: &Campaign, row: &Row) -> Result<sim::RunOutput, String> {
+    let (_, ls) = c
+        .levels
+        .iter()
+        .find(|(l, _)| l.map(f64::to_bits) == row.level.map(f64::to_bits))
+        .ok_or_else(|| format!("level {:?} is not in campaign {}", row.level, c.name))?;
+    sim::run(ls, &RunOptions { seed: Some(row.summary.seed), record: true, ..RunOptions::default() }).map_err(|e| e.to_string())
+}
+
 /// Percentiles of one metric.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Percentiles {

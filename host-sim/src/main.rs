@@ -75,6 +75,10 @@ enum Cmd {
         /// Output directory.
         #[arg(long, default_value = "out/sweep")]
         out: PathBuf,
+        /// Fly the worst run again (first failure, else smallest UAV-boundary distance) with
+        /// recording on and write its summary, plots and replay.html into OUT/worst.
+        #[arg(long)]
+        replay_worst: bool,
     },
     /// Processor-in-the-loop: fly the mission with each UAV's controller in its own QEMU
     /// (the `qemu` firmware over MAVLink) and SIL with host twins; compare every command and
@@ -115,7 +119,7 @@ fn main() -> ExitCode {
             run(scenario, kind, f_max, &out, seed)
         }
         Cmd::Compare { scenario, f_max, out, seed } => compare(scenario, f_max, &out, seed),
-        Cmd::Sweep { scenario, runs, jobs, seed, out } => sweep(scenario, runs, jobs, seed, &out),
+        Cmd::Sweep { scenario, runs, jobs, seed, out, replay_worst } => sweep(scenario, runs, jobs, seed, &out, replay_worst),
         Cmd::Pil { scenario, out, firmware, duration } => {
             if let Some(d) = duration {
                 if !(d.is_finite() && d > 0.0) {
@@ -184,6 +188,13 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
         println!("dissipative:\n{}\nbaseline:\n{}", a.summary.table(), b.summary.table());
         write(&out.join("dissipative"), &a)?;
         write(&out.join("baseline"), &b)?;
+        match host_sim::replay::write(out, &a.scene, &[&a.record, &b.record]) {
+            Ok(f) => println!("  wrote {}", f.display()),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return Err(ExitCode::from(EXIT_FAILURE));
+            }
+        }
         match host_sim::plots::write_comparison_plots(out, &a.scene, &a.record, &b.record) {
             Ok(files) => files.iter().for_each(|f| println!("  wrote {}", f.display())),
             Err(e) => {
@@ -196,7 +207,7 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
     result.unwrap_or_else(|c| c)
 }
 
-fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path) -> ExitCode {
+fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path, replay_worst: bool) -> ExitCode {
     use host_sim::campaign;
     let c = match campaign::load(path.as_deref()) {
         Ok(c) => c,
@@ -242,6 +253,22 @@ fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: 
         );
     }
     println!("  wrote {}", out.display());
+    if replay_worst {
+        if let Some(w) = campaign::worst(&rows) {
+            let lv = w.level.map_or_else(String::new, |v| format!(" at level {v}"));
+            eprintln!("re-flying the worst run (seed {}{lv}) with recording ...", w.summary.seed);
+            let o = match campaign::refly(&c, w) {
+                Ok(o) => o,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(EXIT_FAILURE);
+                }
+            };
+            if write(&out.join("worst"), &o).is_err() {
+                return ExitCode::from(EXIT_FAILURE);
+            }
+        }
+    }
     ExitCode::SUCCESS
 }
 
