@@ -745,6 +745,7 @@
       ticks: ticks,
       errors: errors,
       background: BG,
+      viewport: [window.innerWidth, window.innerHeight],
       colors: runs.map((r) => r.colors),
       uav_px: p0 ? runs.map((_, ri) => { const pp = panels.find((p) => p.runs.indexOf(ri) >= 0); const slot = pp ? pp.runs.indexOf(ri) : -1; return pp && pp.uavPx[slot] ? pp.uavPx[slot].map((q) => page(pp.c3, q)) : []; }) : [],
       top_px: p0 ? runs.map((_, ri) => { const pp = panels.find((p) => p.runs.indexOf(ri) >= 0); const slot = pp ? pp.runs.indexOf(ri) : -1; return pp && pp.topPx[slot] ? pp.topPx[slot].map((q) => page(pp.ct, q)) : []; }) : [],
