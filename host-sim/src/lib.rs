@@ -7,6 +7,7 @@ pub mod cable;
 pub mod campaign;
 pub mod disturbance;
 pub mod link;
+pub mod mcap_log;
 pub mod pil;
 pub mod plant;
 pub mod plots;

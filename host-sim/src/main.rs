@@ -42,6 +42,9 @@ enum Cmd {
         /// Random seed (overrides the scenario's).
         #[arg(long)]
         seed: Option<u64>,
+        /// Also write an MCAP log for Foxglove (docs/replay.md).
+        #[arg(long, value_name = "FILE")]
+        mcap: Option<PathBuf>,
     },
     /// Fly both controllers on the same scenario and write paired plots and summaries.
     Compare {
@@ -56,6 +59,9 @@ enum Cmd {
         /// Random seed.
         #[arg(long)]
         seed: Option<u64>,
+        /// Also write an MCAP log of both runs for Foxglove (docs/replay.md).
+        #[arg(long, value_name = "FILE")]
+        mcap: Option<PathBuf>,
     },
     /// Fly many seeded runs (a scenario or a campaign under scenarios/campaigns/) in parallel
     /// and write sweep.csv, sweep.json (success rate, percentiles) and, for campaigns with
@@ -111,14 +117,14 @@ enum Cmd {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Cmd::Run { scenario, controller, f_max, out, seed } => {
+        Cmd::Run { scenario, controller, f_max, out, seed, mcap } => {
             let kind = match controller {
                 Controller::Dissipative => ControllerKind::Dissipative,
                 Controller::Baseline => ControllerKind::Baseline,
             };
-            run(scenario, kind, f_max, &out, seed)
+            run(scenario, kind, f_max, &out, seed, mcap.as_deref())
         }
-        Cmd::Compare { scenario, f_max, out, seed } => compare(scenario, f_max, &out, seed),
+        Cmd::Compare { scenario, f_max, out, seed, mcap } => compare(scenario, f_max, &out, seed, mcap.as_deref()),
         Cmd::Sweep { scenario, runs, jobs, seed, out, replay_worst } => sweep(scenario, runs, jobs, seed, &out, replay_worst),
         Cmd::Pil { scenario, out, firmware, duration } => {
             if let Some(d) = duration {
@@ -169,18 +175,34 @@ fn write(dir: &std::path::Path, out: &sim::RunOutput) -> Result<(), ExitCode> {
     }
 }
 
-fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>) -> ExitCode {
+/// Writes the MCAP log of `runs` to `path` when asked (`--mcap`).
+fn write_mcap(path: Option<&std::path::Path>, scene: &host_sim::record::SceneGeometry, runs: &[&host_sim::record::RunRecord]) -> Result<(), ExitCode> {
+    let Some(path) = path else { return Ok(()) };
+    match host_sim::mcap_log::write(path, scene, runs) {
+        Ok(stats) => {
+            println!("  wrote {} ({} messages)", path.display(), stats.messages.values().sum::<u64>());
+            Ok(())
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            Err(ExitCode::from(EXIT_FAILURE))
+        }
+    }
+}
+
+fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, mcap: Option<&std::path::Path>) -> ExitCode {
     let result = (|| {
         let ls = load(path)?;
         let o = fly(&ls, kind, f_max, seed)?;
         println!("{}", o.summary.table());
         write(out, &o)?;
+        write_mcap(mcap, &o.scene, &[&o.record])?;
         Ok::<_, ExitCode>(if o.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) })
     })();
     result.unwrap_or_else(|c| c)
 }
 
-fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>) -> ExitCode {
+fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, mcap: Option<&std::path::Path>) -> ExitCode {
     let result = (|| {
         let ls = load(path)?;
         let a = fly(&ls, ControllerKind::Dissipative, f_max, seed)?;
@@ -188,6 +210,7 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
         println!("dissipative:\n{}\nbaseline:\n{}", a.summary.table(), b.summary.table());
         write(&out.join("dissipative"), &a)?;
         write(&out.join("baseline"), &b)?;
+        write_mcap(mcap, &a.scene, &[&a.record, &b.record])?;
         match host_sim::replay::write(out, &a.scene, &[&a.record, &b.record]) {
             Ok(f) => println!("  wrote {}", f.display()),
             Err(e) => {
