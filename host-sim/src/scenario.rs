@@ -564,6 +564,17 @@ impl Validator<'_> {
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
         self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
         self.non_negative("uavs", "thrust_lag_s", s.uavs.thrust_lag_s)?;
+        // issue 17: the velocity loop needs the hover thrust m g within its limits
+        // [0.05 thrust_max, thrust_max] (sim::velocity_loop, vt_cfo::VelocityLoopParams::new, in
+        // f32 as there); else the crate's error surfaced as a bare SimError with no location.
+        let hover_n = s.uavs.mass_kg as f32 * vt_cfo::GRAVITY_MPS2;
+        let thrust_max = s.uavs.thrust_max_n as f32;
+        if hover_n > thrust_max {
+            return Err(self.err("uavs", "thrust_max_n", format!("{} N cannot lift the UAV: its weight uavs.mass_kg * g is {hover_n} N", s.uavs.thrust_max_n)));
+        }
+        if hover_n < 0.05 * thrust_max {
+            return Err(self.err("uavs", "mass_kg", format!("the UAV's weight {hover_n} N is below the minimum thrust 0.05 * uavs.thrust_max_n = {} N", 0.05 * thrust_max)));
+        }
         if !(s.uavs.tilt_max_deg.is_finite() && s.uavs.tilt_max_deg > 0.0 && s.uavs.tilt_max_deg < 90.0) {
             return Err(self.err("uavs", "tilt_max_deg", format!("must be in (0, 90) degrees (got {})", s.uavs.tilt_max_deg)));
         }
