@@ -125,3 +125,10 @@ fn uav_heavier_than_its_thrust_names_the_field_and_line() {
     let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("20 N lifts a 2 kg UAV");
     assert!(host_sim::sim::velocity_loop(&ls.scenario).is_ok(), "validation and the velocity loop disagree");
 }
+
+/// Issue 17: a derivative gain >= 1 (rejected by vt-cfo) is a validation error with a location.
+#[test]
+fn derivative_gain_of_one_names_the_field_and_line() {
+    let text = paper().replacen("kd = [0.1, 0.1, 0.1]", "kd = [0.1, 1.0, 0.1]", 1);
+    expect_error(&text, "kd.toml", &[&format!(":{}:", line_of("kd = [0.1, 0.1, 0.1]")), "velocity_loop.kd", "< 1"]);
+}

@@ -615,6 +615,11 @@ impl Validator<'_> {
                 return Err(self.err("velocity_loop", k, "gains must be finite and >= 0".into()));
             }
         }
+        // issue 17: the crate takes kd in [0, 1) (vt_cfo::VelocityLoopParams::new); said here
+        // with a location instead of a bare SimError.
+        if !vl.kd.iter().all(|&x| x < 1.0) {
+            return Err(self.err("velocity_loop", "kd", format!("derivative gains must be < 1 (got {:?})", vl.kd)));
+        }
         self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
         // Rates.
         let r = &s.rates;
