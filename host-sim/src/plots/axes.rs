@@ -107,3 +107,17 @@ pub(crate) fn draw_no_data(area: &Area<'_>, chart: &Chart<'_, '_>) -> DynResult<
     Label::new("no samples recorded", c, st).draw_on(area)?;
     Ok(())
 }
+
+/// Draws `text` centred at the top of `area`; returns the area below it.
+pub(crate) fn titled<'a>(area: &Area<'a>, text: &str, size: f32) -> DynResult<Area<'a>> {
+    let (w, _) = area.dim_in_pixel();
+    let w = i32::try_from(w).unwrap_or(i32::MAX);
+    Label::new(
+        text,
+        (w / 2, 8),
+        Txt::new(size, HAlign::Center, VAlign::Top).bold(),
+    )
+    .draw_on(area)?;
+    let h = (size * 1.25).ceil() as u32 + 14;
+    Ok(area.split_vertically(h).1)
+}

@@ -1,10 +1,11 @@
 //! PNG plots of a run (and of two runs side by side), drawn with `plotters`.
 //!
-//! Fonts: DejaVu Sans is embedded in the binary (crate `dejavu`), so nothing is needed from
-//! the machine (no system fonts, fontconfig or freetype). It is registered with plotters'
-//! `ab_glyph` backend, but all visible text is rasterised here with `ab_glyph` directly
-//! ([`Label`]): plotters 0.3.7's `ab_glyph` text path drops each glyph's left side bearing,
-//! which gives visibly uneven letter spacing.
+//! By concept: [`top_view`] (obstacles, tube, paths, formation snapshots), [`time_series`]
+//! (tensions, clearances, load altitude, campaign xy plots), [`legend`] (the legend column),
+//! [`axes`] (ticks, grid, axis titles), [`geometry`] (bounds, thinning, decimation, colours)
+//! and [`text`] (the embedded DejaVu Sans and text layout, shared with `xtask`; it says what
+//! stays hand-written and why). Nothing is needed from the machine (no system fonts,
+//! fontconfig or freetype).
 //!
 //! Non-finite samples are skipped (lines are broken there); empty records give plots with
 //! empty axes and a "no samples recorded" note.
@@ -13,13 +14,10 @@ use std::error::Error;
 use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
-use ab_glyph::{point, Font, FontRef, Glyph, PxScale, ScaleFont};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::{register_font, FontStyle};
 
 use crate::record::{RunRecord, SceneGeometry};
 
@@ -38,8 +36,6 @@ use text::*;
 use time_series::*;
 use top_view::*;
 
-/// Font family name under which the embedded font is registered with plotters.
-const FONT: &str = "sans-serif";
 /// Safety floor drawn on the distance plot, m.
 const SAFETY_FLOOR_M: f64 = 0.4;
 /// Half width of the load-altitude band, m.
@@ -91,22 +87,6 @@ type DynResult<T> = Result<T, Box<dyn Error>>;
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 type Chart<'a, 'b> =
     ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
-
-/// Registers the embedded font with plotters once; later calls return the first outcome.
-fn ensure_fonts() -> Result<(), String> {
-    static FONTS: OnceLock<Result<(), String>> = OnceLock::new();
-    FONTS
-        .get_or_init(|| {
-            register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
-                .map_err(|_| "embedded DejaVu Sans font is invalid".to_string())?;
-            register_font(FONT, FontStyle::Bold, dejavu::sans::bold())
-                .map_err(|_| "embedded DejaVu Sans Bold font is invalid".to_string())?;
-            face(false)
-                .map(|_| ())
-                .ok_or_else(|| "embedded DejaVu Sans font is invalid".to_string())
-        })
-        .clone()
-}
 
 /// Writes `top_view.png`, `tensions.png`, `distances.png` and `load_altitude.png` into `dir`
 /// (created if missing) and returns their paths.
@@ -275,7 +255,7 @@ pub fn write_xy_plot(
 }
 
 fn prepare(dir: &Path) -> Result<(), PlotError> {
-    ensure_fonts().map_err(|m| PlotError::new(dir, m))?;
+    register_fonts().map_err(|m| PlotError::new(dir, m))?;
     std::fs::create_dir_all(dir).map_err(|e| PlotError::new(dir, e.to_string()))
 }
 

@@ -1,10 +1,48 @@
-//! Text: the embedded DejaVu Sans faces, layout (kerning, alignment, rotation) and anti-aliased
-//! rasterisation of labels onto a plotters drawing area.
+//! Text for the plots, shared with `xtask`'s scaling plot: the embedded DejaVu Sans faces
+//! (crate `dejavu`), layout with `ab_glyph` (advances, kerning, ascent/descent, alignment,
+//! 90-degree rotation) and anti-aliased drawing of a [`Label`] onto any plotters drawing area.
+//!
+//! What stays hand-written, and why: plotters 0.3.7 does lay out text with `ab_glyph` (feature
+//! `ab_glyph`), but its glyph placement drops each glyph's left side bearing, which gives
+//! visibly uneven letter spacing, and it has no halo. So the glyph outlines and coverage come
+//! from `ab_glyph` (`outline_glyph`, `draw`), and only the placement (caret, kerning, anchor)
+//! and the blending into the drawing area (`draw_pixel` with coverage as alpha) are here,
+//! about 100 lines. Plotters still gets the font registered ([`register_fonts`]) because its
+//! mesh code asks for one even when every label is empty.
 
-use super::*;
+use std::error::Error;
+use std::sync::OnceLock;
+
+use ab_glyph::{point, Font, FontRef, Glyph, PxScale, ScaleFont};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+
+/// Font family name under which the embedded font is registered with plotters.
+pub const FONT: &str = "sans-serif";
+
+/// Registers the embedded regular and bold faces with plotters as [`FONT`], once per process;
+/// later calls return the first outcome.
+///
+/// # Errors
+/// The embedded font data is invalid (text).
+pub fn register_fonts() -> Result<(), String> {
+    static FONTS: OnceLock<Result<(), String>> = OnceLock::new();
+    FONTS
+        .get_or_init(|| {
+            register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
+                .map_err(|_| "embedded DejaVu Sans font is invalid".to_string())?;
+            register_font(FONT, FontStyle::Bold, dejavu::sans::bold())
+                .map_err(|_| "embedded DejaVu Sans Bold font is invalid".to_string())?;
+            face(false)
+                .map(|_| ())
+                .ok_or_else(|| "embedded DejaVu Sans font is invalid".to_string())
+        })
+        .clone()
+}
 
 /// Embedded DejaVu Sans (regular or bold), parsed once.
-pub(crate) fn face(bold: bool) -> Option<&'static FontRef<'static>> {
+pub fn face(bold: bool) -> Option<&'static FontRef<'static>> {
     static FACES: OnceLock<(Option<FontRef<'static>>, Option<FontRef<'static>>)> = OnceLock::new();
     let (regular, heavy) = FACES.get_or_init(|| {
         (
@@ -19,36 +57,50 @@ pub(crate) fn face(bold: bool) -> Option<&'static FontRef<'static>> {
     }
 }
 
+/// Where the anchor sits horizontally on the text box (before rotation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum HAlign {
+pub enum HAlign {
+    /// At the start of the text.
     Left,
+    /// In the middle.
     Center,
+    /// At the end.
     Right,
 }
 
+/// Where the anchor sits vertically on the text box (before rotation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum VAlign {
+pub enum VAlign {
+    /// At the ascent line.
     Top,
+    /// Half-way between ascent and descent.
     Center,
+    /// At the descent line.
     Bottom,
 }
 
 /// How a [`Label`] looks and where its anchor sits on the text box.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Txt {
-    pub(crate) size: f32,
-    pub(crate) bold: bool,
-    pub(crate) color: RGBColor,
-    pub(crate) h: HAlign,
-    pub(crate) v: VAlign,
+pub struct Txt {
+    /// Font size (em height), px.
+    pub size: f32,
+    /// Bold face.
+    pub bold: bool,
+    /// Text colour.
+    pub color: RGBColor,
+    /// Horizontal anchor.
+    pub h: HAlign,
+    /// Vertical anchor.
+    pub v: VAlign,
     /// Rotated 90 degrees counter-clockwise (reads bottom to top).
-    pub(crate) vertical: bool,
+    pub vertical: bool,
     /// White outline, for text drawn over data.
-    pub(crate) halo: bool,
+    pub halo: bool,
 }
 
 impl Txt {
-    pub(crate) fn new(size: f32, h: HAlign, v: VAlign) -> Self {
+    /// Regular black horizontal text of `size` px anchored at (`h`, `v`).
+    pub fn new(size: f32, h: HAlign, v: VAlign) -> Self {
         Self {
             size,
             bold: false,
@@ -59,32 +111,36 @@ impl Txt {
             halo: false,
         }
     }
-    pub(crate) fn bold(self) -> Self {
+    /// The same, bold.
+    pub fn bold(self) -> Self {
         Self { bold: true, ..self }
     }
-    pub(crate) fn color(self, color: RGBColor) -> Self {
+    /// The same, in `color`.
+    pub fn color(self, color: RGBColor) -> Self {
         Self { color, ..self }
     }
-    pub(crate) fn vertical(self) -> Self {
+    /// The same, rotated 90 degrees counter-clockwise.
+    pub fn vertical(self) -> Self {
         Self {
             vertical: true,
             ..self
         }
     }
-    pub(crate) fn halo(self) -> Self {
+    /// The same, with a white outline.
+    pub fn halo(self) -> Self {
         Self { halo: true, ..self }
     }
 }
 
 /// Text laid out on a baseline at y = 0, starting at x = 0.
-pub(crate) struct Laid {
-    pub(crate) glyphs: Vec<Glyph>,
-    pub(crate) width: f32,
-    pub(crate) ascent: f32,
-    pub(crate) descent: f32,
+struct Laid {
+    glyphs: Vec<Glyph>,
+    width: f32,
+    ascent: f32,
+    descent: f32,
 }
 
-pub(crate) fn lay_out(font: &FontRef<'static>, size: f32, text: &str) -> Laid {
+fn lay_out(font: &FontRef<'static>, size: f32, text: &str) -> Laid {
     let scale = PxScale::from(size);
     let sf = font.as_scaled(scale);
     let mut caret = 0.0f32;
@@ -108,19 +164,23 @@ pub(crate) fn lay_out(font: &FontRef<'static>, size: f32, text: &str) -> Laid {
 }
 
 /// Advance width of `text` in pixels.
-pub(crate) fn text_width(text: &str, st: &Txt) -> i32 {
+pub fn text_width(text: &str, st: &Txt) -> i32 {
     face(st.bold).map_or(0, |f| lay_out(f, st.size, text).width.ceil() as i32)
 }
 
 /// A line of text, anchored at `pos` (pixel coordinates of the area it is drawn on).
-pub(crate) struct Label {
-    pub(crate) text: String,
-    pub(crate) pos: (i32, i32),
-    pub(crate) st: Txt,
+pub struct Label {
+    /// The text.
+    pub text: String,
+    /// Anchor, px.
+    pub pos: (i32, i32),
+    /// Look and anchor placement.
+    pub st: Txt,
 }
 
 impl Label {
-    pub(crate) fn new(text: impl Into<String>, pos: (i32, i32), st: Txt) -> Self {
+    /// `text` anchored at `pos` (px) with style `st`.
+    pub fn new(text: impl Into<String>, pos: (i32, i32), st: Txt) -> Self {
         Self {
             text: text.into(),
             pos,
@@ -131,7 +191,13 @@ impl Label {
 
 impl Label {
     /// Rasterises the text onto `area` (anti-aliased, blended).
-    pub(crate) fn draw_on(&self, area: &Area<'_>) -> DynResult<()> {
+    ///
+    /// # Errors
+    /// The drawing area's backend fails.
+    pub fn draw_on<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<(), Box<dyn Error>>
+    where
+        DB::ErrorType: 'static,
+    {
         let Some(font) = face(self.st.bold) else {
             return Ok(());
         };
@@ -194,18 +260,4 @@ impl Label {
         }
         Ok(())
     }
-}
-
-/// Draws `text` centred at the top of `area`; returns the area below it.
-pub(crate) fn titled<'a>(area: &Area<'a>, text: &str, size: f32) -> DynResult<Area<'a>> {
-    let (w, _) = area.dim_in_pixel();
-    let w = i32::try_from(w).unwrap_or(i32::MAX);
-    Label::new(
-        text,
-        (w / 2, 8),
-        Txt::new(size, HAlign::Center, VAlign::Top).bold(),
-    )
-    .draw_on(area)?;
-    let h = (size * 1.25).ceil() as u32 + 14;
-    Ok(area.split_vertically(h).1)
 }
