@@ -173,3 +173,32 @@ fn replay_plays_in_headless_chromium_and_shows_the_uavs() {
     let _ = std::fs::copy(&shot, &keep);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `compare`: both controllers in one page, side by side and overlaid; no console message,
+/// both runs' UAVs at their published positions in their colours.
+#[test]
+fn comparison_replay_shows_both_runs_side_by_side_and_overlaid() {
+    let Some(exe) = chromium() else { return };
+    let dir = std::env::temp_dir().join(format!("vt-replay-compare-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+    let ls = scenario::load(Some(&path)).expect("valid scenario");
+    let a = sim::run(&ls, &RunOptions { record: true, ..RunOptions::default() }).expect("dissipative run");
+    let b = sim::run(&ls, &RunOptions { record: true, controller: sim::ControllerKind::Baseline, ..RunOptions::default() })
+        .expect("baseline run");
+    let file = replay::write(&dir, &a.scene, &[&a.record, &b.record]).expect("replay written");
+    for layout in ["", "&overlay"] {
+        let url = format!("file://{}#t=10&paused{layout}", file.display());
+        let (dom, console) = run_chromium(&exe, &dir, &url, WINDOW, &["--virtual-time-budget=1000", "--dump-dom"]);
+        assert!(console.is_empty(), "{layout}: console messages: {console:#?}");
+        let s = page_state(&dom);
+        println!("compare{layout}: {s}");
+        assert_eq!(s["errors"].as_array().map(Vec::len), Some(0), "page errors: {}", s["errors"]);
+        assert_eq!(s["frames"].as_array().map(Vec::len), Some(2), "two runs");
+        for run in 0..2 {
+            assert!(s["frame"][run].as_i64().unwrap_or(-1) > 0, "{layout}: run {run} frame {}", s["frame"][run]);
+            assert_eq!(s["uav_px"][run].as_array().map(Vec::len), Some(3), "{layout}: run {run} UAV positions");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

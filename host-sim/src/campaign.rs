@@ -382,6 +382,29 @@ mod tests {
         assert!(percentiles(vec![f64::NAN]).is_none());
     }
 
+    /// `sweep --replay-worst`: the re-flown run is the worst row's flight (same summary, wall
+    /// time aside), and it has the time histories the replay needs.
+    #[test]
+    fn refly_repeats_the_worst_run_with_a_record() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+        let c = load(Some(&path)).unwrap();
+        let rows = fly(&c, 3, 7, 1, false).unwrap();
+        let w = worst(&rows).unwrap();
+        let least = rows.iter().map(|r| r.summary.min_uav_boundary_m).fold(f64::INFINITY, f64::min);
+        assert!(rows.iter().all(|r| r.summary.success), "a failed row would be the worst");
+        assert_eq!(w.summary.min_uav_boundary_m, least);
+        let o = refly(&c, w).unwrap();
+        let strip = |s: &Summary| Summary { wall_time_s: 0.0, realtime_factor: 0.0, ..s.clone() };
+        assert_eq!(strip(&o.summary), strip(&w.summary));
+        assert!(!o.record.time_s.is_empty() && o.record.uav_pos_m.len() == o.record.time_s.len());
+        // A failure comes first whatever the distances.
+        let mut failed = rows.clone();
+        failed[2].summary.success = false;
+        failed[2].summary.min_uav_boundary_m = 99.0;
+        assert_eq!(worst(&failed).map(|r| r.summary.seed), Some(failed[2].summary.seed));
+        assert!(worst(&[]).is_none());
+    }
+
     #[test]
     fn merge_overrides_nested_tables() {
         let mut a: toml::Table = toml::from_str("[x]\na = 1\nb = 2\n[y]\nc = 3").unwrap();

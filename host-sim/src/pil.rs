@@ -999,7 +999,7 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
     while step < max_steps {
         let t = step as f64 * dt;
         let time_ms = (t * 1000.0).round() as u32;
-        let hl_due = step % hl_every == 0;
+        let hl_due = step.is_multiple_of(hl_every);
         if hl_due {
             link.exchange(step / hl_every, &sample_pos);
             metrics.geometry(t, &plant, tube, &mut uav_hints, &mut load_hint, &no_thrust_loss);
@@ -1007,7 +1007,7 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
                 arrival_step = Some(step);
             }
         }
-        if step % ll_every == 0 {
+        if step.is_multiple_of(ll_every) {
             // Send every UAV its tick first (the emulators compute in parallel), then collect.
             for (i, port) in ports.iter_mut().enumerate() {
                 let u = &plant.uavs[i];
@@ -1059,7 +1059,7 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], limits: FlightLimits, 
         }
         plant.step(&thrust_cmd, &[], V3::zeros(), dt);
         metrics.tensions(plant.tensions_n());
-        if step % rec_every == 0 {
+        if step.is_multiple_of(rec_every) {
             if !sim::plant_finite(&plant) {
                 metrics.nonfinite = true;
                 break;

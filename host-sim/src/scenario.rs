@@ -630,11 +630,11 @@ impl Validator<'_> {
             }
         }
         for (k, v) in [("low_level_hz", r.low_level_hz), ("high_level_hz", r.high_level_hz), ("record_hz", r.record_hz)] {
-            if r.plant_hz % v != 0 {
+            if !r.plant_hz.is_multiple_of(v) {
                 return Err(self.err("rates", k, format!("must divide plant_hz = {} evenly (got {v})", r.plant_hz)));
             }
         }
-        if r.low_level_hz % r.high_level_hz != 0 {
+        if !r.low_level_hz.is_multiple_of(r.high_level_hz) {
             return Err(self.err("rates", "high_level_hz", "must divide low_level_hz evenly".into()));
         }
         if vl.cfo_bandwidth_rad_s / f64::from(r.low_level_hz) > 0.5 {

@@ -349,7 +349,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
     let mut arrival_step: Option<u64> = None;
     while step < max_steps {
         let t = step as f64 * dt;
-        if step % hl_every == 0 {
+        if step.is_multiple_of(hl_every) {
             let hl_step = step / hl_every;
             let snap = sensors.delayed().clone();
             let own: Vec<V3f> = snap.uav_pos_m.iter().map(|p| v3f(&sensors.position(p))).collect();
@@ -404,7 +404,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                 record.events.push(RecordEvent { time_s: t, kind: kind.into(), uav: i }); // issue 17 (replay)
             }
         }
-        if step % ll_every == 0 {
+        if step.is_multiple_of(ll_every) {
             sensors.sample(&plant);
             for i in 0..n {
                 let v_meas = sensors.velocity(&sensors.delayed().uav_vel_mps[i].clone());
@@ -426,7 +426,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
         plant.step(&thrust_cmd, &ext_uav, ext_load, dt);
         ground_contact(&mut plant);
         metrics.tensions(plant.tensions_n());
-        if step % rec_every == 0 {
+        if step.is_multiple_of(rec_every) {
             if !plant_finite(&plant) {
                 metrics.nonfinite = true;
                 break;
@@ -443,7 +443,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
                 break;
             }
         }
-        if step % 2000 == 0 {
+        if step.is_multiple_of(2000) {
             if let Some(b) = &bar {
                 b.set_position(step);
             }
