@@ -495,7 +495,9 @@ fn line_of_offset(text: &str, offset: usize) -> usize {
 fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
     let mut current = String::new();
     for (i, raw) in text.lines().enumerate() {
-        let line = raw.trim();
+        // Without a trailing comment (`[controller]   # paper Table II`: issue 17 found that
+        // fields of such tables got no line). A `#` inside a quoted value only cuts the value.
+        let line = raw.split('#').next().unwrap_or_default().trim();
         if line.starts_with('[') {
             current = line.trim_matches(|c| c == '[' || c == ']').trim().to_string();
             continue;
@@ -509,7 +511,9 @@ fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
         }
     }
     // Arrays of tables and inline keys: fall back to the table header.
-    text.lines().position(|l| l.trim().trim_matches(|c| c == '[' || c == ']').trim() == table).map(|i| i + 1)
+    text.lines()
+        .position(|l| l.split('#').next().unwrap_or_default().trim().trim_matches(|c| c == '[' || c == ']').trim() == table)
+        .map(|i| i + 1)
 }
 
 struct Validator<'a> {
