@@ -45,6 +45,7 @@ fn run_chromium(exe: &Path, dir: &Path, url: &str, window: (u32, u32), extra: &[
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
+            "--disable-dev-shm-usage",
             "--disable-quic",
             "--no-first-run",
             "--disable-background-networking",
@@ -201,4 +202,20 @@ fn comparison_replay_shows_both_runs_side_by_side_and_overlaid() {
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Size (issue 17): the replay of the 10-UAV paper mission stays under about 5 MB, the
+/// comparison page (two runs) included. No browser needed.
+#[test]
+fn paper_mission_replay_stays_under_5_mb() {
+    const LIMIT_BYTES: usize = 5_000_000;
+    let ls = scenario::load(None).expect("built-in paper scenario");
+    let a = sim::run(&ls, &RunOptions { record: true, ..RunOptions::default() }).expect("dissipative run");
+    let b = sim::run(&ls, &RunOptions { record: true, controller: sim::ControllerKind::Baseline, ..RunOptions::default() })
+        .expect("baseline run");
+    let one = replay::html(&a.scene, &[&a.record]).expect("page").len();
+    let both = replay::html(&a.scene, &[&a.record, &b.record]).expect("page").len();
+    println!("paper mission replay: run {one} bytes, compare {both} bytes ({} samples)", a.record.time_s.len());
+    assert!(a.record.time_s.len() > 500, "the mission was recorded");
+    assert!(one < LIMIT_BYTES && both < LIMIT_BYTES, "run {one} B, compare {both} B: over {LIMIT_BYTES} B");
 }
