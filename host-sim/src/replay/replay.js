@@ -652,7 +652,10 @@
     const step = [1, 2, 5, 10, 20, 50, 100].find((s) => (tEnd / s) < 16) || 200;
     for (let t = 0; t <= tEnd + 1e-9; t += step) {
       ctx.fillRect(tlX(t), bot, dpr, 3 * dpr);
-      ctx.fillText(t + ' s', tlX(t) + 2 * dpr, h - 3 * dpr);
+      const label = t + ' s';
+      // The last label is right-aligned on its tick when it would run off the canvas.
+      const lx = tlX(t) + 2 * dpr + ctx.measureText(label).width > w ? tlX(t) - 2 * dpr - ctx.measureText(label).width : tlX(t) + 2 * dpr;
+      ctx.fillText(label, lx, h - 3 * dpr);
     }
     ctx.fillText('min UAV-boundary distance; faults and hold marked', w - 300 * dpr, 12 * dpr);
   }
