@@ -17,6 +17,13 @@ if ! command -v qemu-system-arm >/dev/null 2>&1; then
 fi
 qemu-system-arm --version | head -n 1
 
+echo "== Chromium (the browser replay is tested headless, tests/replay_browser.rs)"
+if ! command -v chromium >/dev/null 2>&1; then
+  as_root apt-get update -qq
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
+fi
+chromium --version 2>/dev/null | head -n 1
+
 echo "== the controller crates build for the flight MCU (no_std, no alloc)"
 cargo build --release --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo
 
@@ -32,5 +39,5 @@ echo "== firmware companion unit tests (host build of the firmware's logic)"
 host_triple=$(rustc -vV | sed -n 's/^host: //p')
 (cd firmware && cargo test --release -p vt-companion --features std --target "$host_triple")
 
-echo "== tests (unit, property, doc, closed-loop acceptance, link fuzz, PIL in QEMU)"
-VT_REQUIRE_QEMU=1 cargo test --workspace --release
+echo "== tests (unit, property, doc, closed-loop acceptance, link fuzz, PIL in QEMU, replay in Chromium, MCAP)"
+VT_REQUIRE_QEMU=1 VT_REQUIRE_CHROMIUM=1 cargo test --workspace --release

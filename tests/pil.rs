@@ -167,7 +167,7 @@ fn stale_team_data_switches_to_hold_and_back() {
     let run = |q: &mut QemuPort, enc: &mut Encoders, ticks: u32, with_team: bool, t: &mut u32| {
         let mut last_hb = None;
         for k in 0..ticks {
-            let r = tick(q, enc, &setup, *t, (*t / ll_period_ms) % per_hl == 0, with_team);
+            let r = tick(q, enc, &setup, *t, (*t / ll_period_ms).is_multiple_of(per_hl), with_team);
             let (qv, thrust) = r.setpoint.unwrap();
             assert!(qv.iter().all(|c| c.is_finite()) && thrust.is_finite() && (0.0..=1.0).contains(&thrust), "tick {k}");
             if let Some(h) = r.heartbeat {
@@ -244,7 +244,7 @@ fn garbage(enc: &mut pil::Encoder) -> Vec<u8> {
         x ^= x << 13;
         x ^= x >> 17;
         x ^= x << 5;
-        g.push(if x % 11 == 0 { 0xFD } else { (x >> 8) as u8 });
+        g.push(if x.is_multiple_of(11) { 0xFD } else { (x >> 8) as u8 });
     }
     let good = enc.frame(1, 1, &LOCAL_POSITION_NED_DATA { time_boot_ms: 1, x: 1.0, ..Default::default() });
     g.extend_from_slice(&good[..good.len() / 2]); // truncated

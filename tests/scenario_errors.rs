@@ -123,3 +123,22 @@ fn unreadable_file_is_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read"));
 }
+
+/// Issue 17: a UAV heavier than its thrust was accepted and failed later as a bare `SimError`.
+#[test]
+fn uav_heavier_than_its_thrust_names_the_field_and_line() {
+    // 2 kg UAV (19.6 N) with 15 N of thrust.
+    let text = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 15.0", 1);
+    expect_error(&text, "heavy.toml", &["heavy.toml", &format!(":{}:", line_of("thrust_max_n = 50.0")), "uavs.thrust_max_n", "cannot lift"]);
+    // The boundary: 20 N lifts it (the paper value range stays valid).
+    let ok = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 20.0", 1);
+    let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("20 N lifts a 2 kg UAV");
+    assert!(host_sim::sim::velocity_loop(&ls.scenario).is_ok(), "validation and the velocity loop disagree");
+}
+
+/// Issue 17: a derivative gain >= 1 (rejected by vt-cfo) is a validation error with a location.
+#[test]
+fn derivative_gain_of_one_names_the_field_and_line() {
+    let text = paper().replacen("kd = [0.1, 0.1, 0.1]", "kd = [0.1, 1.0, 0.1]", 1);
+    expect_error(&text, "kd.toml", &[&format!(":{}:", line_of("kd = [0.1, 0.1, 0.1]")), "velocity_loop.kd", "< 1"]);
+}

@@ -38,7 +38,7 @@ fn quadrotor_step(c: &mut Criterion) {
     group.bench_function("1000", |b| {
         b.iter(|| {
             for k in 0..STEPS {
-                let target = if (k / SWITCH_STEPS) % 2 == 0 { &targets[0] } else { &targets[1] };
+                let target = if (k / SWITCH_STEPS).is_multiple_of(2) { &targets[0] } else { &targets[1] };
                 quad.step(black_box(target), black_box(cable), black_box(wind), H_S);
             }
             black_box(quad.pos_m())

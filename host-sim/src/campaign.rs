@@ -193,6 +193,28 @@ pub fn fly(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool) ->
     rows
 }
 
+/// The run `sweep --replay-worst` re-flies (issue 17): the first failed run in (level, seed)
+/// order, else the run with the smallest minimum UAV-boundary distance. `None` without rows.
+pub fn worst(rows: &[Row]) -> Option<&Row> {
+    rows.iter().find(|r| !r.summary.success).or_else(|| {
+        rows.iter().min_by(|a, b| a.summary.min_uav_boundary_m.total_cmp(&b.summary.min_uav_boundary_m))
+    })
+}
+
+/// Flies `row`'s run again (same level, same seed) with recording on, for its replay: campaign
+/// runs keep no time histories. Deterministic, so it is the same flight (tests/determinism.rs).
+///
+/// # Errors
+/// The row's level is not in the campaign, or a crate rejects the scenario.
+pub fn refly(c: &Campaign, row: &Row) -> Result<sim::RunOutput, String> {
+    let (_, ls) = c
+        .levels
+        .iter()
+        .find(|(l, _)| l.map(f64::to_bits) == row.level.map(f64::to_bits))
+        .ok_or_else(|| format!("level {:?} is not in campaign {}", row.level, c.name))?;
+    sim::run(ls, &RunOptions { seed: Some(row.summary.seed), record: true, ..RunOptions::default() }).map_err(|e| e.to_string())
+}
+
 /// Percentiles of one metric.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Percentiles {
@@ -358,6 +380,29 @@ mod tests {
         let p = percentiles((1..=101).map(f64::from).collect()).unwrap();
         assert_eq!((p.min, p.p5, p.p50, p.p95, p.max), (1.0, 6.0, 51.0, 96.0, 101.0));
         assert!(percentiles(vec![f64::NAN]).is_none());
+    }
+
+    /// `sweep --replay-worst`: the re-flown run is the worst row's flight (same summary, wall
+    /// time aside), and it has the time histories the replay needs.
+    #[test]
+    fn refly_repeats_the_worst_run_with_a_record() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+        let c = load(Some(&path)).unwrap();
+        let rows = fly(&c, 3, 7, 1, false).unwrap();
+        let w = worst(&rows).unwrap();
+        let least = rows.iter().map(|r| r.summary.min_uav_boundary_m).fold(f64::INFINITY, f64::min);
+        assert!(rows.iter().all(|r| r.summary.success), "a failed row would be the worst");
+        assert_eq!(w.summary.min_uav_boundary_m, least);
+        let o = refly(&c, w).unwrap();
+        let strip = |s: &Summary| Summary { wall_time_s: 0.0, realtime_factor: 0.0, ..s.clone() };
+        assert_eq!(strip(&o.summary), strip(&w.summary));
+        assert!(!o.record.time_s.is_empty() && o.record.uav_pos_m.len() == o.record.time_s.len());
+        // A failure comes first whatever the distances.
+        let mut failed = rows.clone();
+        failed[2].summary.success = false;
+        failed[2].summary.min_uav_boundary_m = 99.0;
+        assert_eq!(worst(&failed).map(|r| r.summary.seed), Some(failed[2].summary.seed));
+        assert!(worst(&[]).is_none());
     }
 
     #[test]

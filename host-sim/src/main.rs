@@ -56,6 +56,9 @@ enum Cmd {
         seed: Option<u64>,
         #[command(flatten)]
         plant: PlantArgs,
+        /// Also write an MCAP log for Foxglove (docs/replay.md).
+        #[arg(long, value_name = "FILE")]
+        mcap: Option<PathBuf>,
     },
     /// Fly both controllers on the same scenario and write paired plots and summaries.
     Compare {
@@ -72,6 +75,9 @@ enum Cmd {
         seed: Option<u64>,
         #[command(flatten)]
         plant: PlantArgs,
+        /// Also write an MCAP log of both runs for Foxglove (docs/replay.md).
+        #[arg(long, value_name = "FILE")]
+        mcap: Option<PathBuf>,
     },
     /// Fly many seeded runs (a scenario or a campaign under scenarios/campaigns/) in parallel
     /// and write sweep.csv, sweep.json (success rate, percentiles) and, for campaigns with
@@ -91,6 +97,10 @@ enum Cmd {
         /// Output directory.
         #[arg(long, default_value = "out/sweep")]
         out: PathBuf,
+        /// Fly the worst run again (first failure, else smallest UAV-boundary distance) with
+        /// recording on and write its summary, plots and replay.html into OUT/worst.
+        #[arg(long)]
+        replay_worst: bool,
     },
     /// Processor-in-the-loop: fly the mission with each UAV's controller in its own QEMU
     /// (the `qemu` firmware over MAVLink) and SIL with host twins; compare every command and
@@ -125,15 +135,15 @@ enum Cmd {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Cmd::Run { scenario, controller, f_max, out, seed, plant } => {
+        Cmd::Run { scenario, controller, f_max, out, seed, plant, mcap } => {
             let kind = match controller {
                 Controller::Dissipative => ControllerKind::Dissipative,
                 Controller::Baseline => ControllerKind::Baseline,
             };
-            run(scenario, kind, f_max, &out, seed, plant)
+            run(scenario, kind, f_max, &out, seed, plant, mcap.as_deref())
         }
-        Cmd::Compare { scenario, f_max, out, seed, plant } => compare(scenario, f_max, &out, seed, plant),
-        Cmd::Sweep { scenario, runs, jobs, seed, out } => sweep(scenario, runs, jobs, seed, &out),
+        Cmd::Compare { scenario, f_max, out, seed, plant, mcap } => compare(scenario, f_max, &out, seed, plant, mcap.as_deref()),
+        Cmd::Sweep { scenario, runs, jobs, seed, out, replay_worst } => sweep(scenario, runs, jobs, seed, &out, replay_worst),
         Cmd::Pil { scenario, out, firmware, duration, plant } => {
             if let Some(d) = duration {
                 if !(d.is_finite() && d > 0.0) {
@@ -184,18 +194,34 @@ fn write(dir: &std::path::Path, out: &sim::RunOutput) -> Result<(), ExitCode> {
     }
 }
 
-fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, plant: PlantArgs) -> ExitCode {
+/// Writes the MCAP log of `runs` to `path` when asked (`--mcap`).
+fn write_mcap(path: Option<&std::path::Path>, scene: &host_sim::record::SceneGeometry, runs: &[&host_sim::record::RunRecord]) -> Result<(), ExitCode> {
+    let Some(path) = path else { return Ok(()) };
+    match host_sim::mcap_log::write(path, scene, runs) {
+        Ok(stats) => {
+            println!("  wrote {} ({} messages)", path.display(), stats.messages.values().sum::<u64>());
+            Ok(())
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            Err(ExitCode::from(EXIT_FAILURE))
+        }
+    }
+}
+
+fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, plant: PlantArgs, mcap: Option<&std::path::Path>) -> ExitCode {
     let result = (|| {
         let ls = load(path)?;
         let o = fly(&ls, kind, f_max, seed, plant)?;
         println!("{}", o.summary.table());
         write(out, &o)?;
+        write_mcap(mcap, &o.scene, &[&o.record])?;
         Ok::<_, ExitCode>(if o.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) })
     })();
     result.unwrap_or_else(|c| c)
 }
 
-fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, plant: PlantArgs) -> ExitCode {
+fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, seed: Option<u64>, plant: PlantArgs, mcap: Option<&std::path::Path>) -> ExitCode {
     let result = (|| {
         let ls = load(path)?;
         let a = fly(&ls, ControllerKind::Dissipative, f_max, seed, plant)?;
@@ -203,6 +229,14 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
         println!("dissipative:\n{}\nbaseline:\n{}", a.summary.table(), b.summary.table());
         write(&out.join("dissipative"), &a)?;
         write(&out.join("baseline"), &b)?;
+        write_mcap(mcap, &a.scene, &[&a.record, &b.record])?;
+        match host_sim::replay::write(out, &a.scene, &[&a.record, &b.record]) {
+            Ok(f) => println!("  wrote {}", f.display()),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return Err(ExitCode::from(EXIT_FAILURE));
+            }
+        }
         match host_sim::plots::write_comparison_plots(out, &a.scene, &a.record, &b.record) {
             Ok(files) => files.iter().for_each(|f| println!("  wrote {}", f.display())),
             Err(e) => {
@@ -215,7 +249,7 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
     result.unwrap_or_else(|c| c)
 }
 
-fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path) -> ExitCode {
+fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path, replay_worst: bool) -> ExitCode {
     use host_sim::campaign;
     let c = match campaign::load(path.as_deref()) {
         Ok(c) => c,
@@ -261,6 +295,22 @@ fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: 
         );
     }
     println!("  wrote {}", out.display());
+    if replay_worst {
+        if let Some(w) = campaign::worst(&rows) {
+            let lv = w.level.map_or_else(String::new, |v| format!(" at level {v}"));
+            eprintln!("re-flying the worst run (seed {}{lv}) with recording ...", w.summary.seed);
+            let o = match campaign::refly(&c, w) {
+                Ok(o) => o,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(EXIT_FAILURE);
+                }
+            };
+            if write(&out.join("worst"), &o).is_err() {
+                return ExitCode::from(EXIT_FAILURE);
+            }
+        }
+    }
     ExitCode::SUCCESS
 }
 

@@ -56,4 +56,68 @@ pub struct RunRecord {
     pub min_load_boundary_m: Vec<f64>,
     /// Minimum UAV-to-UAV distance per sample, m.
     pub min_uav_uav_m: Vec<f64>,
+    // ---- issue 17 (replay, MCAP): every field below may be empty / zero (older backends).
+    /// Controller mode `[sample][uav]`: [`MODE_TRANSPORT`] or [`MODE_HOLD`]; may be empty.
+    pub uav_mode: Vec<Vec<u8>>,
+    /// Timeline events (faults, hold entered / left), in time order; may be empty.
+    pub events: Vec<RecordEvent>,
+    /// Rated cable capacity the replay colours tensions against, N (0: use `f_max_n`).
+    pub rated_n: f64,
+    /// Virtual tray height above the load `h` (eq:2-4), m (0: tray not drawn).
+    pub tray_height_m: f64,
+    /// Velocity commands of the high-level controller `[sample][uav]`, m/s, world ENU; may be empty.
+    pub vel_cmd_mps: Vec<Vec<[f64; 3]>>,
+    /// CFO estimate of the cable force on each UAV `f_hat` `[sample][uav]`, N; may be empty.
+    pub f_hat_n: Vec<Vec<[f64; 3]>>,
+}
+
+/// Controller mode of a UAV in [`RunRecord::uav_mode`]: flying the transport law.
+pub const MODE_TRANSPORT: u8 = 0;
+/// Controller mode of a UAV in [`RunRecord::uav_mode`]: hold (invalid input or non-finite
+/// command, `vt_dissipative::Status`), zero horizontal velocity.
+pub const MODE_HOLD: u8 = 1;
+
+/// What happened at a [`RecordEvent`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EventKind {
+    /// The UAV's cable snapped (fault).
+    Snap,
+    /// The UAV stopped transmitting (fault).
+    Silent,
+    /// The UAV lost its thrust (fault).
+    ThrustLoss,
+    /// The UAV's controller entered hold.
+    Hold,
+    /// The UAV's controller left hold (back to transport).
+    Resume,
+}
+
+/// One event on the run's timeline.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct RecordEvent {
+    /// Simulated time, s.
+    pub time_s: f64,
+    /// What happened.
+    pub kind: EventKind,
+    /// The UAV concerned (0-based).
+    pub uav: usize,
+}
+
+impl From<crate::scenario::FaultKind> for EventKind {
+    fn from(k: crate::scenario::FaultKind) -> Self {
+        use crate::scenario::FaultKind;
+        match k {
+            FaultKind::CableSnap => Self::Snap,
+            FaultKind::UavSilent => Self::Silent,
+            FaultKind::ThrustLoss => Self::ThrustLoss,
+        }
+    }
+}
+
+impl RunRecord {
+    /// The capacity tensions are coloured against, N: `rated_n` when set, else `f_max_n`.
+    pub fn rated_capacity_n(&self) -> f64 {
+        if self.rated_n > 0.0 { self.rated_n } else { self.f_max_n }
+    }
 }

@@ -5,7 +5,7 @@ use crate::sim::RunOutput;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Writes `summary.json`, `trajectory.csv` and the PNG plots of one run into `dir`.
+/// Writes `summary.json`, `trajectory.csv`, the PNG plots and `replay.html` of one run into `dir`.
 ///
 /// # Errors
 /// I/O and plotting errors, as text naming the file.
@@ -20,6 +20,7 @@ pub fn write_run(dir: &Path, out: &RunOutput) -> Result<Vec<PathBuf>, String> {
     std::fs::write(&csv, trajectory_csv(&out.record)).map_err(|e| format!("{}: {e}", csv.display()))?;
     files.push(csv);
     files.extend(crate::plots::write_run_plots(dir, &out.scene, &out.record).map_err(|e| e.to_string())?);
+    files.push(crate::replay::write(dir, &out.scene, &[&out.record])?);
     Ok(files)
 }
 

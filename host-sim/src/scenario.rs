@@ -545,7 +545,9 @@ fn line_of_offset(text: &str, offset: usize) -> usize {
 fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
     let mut current = String::new();
     for (i, raw) in text.lines().enumerate() {
-        let line = raw.trim();
+        // Without a trailing comment (`[controller]   # paper Table II`: issue 17 found that
+        // fields of such tables got no line). A `#` inside a quoted value only cuts the value.
+        let line = raw.split('#').next().unwrap_or_default().trim();
         if line.starts_with('[') {
             current = line.trim_matches(|c| c == '[' || c == ']').trim().to_string();
             continue;
@@ -559,7 +561,9 @@ fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
         }
     }
     // Arrays of tables and inline keys: fall back to the table header.
-    text.lines().position(|l| l.trim().trim_matches(|c| c == '[' || c == ']').trim() == table).map(|i| i + 1)
+    text.lines()
+        .position(|l| l.split('#').next().unwrap_or_default().trim().trim_matches(|c| c == '[' || c == ']').trim() == table)
+        .map(|i| i + 1)
 }
 
 struct Validator<'a> {
@@ -614,6 +618,17 @@ impl Validator<'_> {
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
         self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
         self.non_negative("uavs", "thrust_lag_s", s.uavs.thrust_lag_s)?;
+        // issue 17: the velocity loop needs the hover thrust m g within its limits
+        // [0.05 thrust_max, thrust_max] (sim::velocity_loop, vt_cfo::VelocityLoopParams::new, in
+        // f32 as there); else the crate's error surfaced as a bare SimError with no location.
+        let hover_n = s.uavs.mass_kg as f32 * vt_cfo::GRAVITY_MPS2;
+        let thrust_max = s.uavs.thrust_max_n as f32;
+        if hover_n > thrust_max {
+            return Err(self.err("uavs", "thrust_max_n", format!("{} N cannot lift the UAV: its weight uavs.mass_kg * g is {hover_n} N", s.uavs.thrust_max_n)));
+        }
+        if hover_n < 0.05 * thrust_max {
+            return Err(self.err("uavs", "mass_kg", format!("the UAV's weight {hover_n} N is below the minimum thrust 0.05 * uavs.thrust_max_n = {} N", 0.05 * thrust_max)));
+        }
         if !(s.uavs.tilt_max_deg.is_finite() && s.uavs.tilt_max_deg > 0.0 && s.uavs.tilt_max_deg < 90.0) {
             return Err(self.err("uavs", "tilt_max_deg", format!("must be in (0, 90) degrees (got {})", s.uavs.tilt_max_deg)));
         }
@@ -659,6 +674,11 @@ impl Validator<'_> {
                 return Err(self.err("velocity_loop", k, "gains must be finite and >= 0".into()));
             }
         }
+        // issue 17: the crate takes kd in [0, 1) (vt_cfo::VelocityLoopParams::new); said here
+        // with a location instead of a bare SimError.
+        if !vl.kd.iter().all(|&x| x < 1.0) {
+            return Err(self.err("velocity_loop", "kd", format!("derivative gains must be < 1 (got {:?})", vl.kd)));
+        }
         self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
         self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
         if let Some(t) = vl.rigid_body {
@@ -678,11 +698,11 @@ impl Validator<'_> {
             }
         }
         for (k, v) in [("low_level_hz", r.low_level_hz), ("high_level_hz", r.high_level_hz), ("record_hz", r.record_hz)] {
-            if r.plant_hz % v != 0 {
+            if !r.plant_hz.is_multiple_of(v) {
                 return Err(self.err("rates", k, format!("must divide plant_hz = {} evenly (got {v})", r.plant_hz)));
             }
         }
-        if r.low_level_hz % r.high_level_hz != 0 {
+        if !r.low_level_hz.is_multiple_of(r.high_level_hz) {
             return Err(self.err("rates", "high_level_hz", "must divide low_level_hz evenly".into()));
         }
         let rigid_bw = vl.rigid_body.and_then(|t| t.cfo_bandwidth_rad_s);

@@ -68,7 +68,7 @@ pub fn median(xs: &[f64]) -> f64 {
     let m = v.len() / 2;
     match (v.get(m.wrapping_sub(1)), v.get(m)) {
         (_, None) => f64::NAN,
-        (Some(a), Some(b)) if v.len() % 2 == 0 => 0.5 * (a + b),
+        (Some(a), Some(b)) if v.len().is_multiple_of(2) => 0.5 * (a + b),
         (_, Some(b)) => *b,
     }
 }

@@ -1,16 +1,13 @@
 //! The scaling plot of `docs/benchmarks.md`: cost against team size, log-log, for the
 //! dissipative control step and the QP allocation.
 //!
-//! Text is rasterised here with `ab_glyph` from the embedded DejaVu Sans (crate `dejavu`),
-//! as host-sim's plots do: nothing is needed from the machine, and plotters' own text path
-//! (which drops glyph bearings) is not used.
+//! Text: host-sim's text layout (`host_sim::plots::text`, the embedded DejaVu Sans), the same
+//! as the simulator's plots; nothing is needed from the machine.
 
 use std::path::Path;
-use std::sync::OnceLock;
 
-use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
+use host_sim::plots::text::{register_fonts, HAlign, Label, Txt, VAlign};
 use plotters::prelude::*;
-use plotters::style::{register_font, FontStyle};
 
 /// Figure size, px.
 const SIZE: (u32, u32) = (1100, 720);
@@ -45,20 +42,8 @@ pub fn write(path: &Path, title: &str, series: &[Series]) -> Result<(), String> 
     draw(path, title, series).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// Registers the embedded font with plotters (its mesh code asks for a font even when every
-/// label is empty); once per process.
-fn ensure_font() -> Result<(), String> {
-    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
-    DONE.get_or_init(|| {
-        register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).map_err(|_| "embedded DejaVu Sans is invalid".to_string())
-    })
-    .clone()
-}
-
 fn draw(path: &Path, title: &str, series: &[Series]) -> DynResult<()> {
-    ensure_font()?;
-    let font = FontRef::try_from_slice(dejavu::sans::regular())?;
-    let bold = FontRef::try_from_slice(dejavu::sans::bold())?;
+    register_fonts()?;
     let root = BitMapBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE)?;
     let finite: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).filter(|v| v.is_finite() && *v > 0.0).collect();
@@ -90,13 +75,13 @@ fn draw(path: &Path, title: &str, series: &[Series]) -> DynResult<()> {
     for x in X_TICKS {
         chart.draw_series(LineSeries::new([(x, y0), (x, y1)], grid.stroke_width(1)))?;
         let (px, py) = chart.backend_coord(&(x, y0));
-        text(&root, &font, TICK_PX, &format!("{x:.0}"), (px, py + 8), (0.5, 0.0), BLACK)?;
+        text(&root, TICK_PX, &format!("{x:.0}"), (px, py + 8), (HAlign::Center, VAlign::Top))?;
     }
     let mut d = y0;
     while d <= y1 * 1.0001 {
         chart.draw_series(LineSeries::new([(X_RANGE.0, d), (X_RANGE.1, d)], grid.stroke_width(1)))?;
         let (px, py) = chart.backend_coord(&(X_RANGE.0, d));
-        text(&root, &font, TICK_PX, &time_label(d), (px - 8, py), (1.0, 0.5), BLACK)?;
+        text(&root, TICK_PX, &time_label(d), (px - 8, py), (HAlign::Right, VAlign::Center))?;
         d *= 10.0;
     }
     for s in series {
@@ -112,22 +97,23 @@ fn draw(path: &Path, title: &str, series: &[Series]) -> DynResult<()> {
     // Titles.
     let (w, h) = SIZE;
     let (w, h) = (i32::try_from(w).unwrap_or(0), i32::try_from(h).unwrap_or(0));
-    text(&root, &bold, TITLE_PX, title, (w / 2, 14), (0.5, 0.0), BLACK)?;
+    Label::new(title, (w / 2, 14), Txt::new(TITLE_PX, HAlign::Center, VAlign::Top).bold()).draw_on(&root)?;
     let (left, _) = chart.backend_coord(&(X_RANGE.0, y0));
     let (right, _) = chart.backend_coord(&(X_RANGE.1, y0));
-    text(&root, &font, TEXT_PX, "team size n (UAVs)", ((left + right) / 2, h - 30), (0.5, 0.0), BLACK)?;
+    text(&root, TEXT_PX, "team size n (UAVs)", ((left + right) / 2, h - 30), (HAlign::Center, VAlign::Top))?;
     // Legend, top left inside the plot.
     let (lx, ly) = chart.backend_coord(&(X_RANGE.0, y1));
     for (k, s) in series.iter().enumerate() {
         let y = ly + 22 + 28 * i32::try_from(k).unwrap_or(0);
         let x = lx + 20;
         root.draw(&PathElement::new(vec![(x, y), (x + 40, y)], s.color.stroke_width(3)))?;
-        text(&root, &font, TEXT_PX, &s.label, (x + 50, y), (0.0, 0.5), BLACK)?;
+        text(&root, TEXT_PX, &s.label, (x + 50, y), (HAlign::Left, VAlign::Center))?;
     }
     // y axis title, written vertically.
     let (_, top) = chart.backend_coord(&(X_RANGE.0, y1));
     let (_, bottom) = chart.backend_coord(&(X_RANGE.0, y0));
-    text_vertical(&root, &font, TEXT_PX, "time per step (median, host)", (22, (top + bottom) / 2), BLACK)?;
+    let st = Txt::new(TEXT_PX, HAlign::Center, VAlign::Center).vertical();
+    Label::new("time per step (median, host)", (22, (top + bottom) / 2), st).draw_on(&root)?;
     root.present()?;
     Ok(())
 }
@@ -143,83 +129,18 @@ fn time_label(ns: f64) -> String {
     }
 }
 
-/// Draws `s` with its anchor at `anchor`; `align` = (fraction of the width left of the anchor,
-/// fraction of the height above it).
+/// Draws `s` in black, regular, `size` px, anchored at `anchor` by `align`.
 fn text<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
-    font: &FontRef<'_>,
     size: f32,
     s: &str,
     anchor: (i32, i32),
-    align: (f32, f32),
-    color: RGBColor,
+    (h, v): (HAlign, VAlign),
 ) -> DynResult<()>
 where
     DB::ErrorType: 'static,
 {
-    let pixels = raster(font, size, s);
-    let (w, h) = extent(font, size, s);
-    let x0 = anchor.0 - (align.0 * w).round() as i32;
-    let y0 = anchor.1 - (align.1 * h).round() as i32;
-    for (x, y, c) in pixels {
-        area.draw_pixel((x0 + x, y0 + y), &color.mix(f64::from(c)))?;
-    }
-    Ok(())
-}
-
-/// Draws `s` rotated 90 degrees counter-clockwise, centred on `center`.
-fn text_vertical<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    font: &FontRef<'_>,
-    size: f32,
-    s: &str,
-    center: (i32, i32),
-    color: RGBColor,
-) -> DynResult<()>
-where
-    DB::ErrorType: 'static,
-{
-    let (w, h) = extent(font, size, s);
-    for (x, y, c) in raster(font, size, s) {
-        let (sx, sy) = (center.0 + y - (h / 2.0) as i32, center.1 - x + (w / 2.0) as i32);
-        area.draw_pixel((sx, sy), &color.mix(f64::from(c)))?;
-    }
-    Ok(())
-}
-
-/// Width and height (ascent - descent) of `s`, px.
-fn extent(font: &FontRef<'_>, size: f32, s: &str) -> (f32, f32) {
-    let sf = font.as_scaled(PxScale::from(size));
-    let w: f32 = s.chars().map(|c| sf.h_advance(sf.glyph_id(c))).sum();
-    (w, sf.ascent() - sf.descent())
-}
-
-/// Coverage of every pixel of `s` laid out from (0, 0) at the top left, y down.
-fn raster(font: &FontRef<'_>, size: f32, s: &str) -> Vec<(i32, i32, f32)> {
-    let scale = PxScale::from(size);
-    let sf = font.as_scaled(scale);
-    let mut caret = 0.0f32;
-    let mut prev = None;
-    let mut out = Vec::new();
-    for c in s.chars() {
-        let id = sf.glyph_id(c);
-        if let Some(p) = prev {
-            caret += sf.kern(p, id);
-        }
-        let g = id.with_scale_and_position(scale, point(caret, sf.ascent()));
-        caret += sf.h_advance(id);
-        prev = Some(id);
-        if let Some(og) = font.outline_glyph(g) {
-            let b = og.px_bounds();
-            let (bx, by) = (b.min.x.round() as i32, b.min.y.round() as i32);
-            og.draw(|x, y, cov| {
-                if cov > 0.02 {
-                    out.push((bx + i32::try_from(x).unwrap_or(0), by + i32::try_from(y).unwrap_or(0), cov.min(1.0)));
-                }
-            });
-        }
-    }
-    out
+    Label::new(s, anchor, Txt::new(size, h, v)).draw_on(area)
 }
 
 #[cfg(test)]
@@ -231,5 +152,31 @@ mod tests {
         assert_eq!(time_label(10.0), "10 ns");
         assert_eq!(time_label(1e3), "1 \u{b5}s");
         assert_eq!(time_label(1e7), "10 ms");
+    }
+}
+
+#[cfg(test)]
+mod render_tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
+    use super::*;
+
+    /// A fixed plot is written, has the figure size and is not blank (text and lines drawn).
+    #[test]
+    fn scaling_plot_is_written() {
+        let series = vec![
+            Series { label: "control step".into(), points: vec![(3.0, 900.0), (10.0, 2500.0), (100.0, 30000.0)], color: RGBColor(31, 119, 180), dashed: false },
+            Series { label: "O(n) reference".into(), points: vec![(3.0, 800.0), (100.0, 26000.0)], color: RGBColor(127, 127, 127), dashed: true },
+        ];
+        let path = std::env::temp_dir().join(format!("xtask_scaling_plot_{}.png", std::process::id()));
+        write(&path, "Cost per control step (test data)", &series).expect("plot written");
+        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).expect("png")));
+        let mut reader = decoder.read_info().expect("header");
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).expect("data");
+        assert_eq!((info.width, info.height), SIZE);
+        let dark = buf.chunks(info.color_type.samples()).filter(|p| p[0] < 80 && p[1] < 80 && p[2] < 80).count();
+        assert!(dark > 2000, "only {dark} dark pixels: no text?");
+        let _ = std::fs::copy(&path, std::env::temp_dir().join("xtask_scaling_plot.png"));
+        let _ = std::fs::remove_file(&path);
     }
 }

@@ -55,7 +55,9 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
             let tick = world.measure();
             team.step(&tick, &mut setpoints)?;
             if opts.record {
-                world.set_holding(team.holding());
+                world.set_holding(&team.holding());
+                let (vel_cmd, f_hat) = world.controller_slots();
+                team.controller_outputs(vel_cmd, f_hat);
             }
         }
         world.advance(&setpoints);

@@ -79,6 +79,10 @@ pub trait Team {
     fn holding(&self) -> Vec<bool> {
         Vec::new()
     }
+
+    /// Writes each UAV's last velocity command (m/s) and cable-force estimate `f_hat` (N),
+    /// ENU, into the slices (for the record); a team that does not report leaves them.
+    fn controller_outputs(&self, _vel_cmd_mps: &mut [V3f], _f_hat_n: &mut [V3f]) {}
 }
 
 enum HighLevel {
@@ -231,5 +235,10 @@ impl Team for CrateTeam {
 
     fn holding(&self) -> Vec<bool> {
         self.holding.clone()
+    }
+
+    fn controller_outputs(&self, vel_cmd_mps: &mut [V3f], f_hat_n: &mut [V3f]) {
+        vel_cmd_mps.iter_mut().zip(&self.vel_cmd).for_each(|(o, v)| *o = *v);
+        f_hat_n.iter_mut().zip(&self.f_hat).for_each(|(o, f)| *o = *f);
     }
 }

@@ -8,7 +8,7 @@ use crate::link::Link;
 use crate::metrics::{formation_error, FlightEnd, Metrics};
 use crate::models::{CableModel, UavModel};
 use crate::plant::Plant;
-use crate::record::RunRecord;
+use crate::record::{EventKind, RecordEvent, RunRecord, MODE_HOLD, MODE_TRANSPORT};
 use crate::scenario::{FaultKind, LoadedScenario, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, RunOptions, SimError, Takeoff};
 use crate::summary::{CableBreak, Summary};
@@ -64,6 +64,10 @@ pub struct World<'a> {
     uav_drag_area_m2: f64,
     load_drag_area_m2: f64,
     holding: Vec<bool>,
+    /// Per UAV, the team's last velocity command, ENU, m/s (for the record).
+    vel_cmd: Vec<V3f>,
+    /// Per UAV, the team's last cable-force estimate `f_hat`, ENU, N (for the record).
+    f_hat: Vec<V3f>,
 }
 
 impl<'a> World<'a> {
@@ -132,6 +136,8 @@ impl<'a> World<'a> {
             controller: opts.controller.name().into(),
             f_max_n: f_max,
             load_altitude_ref_m: s.load.altitude_m,
+            rated_n: f_max,
+            tray_height_m: s.controller.tray_height_m,
             ..RunRecord::default()
         };
         Ok(Self {
@@ -171,6 +177,8 @@ impl<'a> World<'a> {
             uav_drag_area_m2: dist.uav_drag_area_m2,
             load_drag_area_m2: dist.load_drag_area_m2,
             holding: vec![false; n],
+            vel_cmd: vec![V3f::zeros(); n],
+            f_hat: vec![V3f::zeros(); n],
             plant,
         })
     }
@@ -201,7 +209,7 @@ impl<'a> World<'a> {
 
     /// True when the team's low level is due at this step.
     pub fn low_level_due(&self) -> bool {
-        self.step % self.ll_every == 0
+        self.step.is_multiple_of(self.ll_every)
     }
 
     /// True when the mission is over: time limit, non-finite plant, or the post-arrival time
@@ -218,7 +226,7 @@ impl<'a> World<'a> {
     /// firmware receives it before its own state) and pass through the link; then the sensors
     /// sample the plant and every UAV reads its own state.
     pub fn measure(&mut self) -> Tick<'_> {
-        let high_level = self.step % self.hl_every == 0;
+        let high_level = self.step.is_multiple_of(self.hl_every);
         if high_level {
             let hl_step = self.step / self.hl_every;
             let snap = self.sensors.delayed().clone();
@@ -250,11 +258,26 @@ impl<'a> World<'a> {
         }
     }
 
-    /// Per UAV, whether its controller holds (reported by the team, for the record).
-    pub fn set_holding(&mut self, holding: Vec<bool>) {
-        if holding.len() == self.holding.len() {
-            self.holding = holding;
+    /// Per UAV, whether its controller holds (reported by the team, for the record): a change
+    /// puts a hold / resume event on the record's timeline.
+    pub fn set_holding(&mut self, holding: &[bool]) {
+        if holding.len() != self.holding.len() {
+            return;
         }
+        let t = self.step as f64 * self.dt;
+        for (i, (was, now)) in self.holding.iter_mut().zip(holding).enumerate() {
+            if *was != *now && self.record_on {
+                let kind = if *now { EventKind::Hold } else { EventKind::Resume };
+                self.record.events.push(RecordEvent { time_s: t, kind, uav: i });
+            }
+            *was = *now;
+        }
+    }
+
+    /// Mutable views of the per-UAV velocity command and cable-force estimate (ENU, m/s and N)
+    /// the team reports for the record.
+    pub fn controller_slots(&mut self) -> (&mut [V3f], &mut [V3f]) {
+        (&mut self.vel_cmd, &mut self.f_hat)
     }
 
     /// One plant step under `setpoints` (one per UAV, held since the last low-level period):
@@ -262,7 +285,7 @@ impl<'a> World<'a> {
     /// tensions, the record.
     pub fn advance(&mut self, setpoints: &[Setpoint]) {
         let t = self.step as f64 * self.dt;
-        if self.step % self.hl_every == 0 {
+        if self.step.is_multiple_of(self.hl_every) {
             self.metrics.geometry(t, &self.plant, &self.ls.tube, &mut self.uav_hints, &mut self.load_hint, &self.motors_off);
             if self.metrics.arrived && self.arrival_step.is_none() {
                 self.arrival_step = Some(self.step);
@@ -284,18 +307,25 @@ impl<'a> World<'a> {
                     }
                 }
             }
+            if self.record_on {
+                self.record.events.push(RecordEvent { time_s: t, kind: kind.into(), uav: i });
+            }
             self.next_fault += 1;
         }
         let wind = if self.wind.is_calm() { V3::zeros() } else { self.wind.step(self.dt) };
         self.plant.step_setpoints(setpoints, &self.motors_off, &wind, self.uav_drag_area_m2, self.load_drag_area_m2, self.dt);
         for (i, tension_n, breaking_n) in self.plant.take_breaks() {
             self.metrics.breaks.push(CableBreak { uav: i, time_s: t, tension_n, breaking_n });
+            if self.record_on {
+                // On the timeline a break shows as the cable parting, like a snap fault.
+                self.record.events.push(RecordEvent { time_s: t, kind: EventKind::Snap, uav: i });
+            }
         }
         self.plant.ground_contact();
         self.metrics.tensions(self.plant.tensions_n());
         self.metrics.max_thrust_fraction =
             setpoints.iter().fold(self.metrics.max_thrust_fraction, |a, sp| a.max(f64::from(sp.thrust)));
-        if self.step % self.rec_every == 0 {
+        if self.step.is_multiple_of(self.rec_every) {
             if !self.plant.is_finite() {
                 self.metrics.nonfinite = true;
             } else {
@@ -321,6 +351,10 @@ impl<'a> World<'a> {
         rec.min_uav_boundary_m.push(m.now_uav_boundary());
         rec.min_load_boundary_m.push(m.now_load_boundary());
         rec.min_uav_uav_m.push(m.now_uav_uav());
+        let f = |v: &V3f| [f64::from(v.x), f64::from(v.y), f64::from(v.z)];
+        rec.uav_mode.push(self.holding.iter().map(|&h| if h { MODE_HOLD } else { MODE_TRANSPORT }).collect());
+        rec.vel_cmd_mps.push(self.vel_cmd.iter().map(f).collect());
+        rec.f_hat_n.push(self.f_hat.iter().map(f).collect());
     }
 
     /// Ends the flight: the summary (`wall_s`: wall time of the loop, s; `invalid_commands`:

@@ -7,7 +7,7 @@ use super::report::*;
 
 /// `host-sim pil [SCENARIO] [--out DIR] [--firmware ELF] [--duration S]`: flies the scenario
 /// (default: the 3-UAV experiment) SIL and PIL, writes `DIR/pil_report.json` and
-/// `DIR/summary.json`, prints the comparison. Builds the firmware when no ELF is given and the
+/// `DIR/summary.json` and the PIL flight's `DIR/replay.html`, prints the comparison. Builds the firmware when no ELF is given and the
 /// default one is missing. Exit 0 when bit-exact and the PIL mission succeeded, 1 otherwise,
 /// 2 on bad input.
 pub fn cli(

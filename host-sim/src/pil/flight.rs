@@ -2,6 +2,8 @@
 //! the firmware in QEMU or its host twin, fed the tick's frames over MAVLink, every command it
 //! answers recorded for the bit-for-bit comparison.
 
+use nalgebra::Vector3;
+use vt_companion::frames::enu_from_ned;
 use super::config::{configure, start_mission, team_setup_with, UavConfig};
 use super::port::Port;
 use super::wire::{Encoders, Rx, TickFrames};
@@ -80,6 +82,8 @@ pub struct PortTeam<'p, P: Port> {
     pub status: Vec<[u16; 5]>,
     /// Last `HEARTBEAT.custom_mode` per companion.
     pub custom_mode: Vec<u32>,
+    /// Last velocity command and cable-force estimate per companion, ENU (m/s, N).
+    last_high_level: Vec<(Vector3<f32>, Vector3<f32>)>,
 }
 
 impl<'p, P: Port> PortTeam<'p, P> {
@@ -96,6 +100,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
             ll_cycles: vec![Vec::new(); n],
             status: vec![[0u16; 5]; n],
             custom_mode: vec![0u32; n],
+            last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
         }
     }
 
@@ -168,8 +173,11 @@ impl<P: Port> Team for PortTeam<'_, P> {
                 }
             };
             if tick.high_level {
-                if hl_values.len() != 6 {
+                let [vn, ve, vd, fn_, fe, fd] = hl_values[..] else {
                     return Err(SimError(format!("{} UAV {i} at t = {} ms: incomplete high-level telemetry", self.label, tick.time_ms)));
+                };
+                if let Some(slot) = self.last_high_level.get_mut(i) {
+                    *slot = (enu_from_ned(vn, ve, vd), enu_from_ned(fn_, fe, fd));
                 }
                 self.commands.push(CommandRecord { step: t, uav: i, kind: CommandKind::Velocity, values: hl_values });
             }
@@ -177,6 +185,13 @@ impl<P: Port> Team for PortTeam<'_, P> {
             *slot = Setpoint { q_ned: q, thrust };
         }
         Ok(())
+    }
+
+    fn controller_outputs(&self, vel_cmd_mps: &mut [Vector3<f32>], f_hat_n: &mut [Vector3<f32>]) {
+        for ((v, f), (lv, lf)) in vel_cmd_mps.iter_mut().zip(f_hat_n.iter_mut()).zip(&self.last_high_level) {
+            *v = *lv;
+            *f = *lf;
+        }
     }
 
     fn holding(&self) -> Vec<bool> {

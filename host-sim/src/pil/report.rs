@@ -240,6 +240,8 @@ pub fn run(ls: &LoadedScenario, opts: &PilOptions) -> Result<PilReport, PilError
         wall_time_s: [sil_wall, pil_wall],
     };
     write_report(&opts.out_dir, &report)?;
+    // The PIL flight as the browser replay (docs/replay.md), beside the report.
+    crate::replay::write(&opts.out_dir, &sim::scene(ls), &[&pil.record]).map_err(PilError)?;
     Ok(report)
 }
 
