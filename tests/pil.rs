@@ -127,7 +127,7 @@ fn pil_experiment_3uav_is_bit_exact() {
     let Some(elf) = firmware() else { return };
     let ls = experiment();
     let dir = out_dir("experiment-3uav");
-    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir.clone(), duration_s: None, uav_model: None, cable_model: None };
+    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir.clone(), duration_s: None, uav_model: None, cable_model: None, mcap: Some(dir.join("pil.mcap")) };
     let r = pil::run(&ls, &opts).unwrap();
     eprintln!(
         "PIL: {} commands compared, bit_exact {}, max |diff| {}, wall SIL {:.1} s / PIL {:.1} s",
@@ -151,6 +151,9 @@ fn pil_experiment_3uav_is_bit_exact() {
     }
     assert_eq!(json["bit_exact"], serde_json::Value::Bool(true));
     assert!(dir.join("summary.json").exists());
+    // Issue 17: PIL writes its replay and, on request, its MCAP log.
+    assert!(dir.join("replay.html").metadata().is_ok_and(|m| m.len() > 10_000), "replay.html written");
+    assert!(dir.join("pil.mcap").metadata().is_ok_and(|m| m.len() > 10_000), "pil.mcap written");
 }
 
 #[test]

@@ -119,6 +119,9 @@ enum Cmd {
         duration: Option<f64>,
         #[command(flatten)]
         plant: PlantArgs,
+        /// Also write an MCAP log of the PIL flight for Foxglove (docs/replay.md).
+        #[arg(long, value_name = "FILE")]
+        mcap: Option<PathBuf>,
     },
     /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
     /// `qemu-system-arm -icount shift=0`; writes DIR/bench.json.
@@ -144,14 +147,14 @@ fn main() -> ExitCode {
         }
         Cmd::Compare { scenario, f_max, out, seed, plant, mcap } => compare(scenario, f_max, &out, seed, plant, mcap.as_deref()),
         Cmd::Sweep { scenario, runs, jobs, seed, out, replay_worst } => sweep(scenario, runs, jobs, seed, &out, replay_worst),
-        Cmd::Pil { scenario, out, firmware, duration, plant } => {
+        Cmd::Pil { scenario, out, firmware, duration, plant, mcap } => {
             if let Some(d) = duration {
                 if !(d.is_finite() && d > 0.0) {
                     eprintln!("error: --duration must be a finite number of seconds > 0 (got {d})");
                     return ExitCode::from(EXIT_BAD_INPUT);
                 }
             }
-            host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration, plant.uav_model, plant.cable_model)
+            host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration, plant.uav_model, plant.cable_model, mcap.as_deref())
         }
         Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
     }

@@ -17,6 +17,7 @@ pub fn cli(
     duration_s: Option<f64>,
     uav_model: Option<crate::models::UavModel>,
     cable_model: Option<crate::models::CableModel>,
+    mcap: Option<&Path>,
 ) -> std::process::ExitCode {
     use std::process::ExitCode;
     let default_scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
@@ -49,7 +50,7 @@ pub fn cli(
         },
     };
     eprintln!("flying {} SIL (host twins) and PIL ({} x QEMU, {}) ...", ls.source_name, ls.scenario.cables.lengths_m.len(), elf.display());
-    let opts = PilOptions { firmware: elf, qemu: qemu.into(), out_dir: out.to_path_buf(), duration_s, uav_model, cable_model };
+    let opts = PilOptions { firmware: elf, qemu: qemu.into(), out_dir: out.to_path_buf(), duration_s, uav_model, cable_model, mcap: mcap.map(Path::to_path_buf) };
     match run(&ls, &opts) {
         Ok(r) => {
             println!("{}", r.summary.table());

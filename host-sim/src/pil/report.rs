@@ -28,6 +28,8 @@ pub struct PilOptions {
     pub uav_model: Option<crate::models::UavModel>,
     /// Override of the scenario's cable model.
     pub cable_model: Option<crate::models::CableModel>,
+    /// Also write the PIL flight as an MCAP log here (docs/replay.md).
+    pub mcap: Option<PathBuf>,
 }
 
 /// The first command that differs between SIL and PIL.
@@ -241,7 +243,11 @@ pub fn run(ls: &LoadedScenario, opts: &PilOptions) -> Result<PilReport, PilError
     };
     write_report(&opts.out_dir, &report)?;
     // The PIL flight as the browser replay (docs/replay.md), beside the report.
-    crate::replay::write(&opts.out_dir, &sim::scene(ls), &[&pil.record]).map_err(PilError)?;
+    let scene = sim::scene(ls);
+    crate::replay::write(&opts.out_dir, &scene, &[&pil.record]).map_err(PilError)?;
+    if let Some(path) = &opts.mcap {
+        crate::mcap_log::write(path, &scene, &[&pil.record]).map_err(PilError)?;
+    }
     Ok(report)
 }
 

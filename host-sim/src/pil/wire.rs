@@ -30,7 +30,9 @@ impl Encoder {
 
 /// `LOCAL_POSITION_NED` for an ENU position and velocity.
 pub fn local_position(time_ms: u32, pos_enu: &V3f, vel_enu: &V3f) -> LOCAL_POSITION_NED_DATA {
-    LOCAL_POSITION_NED_DATA { time_boot_ms: time_ms, x: pos_enu.y, y: pos_enu.x, z: -pos_enu.z, vx: vel_enu.y, vy: vel_enu.x, vz: -vel_enu.z }
+    let [x, y, z] = vt_companion::frames::ned_from_enu(pos_enu);
+    let [vx, vy, vz] = vt_companion::frames::ned_from_enu(vel_enu);
+    LOCAL_POSITION_NED_DATA { time_boot_ms: time_ms, x, y, z, vx, vy, vz }
 }
 
 /// What the companion sent, decoded.
