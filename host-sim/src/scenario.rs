@@ -229,8 +229,12 @@ pub struct ObstacleSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TubeSpec {
-    /// Waypoints `[x_m, y_m, w_left_m, w_right_m]`.
+    /// Waypoints `[x_m, y_m, w_left_m, w_right_m]` (filled by the planner when `plan` is given).
+    #[serde(default)]
     pub waypoints: Vec<[f64; 4]>,
+    /// Issue 16: plan the tube on a map instead of giving `waypoints` (exactly one of them).
+    #[serde(default)]
+    pub plan: Option<crate::plan::PlanSpec>,
 }
 
 impl TubeSpec {
@@ -478,10 +482,11 @@ pub fn load(path: Option<&Path>) -> Result<LoadedScenario, ScenarioError> {
 /// # Errors
 /// As [`load`].
 pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioError> {
-    let scenario: Scenario = toml::from_str(text).map_err(|e| {
+    let mut scenario: Scenario = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of_offset(text, s.start));
         ScenarioError { source_name: source_name.into(), line, field: None, message: e.message().trim().to_string() }
     })?;
+    crate::plan::fill_planned_tube(&mut scenario, text, source_name)?; // issue 16: `[tube] plan`
     let v = Validator { text, source_name };
     let tube = v.check(&scenario)?;
     Ok(LoadedScenario { scenario, source_name: source_name.into(), tube })
