@@ -20,6 +20,10 @@ pub struct PlanSpec {
     pub start: [f64; 2],
     /// Goal `[x, y]`, m.
     pub goal: [f64; 2],
+    /// Half-width every section must have, m (default `r_active_m + safety_distance_m`; at
+    /// least `r_safe_m + safety_distance_m`, Proposition 2).
+    #[serde(default)]
+    pub min_half_width_m: Option<f64>,
 }
 
 /// The map a scenario's plan names (its own `[world]` when `map` is absent).
@@ -59,8 +63,18 @@ pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Res
     if !s.tube.waypoints.is_empty() {
         return Err(err("give either `waypoints` or `plan`, not both".into()));
     }
+    let mut params = map::params_for(s);
+    if let Some(w) = spec.min_half_width_m {
+        let floor = map::prop2_half_width_m(s);
+        if !(w.is_finite() && w >= floor && w <= f64::from(params.max_half_width_m)) {
+            return Err(err(format!(
+                "min_half_width_m must be in [r_safe_m + safety_distance_m = {floor}, {}] m (got {w})",
+                params.max_half_width_m)));
+        }
+        params.need_half_width_m = w as f32;
+    }
     let m = scenario_map(s, &spec, source_name)?;
-    let t = m.plan(spec.start, spec.goal, &map::params_for(s)).map_err(|e| err(format!("{}: {e}", m.source_name)))?;
+    let t = m.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", m.source_name)))?;
     s.tube.waypoints = waypoints_f64(&t);
     Ok(())
 }

@@ -23,7 +23,7 @@ use vt_tube::{Tube, Waypoint, DEFAULT_SAMPLES};
 /// curvature between the checked samples).
 pub const FOLD_FRACTION: f32 = 0.9;
 /// Most waypoints added where the curve strays from the corridor.
-const MAX_REFINEMENTS: usize = 12;
+const MAX_REFINEMENTS: usize = 40;
 /// Waypoints closer than this are merged, m (vt-tube rejects coincident waypoints).
 const MIN_WAYPOINT_GAP_M: f32 = 0.05;
 
@@ -184,11 +184,14 @@ pub fn plan<M: ClearanceMap>(
         need_m: need,
         clearance_weight: params.clearance_weight,
     };
+    let needed_m = 2.0 * (need + params.margin_m);
+    // The reported width is below the need (the largest f32 below it when the passage held the
+    // need on the lattice but not for the smooth curve).
     let too_narrow = |p: Vec2, r: f32| PlanError::TooNarrow {
         x_m: p.x,
         y_m: p.y,
-        width_m: 2.0 * (r + params.margin_m).max(0.0),
-        needed_m: 2.0 * (need + params.margin_m),
+        width_m: (2.0 * (r + params.margin_m).max(0.0)).min(f32::from_bits(needed_m.to_bits() - 1)),
+        needed_m,
     };
     let (lo, hi) = map.bounds_m();
     let lat = Lattice::covering(lo, hi, params.lattice_m, ws.capacity())?;
@@ -205,15 +208,63 @@ pub fn plan<M: ClearanceMap>(
     if r_goal < need {
         return Err(too_narrow(goal_m, r_goal));
     }
-    let usable = |p: Vec2| lat.around(p).into_iter().flatten().find(|&k| rule.radius_m(map, lat.point_m(k)) >= need);
-    let first = usable(start_m).ok_or_else(|| too_narrow(start_m, r_start))?;
-    let last = usable(goal_m).ok_or_else(|| too_narrow(goal_m, r_goal))?;
-    // Search from the goal so that the parents lead from the start to the goal.
-    if !search::astar(map, &lat, &rule, ws, last, first)? {
-        let (k, r) = search::narrowest_passage(map, &lat, &rule, ws, first, last)?;
-        return Err(too_narrow(lat.point_m(k), r));
+    // Two passes (docs/planning.md, "Search"): first over nodes with one lattice step of slack
+    // (`need + h`), so the smooth curve has room around the lattice path; then, if no such
+    // corridor exists or the curve cannot be fitted in it, over nodes that just hold the need.
+    let slack = lat.spacing_m;
+    let mut last_err = too_narrow(start_m, r_start);
+    for search_need in [need + slack, need] {
+        let rule_k = RadiusRule { need_m: search_need, ..rule };
+        let usable = |p: Vec2| lat.around(p).into_iter().flatten().find(|&k| rule_k.radius_m(map, lat.point_m(k)) >= search_need);
+        // The widest lattice node next to a terminal that has none wide enough.
+        let best_near = |p: Vec2| {
+            lat.around(p).into_iter().flatten().map(|k| rule_k.radius_m(map, lat.point_m(k))).fold(f32::NEG_INFINITY, f32::max)
+        };
+        let (first, last) = match (usable(start_m), usable(goal_m)) {
+            (Some(f), Some(l)) => (f, l),
+            (None, _) => {
+                last_err = too_narrow(start_m, best_near(start_m));
+                continue;
+            }
+            (_, None) => {
+                last_err = too_narrow(goal_m, best_near(goal_m));
+                continue;
+            }
+        };
+        // Search from the goal so that the parents lead from the start to the goal.
+        if !search::astar(map, &lat, &rule_k, ws, last, first)? {
+            if search_need == need {
+                let (k, r) = search::narrowest_passage(map, &lat, &rule_k, ws, first, last)?;
+                return Err(too_narrow(lat.point_m(k), r));
+            }
+            continue;
+        }
+        match fit_path(map, &lat, ws, params, [start_m, goal_m], [r_start, r_goal], [first, last]) {
+            Ok(t) => return Ok(t),
+            // The smooth curve could not hold the width: the passage is too narrow for it there.
+            Err(PlanError::CurveLeavesCorridor { x_m, y_m }) => {
+                let at = Vec2::new(x_m, y_m);
+                last_err = too_narrow(at, rule.radius_m(map, at));
+            }
+            Err(e) if search_need == need => return Err(e),
+            Err(e) => last_err = e,
+        }
     }
-    let mut path = Path { ws, lat: &lat, start: start_m, goal: goal_m, r_start, r_goal, first, last, len: 0 };
+    Err(last_err)
+}
+
+/// Corridor, curve and widths along the lattice path found by the search (parents in `ws`).
+fn fit_path<M: ClearanceMap>(
+    map: &M,
+    lat: &Lattice,
+    ws: &Workspace<'_>,
+    params: &PlanParams,
+    [start_m, goal_m]: [Vec2; 2],
+    [r_start, r_goal]: [f32; 2],
+    [first, last]: [usize; 2],
+) -> Result<PlannedTube, PlanError> {
+    let need = params.need_half_width_m;
+    let mut path = Path { ws, lat, start: start_m, goal: goal_m, r_start, r_goal, first, last, len: 0 };
     path.len = {
         let mut n = 1;
         let mut a = At::Start;
@@ -237,6 +288,7 @@ pub fn plan<M: ClearanceMap>(
     }
     push_gap(&mut wps, goal_m, path.len - 1)?;
 
+    let mut last_at = start_m;
     for _ in 0..=MAX_REFINEMENTS {
         match fit_widths(map, &wps, params, lat.spacing_m)? {
             Fit::Widths(widths) => {
@@ -249,7 +301,23 @@ pub fn plan<M: ClearanceMap>(
                 let bottleneck = bottleneck_of(&tube);
                 return Ok(PlannedTube { waypoints: out, discs, bottleneck, lattice_m: lat.spacing_m });
             }
-            Fit::Strays { piece, at_m } => {
+            Fit::Strays { piece, at_m, fold: true } => {
+                // Too tight a bend: drop the interior waypoint of the piece nearest to it (a
+                // smoother curve), never the start or the goal.
+                last_at = at_m;
+                let n = wps.len();
+                let cands = [piece, piece + 1].into_iter().filter(|&i| i > 0 && i + 1 < n);
+                let Some(i) = cands.min_by(|&a, &b| {
+                    let da = wps.get(a).map_or(f32::INFINITY, |w| (w.0 - at_m).norm_squared());
+                    let db = wps.get(b).map_or(f32::INFINITY, |w| (w.0 - at_m).norm_squared());
+                    da.total_cmp(&db)
+                }) else {
+                    return Err(PlanError::CurveLeavesCorridor { x_m: at_m.x, y_m: at_m.y });
+                };
+                wps.remove(i);
+            }
+            Fit::Strays { piece, at_m, fold: false } => {
+                last_at = at_m;
                 // Insert the path point between the piece's ends nearest to where the curve strays.
                 let (i0, i1) = match (wps.get(piece), wps.get(piece + 1)) {
                     (Some(a), Some(b)) => (a.1, b.1),
@@ -270,8 +338,7 @@ pub fn plan<M: ClearanceMap>(
             }
         }
     }
-    let at = wps.first().map_or(start_m, |w| w.0);
-    Err(PlanError::CurveLeavesCorridor { x_m: at.x, y_m: at.y })
+    Err(PlanError::CurveLeavesCorridor { x_m: last_at.x, y_m: last_at.y })
 }
 
 /// Appends a waypoint unless it is within [`MIN_WAYPOINT_GAP_M`] of the previous one.
@@ -332,8 +399,9 @@ fn chain(path: &Path<'_, '_, '_>, need: f32) -> Result<heapless::Vec<Disc, MAX_D
 enum Fit {
     /// Half-width per waypoint, m.
     Widths(heapless::Vec<f32, MAX_WAYPOINTS>),
-    /// Piece `piece` comes closer than the need to an obstacle near `at_m`.
-    Strays { piece: usize, at_m: Vec2 },
+    /// Piece `piece` cannot hold the need near `at_m`: too close to an obstacle, or (`fold`)
+    /// curved too tightly for the need (`w |kappa| <= FOLD_FRACTION`).
+    Strays { piece: usize, at_m: Vec2, fold: bool },
 }
 
 /// Fits the spline through the waypoints and returns each waypoint's half-width: the smallest
@@ -359,6 +427,7 @@ fn fit_widths<M: ClearanceMap>(
         let m = libm::ceilf(len / delta).max(1.0) as usize;
         let du = (u1 - u0) / m as f32;
         let mut worst = (f32::INFINITY, Vec2::zeros());
+        let mut worst_fold = false;
         let mut prev_step = 0.0f32;
         for k in 0..=m {
             let u = if k == m { u1 } else { u0 + du * k as f32 };
@@ -367,17 +436,17 @@ fn fit_widths<M: ClearanceMap>(
             let speed = vt_fpu::norm(&d1);
             let kappa = if speed > 0.0 { (d1.x * d2.y - d1.y * d2.x) / (speed * speed * speed) } else { 0.0 };
             let fold = if kappa != 0.0 { FOLD_FRACTION / kappa.abs() } else { f32::INFINITY };
-            let allow = (map.clearance_m(pos) - params.margin_m - 0.5 * step.max(prev_step))
-                .min(params.max_half_width_m)
-                .min(fold);
+            let clear = (map.clearance_m(pos) - params.margin_m - 0.5 * step.max(prev_step)).min(params.max_half_width_m);
+            let allow = clear.min(fold);
             let allow = if allow.is_nan() { f32::NEG_INFINITY } else { allow };
             if allow < worst.0 {
                 worst = (allow, pos);
+                worst_fold = fold < clear;
             }
             prev_step = step;
         }
         if worst.0 < params.need_half_width_m {
-            return Ok(Fit::Strays { piece: j, at_m: worst.1 });
+            return Ok(Fit::Strays { piece: j, at_m: worst.1, fold: worst_fold });
         }
         piece_min.push(worst.0).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
     }
