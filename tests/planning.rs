@@ -262,6 +262,9 @@ fn forest_scenario(forest_map: &LoadedMap, start: [f64; 2], goal: [f64; 2]) -> S
     s
 }
 
+/// Seed, planned scenario and its narrowest half-width (or why not), corridor with slack, any corridor.
+type ForestResult = (u64, Result<(scenario::LoadedScenario, f32), String>, bool, bool);
+
 /// Seeded forests: planning succeeds wherever a feasible corridor exists, refusals are the
 /// bottleneck error and happen only where no corridor exists, and the planned tubes are flown
 /// by the 3-UAV team with at least 95 % success.
@@ -272,7 +275,7 @@ fn forest_campaign() {
     let p = map::params_for(&exp.scenario);
     let (start, goal) = ([2.0, 12.0], [38.0, 12.0]);
     // Terminals keep 8 m free so the take-off formation (1.5 m + r_safe) fits the planned tube.
-    let results: Vec<(u64, Result<(scenario::LoadedScenario, f32), String>, bool, bool)> = (0..MAPS)
+    let results: Vec<ForestResult> = (0..MAPS)
         .into_par_iter()
         .map(|seed| {
             let fm = LoadedMap { source_name: format!("forest {seed}"), map: forest(seed, 18, [0.0, 40.0, 0.0, 24.0], [0.4, 1.0], &[start, goal], 8.0) };

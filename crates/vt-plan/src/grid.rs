@@ -100,14 +100,14 @@ fn envelope_1d(f: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32]) {
         return;
     }
     let mut k = 0usize;
-    for q in 0..n {
+    for (q, dq_out) in d.iter_mut().enumerate().take(n) {
         let qf = q as f32;
         while z[k + 1] < qf {
             k += 1;
         }
         let p = v[k];
         let dq = qf - p as f32;
-        d[q] = dq * dq + f[p];
+        *dq_out = dq * dq + f[p];
     }
 }
 
@@ -187,7 +187,7 @@ mod tests {
         edt(&mut cells, w, h);
         for j in 0..h {
             for i in 0..w {
-                let want = (((i as f32 - 3.0).powi(2) + (j as f32 - 2.0).powi(2))).sqrt();
+                let want = ((i as f32 - 3.0).powi(2) + (j as f32 - 2.0).powi(2)).sqrt();
                 assert!((cells[j * w + i] - want).abs() < 1e-5, "({i}, {j})");
             }
         }

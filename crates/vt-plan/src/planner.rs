@@ -396,6 +396,7 @@ fn chain(path: &Path<'_, '_, '_>, need: f32) -> Result<heapless::Vec<Disc, MAX_D
     Ok(discs)
 }
 
+#[allow(clippy::large_enum_variant)] // one value per fitting round, on the stack; boxing needs alloc
 enum Fit {
     /// Half-width per waypoint, m.
     Widths(heapless::Vec<f32, MAX_WAYPOINTS>),
