@@ -391,3 +391,25 @@ fn bad_maps_exit_2_with_the_place_named() {
     assert!(err.contains("no corridor is wide enough: the narrowest passage, at (10.") && err.contains("the team needs 4.60 m"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `[tube] plan` errors name `tube.plan` and its line: both `waypoints` and `plan`, a width
+/// below Proposition 2's floor, a passage too narrow for the team.
+#[test]
+fn scenario_plan_errors_name_the_field() {
+    let paper = scenario::PAPER_10UAV;
+    let (a, b) = (paper.find("[tube]").expect("tube"), paper.find("[load]").expect("load"));
+    let with = |tube: &str| format!("{}{tube}\n\n{}", &paper[..a], &paper[b..]);
+    let plan_line = paper[..a].lines().count() + 2;
+    let both = with("[tube]\nplan = { start = [2.0, 0.0], goal = [48.0, 1.0] }\nwaypoints = [[2.0, 0.0, 5.0, 5.0], [48.0, 1.0, 5.0, 5.0]]");
+    let e = scenario::parse(&both, "s.toml").expect_err("both");
+    assert_eq!((e.line, e.field.as_deref()), (Some(plan_line), Some("tube.plan")), "{e}");
+    let thin = with("[tube]\nplan = { start = [2.0, 0.0], goal = [48.0, 1.0], min_half_width_m = 0.5 }");
+    let e = scenario::parse(&thin, "s.toml").expect_err("below the floor");
+    assert!(e.to_string().contains(&format!("s.toml:{plan_line}: `tube.plan`: min_half_width_m must be in [r_safe_m + safety_distance_m = 0.9")), "{e}");
+    let wide = with("[tube]\nplan = { start = [2.0, 0.0], goal = [48.0, 1.0], min_half_width_m = 3.0 }");
+    let e = scenario::parse(&wide, "s.toml").expect_err("too narrow for 3 m");
+    assert!(e.to_string().contains("no corridor is wide enough") && e.to_string().contains("the team needs 6.80 m"), "{e}");
+    // At the floor the planner plans a narrower tube than the default need.
+    let floor = with("[tube]\nplan = { start = [2.0, 0.0], goal = [48.0, 1.0], min_half_width_m = 0.9 }");
+    scenario::parse(&floor, "s.toml").expect("plans at the Proposition 2 floor");
+}

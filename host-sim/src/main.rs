@@ -193,6 +193,7 @@ fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &st
         let o = fly(&ls, kind, f_max, seed)?;
         println!("{}", o.summary.table());
         write(out, &o)?;
+        write_plan_plot(&ls, out)?; // issue 16: map, corridor and tube of a planned scenario
         Ok::<_, ExitCode>(if o.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) })
     })();
     result.unwrap_or_else(|c| c)
@@ -329,4 +330,21 @@ fn plan(
         println!("  wrote {}", p.display());
     }
     ExitCode::SUCCESS
+}
+
+/// For a scenario whose tube is planned, `plan.png` in `out`: the map, the corridor's discs and
+/// the tube (host_sim::plan_plot), beside the run's top view.
+fn write_plan_plot(ls: &scenario::LoadedScenario, out: &std::path::Path) -> Result<(), ExitCode> {
+    let Some(spec) = &ls.scenario.tube.plan else { return Ok(()) };
+    let fail = |e: String| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_FAILURE)
+    };
+    let m = host_sim::plan::scenario_map(&ls.scenario, spec, &ls.source_name).map_err(|e| fail(e.to_string()))?;
+    let params = host_sim::plan::params_of(&ls.scenario, spec);
+    let t = m.plan(spec.start, spec.goal, &params).map_err(|e| fail(e.to_string()))?;
+    let path = out.join("plan.png");
+    host_sim::plan_plot::write(&path, &m, &t).map_err(fail)?;
+    println!("  wrote {}", path.display());
+    Ok(())
 }

@@ -63,20 +63,28 @@ pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Res
     if !s.tube.waypoints.is_empty() {
         return Err(err("give either `waypoints` or `plan`, not both".into()));
     }
-    let mut params = map::params_for(s);
     if let Some(w) = spec.min_half_width_m {
         let floor = map::prop2_half_width_m(s);
-        if !(w.is_finite() && w >= floor && w <= f64::from(params.max_half_width_m)) {
-            return Err(err(format!(
-                "min_half_width_m must be in [r_safe_m + safety_distance_m = {floor}, {}] m (got {w})",
-                params.max_half_width_m)));
+        let max = f64::from(map::params_for(s).max_half_width_m);
+        if !(w.is_finite() && w >= floor && w <= max) {
+            return Err(err(format!("min_half_width_m must be in [r_safe_m + safety_distance_m = {floor}, {max}] m (got {w})")));
         }
-        params.need_half_width_m = w as f32;
     }
+    let params = params_of(s, &spec);
     let m = scenario_map(s, &spec, source_name)?;
     let t = m.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", m.source_name)))?;
     s.tube.waypoints = waypoints_f64(&t);
     Ok(())
+}
+
+/// The planner parameters of a scenario's plan: the team's (`map::params_for`) with
+/// `min_half_width_m` when given (validated by [`fill_planned_tube`]).
+pub fn params_of(s: &Scenario, spec: &PlanSpec) -> vt_plan::PlanParams {
+    let mut p = map::params_for(s);
+    if let Some(w) = spec.min_half_width_m {
+        p.need_half_width_m = w as f32;
+    }
+    p
 }
 
 /// The planned waypoints as the scenario stores them `[x, y, w_L, w_R]`, m.
