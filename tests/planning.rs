@@ -191,7 +191,7 @@ fn planned_paper_mission_flies() {
     check_planned(&world, &t, &p, [2.0, 0.0], [48.0, 1.0]).expect("guarantees");
     println!("tube              min half-width  obstacle clearance  length");
     for (name, ls) in [("hand-made", &hand), ("planned", &planned)] {
-        println!("{name:<17} {:>10.2} m {:>16.2} m {:>7.1} m", ls.tube.min_half_width_m(), tube_clearance_m(&world, &ls.tube), ls.tube.length_m());
+        println!("{name:<17} {:>10.3} m {:>16.3} m {:>7.1} m", ls.tube.min_half_width_m(), tube_clearance_m(&world, &ls.tube), ls.tube.length_m());
     }
     let o = sim::run(&planned, &RunOptions { record: false, ..RunOptions::default() }).expect("run starts");
     let h = sim::run(&hand, &RunOptions { record: false, ..RunOptions::default() }).expect("run starts");
