@@ -50,7 +50,7 @@ pub enum PlanError {
         /// The capacity.
         capacity: usize,
     },
-    /// The generator curve could not be kept inside the corridor at arc length `s_m`.
+    /// The generator curve could not be kept inside the corridor near this point.
     CurveLeavesCorridor {
         /// Easting, m.
         x_m: f32,

@@ -118,7 +118,7 @@ impl Grid {
 /// UAV clear of both boundaries' barrier activation zones, `r_active + safety distance`. This is
 /// above Proposition 2's floor `r_safe + safety distance` (one UAV's footprint), which is all the
 /// theory asks but which let the 3-UAV team break the 0.4 m UAV-UAV floor in 3 of 5 forest
-/// flights; `min_half_width_m` overrides it (down to that floor). The tube keeps
+/// flights (docs/planning.md); `min_half_width_m` overrides it (down to that floor). The tube keeps
 /// `PlanParams::default().margin_m` (0.4 m) from every obstacle.
 pub fn params_for(s: &Scenario) -> PlanParams {
     PlanParams { need_half_width_m: (s.controller.r_active_m + s.mission.safety_distance_m) as f32, ..PlanParams::default() }
