@@ -110,7 +110,9 @@ fn rasterise(exact: &LoadedMap, res: f64) -> LoadedMap {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    // A fixed seed: the same 48 maps on every run (CI is reproducible); the campaign below
+    // draws its own seeded forests.
+    #![proptest_config(ProptestConfig { cases: 48, rng_seed: proptest::test_runner::RngSeed::Fixed(16), ..ProptestConfig::default() })]
 
     /// A planned tube contains no obstacle, every section is at least the minimum width, it
     /// never folds, and start and goal are its terminals; a refusal is a named bottleneck.
@@ -137,6 +139,10 @@ proptest! {
         let grid = rasterise(&exact, res);
         let p = paper_params();
         let (e, g) = (exact.plan(START, GOAL, &p), grid.plan(START, GOAL, &p));
+        // The corridor's disc capacity is a documented limit (docs/planning.md, "Length"), not a
+        // disagreement: the raster's smaller clearance can need more discs.
+        let full = |r: &Result<PlannedTube, PlanError>| matches!(r, Err(PlanError::TooManyDiscs { .. }));
+        prop_assume!(!full(&e) && !full(&g));
         if let Ok(t) = &g {
             if let Err(msg) = check_planned(&exact, t, &p, START, GOAL) { prop_assert!(false, "grid tube on the exact map: {}", msg); }
         }
@@ -412,4 +418,17 @@ fn scenario_plan_errors_name_the_field() {
     // At the floor the planner plans a narrower tube than the default need.
     let floor = with("[tube]\nplan = { start = [2.0, 0.0], goal = [48.0, 1.0], min_half_width_m = 0.9 }");
     scenario::parse(&floor, "s.toml").expect("plans at the Proposition 2 floor");
+}
+
+/// The same map gives the same tube, bit for bit (grid and exact maps, loaded twice).
+#[test]
+fn planning_is_deterministic() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/maps/");
+    let p = paper_params();
+    for (file, start, goal) in [("yard.yaml", [3.0, 15.0], [47.0, 6.0]), ("paper-obstacles.toml", [2.0, 0.0], [48.0, 1.0])] {
+        let plan = || LoadedMap::load(&std::path::Path::new(dir).join(file)).expect("map").plan(start, goal, &p).expect("plans");
+        let (a, b) = (plan(), plan());
+        let bits = |t: &PlannedTube| t.waypoints.iter().flat_map(|w| [w.pos_m.x, w.pos_m.y, w.w_left_m, w.w_right_m].map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&a), bits(&b), "{file}");
+    }
 }

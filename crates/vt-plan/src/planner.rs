@@ -326,15 +326,21 @@ fn fit_path<M: ClearanceMap>(
                 if i1 <= i0 + 1 {
                     return Err(PlanError::CurveLeavesCorridor { x_m: at_m.x, y_m: at_m.y });
                 }
-                let mut best = (i0 + 1, f32::INFINITY);
+                // Never a point that coincides with the piece's ends (vt-tube rejects those).
+                let ends = (wps.get(piece).map(|w| w.0), wps.get(piece + 1).map(|w| w.0));
+                let apart = |q: Vec2| [ends.0, ends.1].into_iter().flatten().all(|e| (q - e).norm() >= MIN_WAYPOINT_GAP_M);
+                let mut best: Option<(usize, f32)> = None;
                 for i in i0 + 1..i1 {
-                    let d = (path.point_at(i) - at_m).norm_squared();
-                    if d < best.1 {
-                        best = (i, d);
+                    let q = path.point_at(i);
+                    let d = (q - at_m).norm_squared();
+                    if apart(q) && best.is_none_or(|b| d < b.1) {
+                        best = Some((i, d));
                     }
                 }
-                wps.insert(piece + 1, (path.point_at(best.0), best.0))
-                    .map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
+                let Some((bi, _)) = best else {
+                    return Err(PlanError::CurveLeavesCorridor { x_m: at_m.x, y_m: at_m.y });
+                };
+                wps.insert(piece + 1, (path.point_at(bi), bi)).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
             }
         }
     }
