@@ -25,14 +25,14 @@ fi
 chromium --version 2>/dev/null | head -n 1
 
 echo "== the controller crates build for the flight MCU (no_std, no alloc)"
-cargo build --release --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo
+cargo build --release --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -p vt-plan
 
 echo "== firmware: both boards build; flash and static RAM within budget"
 cargo run -q --release -p xtask -- firmware-size
 
 echo "== clippy, host, MCU crates and both firmware boards; warnings are errors"
 cargo clippy --workspace --all-targets -- -D warnings
-cargo clippy --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -- -D warnings
+cargo clippy --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -p vt-plan -- -D warnings
 (cd firmware && cargo clippy --release --features qemu -- -D warnings && cargo clippy --release --features stm32f405 -- -D warnings)
 
 echo "== firmware companion unit tests (host build of the firmware's logic)"

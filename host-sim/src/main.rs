@@ -125,6 +125,27 @@ enum Cmd {
     },
     /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
     /// `qemu-system-arm -icount shift=0`; writes DIR/bench.json.
+    /// Plan a tube on a map (TOML obstacle list or ROS map_server YAML) and write it in the
+    /// scenario's `[tube]` format; prints the bottleneck (issue 16, docs/planning.md).
+    Plan {
+        /// Map file: `.toml` obstacle list or ROS `map_server` `.yaml`.
+        map: PathBuf,
+        /// Start `X,Y`, m.
+        #[arg(long, value_parser = host_sim::plan::parse_point, allow_hyphen_values = true)]
+        start: [f64; 2],
+        /// Goal `X,Y`, m.
+        #[arg(long, value_parser = host_sim::plan::parse_point, allow_hyphen_values = true)]
+        goal: [f64; 2],
+        /// Scenario whose team sets the width needed (default: the built-in paper scenario).
+        #[arg(long)]
+        team: Option<PathBuf>,
+        /// Write the `[tube]` table here (default: print it).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also draw the map, corridor and tube into this PNG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     PilBench {
         /// Output directory.
         #[arg(long, default_value = "out/bench/mcu")]
@@ -157,6 +178,7 @@ fn main() -> ExitCode {
             host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration, plant.uav_model, plant.cable_model, mcap.as_deref())
         }
         Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
+        Cmd::Plan { map, start, goal, team, out, plot } => plan(&map, start, goal, team.as_deref(), out.as_deref(), plot.as_deref()),
     }
 }
 
@@ -219,6 +241,7 @@ fn run(path: Option<PathBuf>, kind: ControllerKind, f_max: Option<f64>, out: &st
         println!("{}", o.summary.table());
         write(out, &o)?;
         write_mcap(mcap, &o.scene, &[&o.record])?;
+        write_plan_plot(&ls, out)?; // issue 16: map, corridor and tube of a planned scenario
         Ok::<_, ExitCode>(if o.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) })
     })();
     result.unwrap_or_else(|c| c)
@@ -337,5 +360,63 @@ fn write_sweep(out: &std::path::Path, rows: &[host_sim::campaign::Row], rep: &ho
         )
         .map_err(|e| e.to_string())?;
     }
+    Ok(())
+}
+
+/// `host-sim plan` (issue 16).
+fn plan(
+    map: &std::path::Path,
+    start: [f64; 2],
+    goal: [f64; 2],
+    team: Option<&std::path::Path>,
+    out: Option<&std::path::Path>,
+    plot: Option<&std::path::Path>,
+) -> ExitCode {
+    let o = match host_sim::plan::run_cli(map, start, goal, team) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let b = &o.tube.bottleneck;
+    eprintln!(
+        "planned {} waypoints ({} discs) in {:.2} ms; bottleneck: half-width {:.2} m (width {:.2} m) at ({:.2}, {:.2}), s = {:.2} m",
+        o.tube.waypoints.len(), o.tube.discs.len(), o.plan_ms, b.half_width_m, 2.0 * b.half_width_m, b.pos_m.x, b.pos_m.y, b.s_m
+    );
+    match out {
+        Some(p) => {
+            if let Err(e) = std::fs::write(p, &o.toml) {
+                eprintln!("error: {}: {e}", p.display());
+                return ExitCode::from(EXIT_FAILURE);
+            }
+            println!("  wrote {}", p.display());
+        }
+        None => print!("{}", o.toml),
+    }
+    if let Some(p) = plot {
+        if let Err(e) = host_sim::plan_plot::write(p, &o.map, &o.tube) {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_FAILURE);
+        }
+        println!("  wrote {}", p.display());
+    }
+    ExitCode::SUCCESS
+}
+
+/// For a scenario whose tube is planned, `plan.png` in `out`: the map, the corridor's discs and
+/// the tube (host_sim::plan_plot), beside the run's top view.
+fn write_plan_plot(ls: &scenario::LoadedScenario, out: &std::path::Path) -> Result<(), ExitCode> {
+    let Some(spec) = &ls.scenario.tube.plan else { return Ok(()) };
+    let fail = |e: String| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_FAILURE)
+    };
+    let m = host_sim::plan::scenario_map(&ls.scenario, spec, &ls.source_name).map_err(|e| fail(e.to_string()))?;
+    let params = host_sim::plan::params_of(&ls.scenario, spec);
+    let t = m.plan(spec.start, spec.goal, &params).map_err(|e| fail(e.to_string()))?;
+    let path = out.join("plan.png");
+    host_sim::plan_plot::write(&path, &m, &t).map_err(fail)?;
+    println!("  wrote {}", path.display());
     Ok(())
 }

@@ -50,6 +50,14 @@ impl CableModel {
     }
 }
 
+/// CFO bandwidth flown on the `rigid_body` plant unless `[velocity_loop.rigid_body]` says
+/// otherwise, rad/s (docs/design.md, "Velocity loop behind an attitude autopilot": measured
+/// tuning against the paper's 15 rad/s).
+pub const RIGID_BODY_CFO_BANDWIDTH_RAD_S: f64 = 8.0;
+/// Thrust-response lag the CFO models on the `rigid_body` plant unless
+/// `[velocity_loop.rigid_body]` says otherwise, s (same source).
+pub const RIGID_BODY_ACTUATOR_LAG_S: f64 = 0.05;
+
 /// Default breaking strength over rated capacity of the elastic cable: a deliberately modest
 /// design factor (lifting slings are rated at 5:1 to 7:1 of their breaking strength), so that
 /// "no cable breaks" checks the peak dynamic tension of a mission, not only the static margin.

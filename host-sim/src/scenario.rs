@@ -230,8 +230,12 @@ pub struct ObstacleSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TubeSpec {
-    /// Waypoints `[x_m, y_m, w_left_m, w_right_m]`.
+    /// Waypoints `[x_m, y_m, w_left_m, w_right_m]` (filled by the planner when `plan` is given).
+    #[serde(default)]
     pub waypoints: Vec<[f64; 4]>,
+    /// Issue 16: plan the tube on a map instead of giving `waypoints` (exactly one of them).
+    #[serde(default)]
+    pub plan: Option<crate::plan::PlanSpec>,
 }
 
 impl TubeSpec {
@@ -392,7 +396,8 @@ pub struct VelocityLoopSpec {
     #[serde(default)]
     pub actuator_lag_s: f64,
     /// Tuning used instead when the UAVs are `rigid_body` (flying behind an attitude
-    /// autopilot); fields left out keep the values above.
+    /// autopilot); fields left out take the project's rigid-body tuning
+    /// ([`crate::models::RIGID_BODY_CFO_BANDWIDTH_RAD_S`], [`crate::models::RIGID_BODY_ACTUATOR_LAG_S`]).
     #[serde(default)]
     pub rigid_body: Option<VelocityLoopTuning>,
 }
@@ -408,14 +413,20 @@ pub struct VelocityLoopTuning {
 }
 
 impl VelocityLoopSpec {
-    /// `(cfo_bandwidth_rad_s, actuator_lag_s)` flown on UAV model `model`.
+    /// `(cfo_bandwidth_rad_s, actuator_lag_s)` flown on UAV model `model`: the table's values
+    /// for `point_mass`; `[velocity_loop.rigid_body]`, else the project's rigid-body tuning, for
+    /// `rigid_body` (docs/design.md, "Velocity loop behind an attitude autopilot").
     #[must_use]
     pub fn tuning(&self, model: UavModel) -> (f64, f64) {
-        match (model, self.rigid_body) {
-            (UavModel::RigidBody, Some(t)) => {
-                (t.cfo_bandwidth_rad_s.unwrap_or(self.cfo_bandwidth_rad_s), t.actuator_lag_s.unwrap_or(self.actuator_lag_s))
+        match model {
+            UavModel::RigidBody => {
+                let t = self.rigid_body.unwrap_or_default();
+                (
+                    t.cfo_bandwidth_rad_s.unwrap_or(crate::models::RIGID_BODY_CFO_BANDWIDTH_RAD_S),
+                    t.actuator_lag_s.unwrap_or(crate::models::RIGID_BODY_ACTUATOR_LAG_S),
+                )
             }
-            _ => (self.cfo_bandwidth_rad_s, self.actuator_lag_s),
+            UavModel::PointMass => (self.cfo_bandwidth_rad_s, self.actuator_lag_s),
         }
     }
 }
@@ -528,10 +539,11 @@ pub fn load(path: Option<&Path>) -> Result<LoadedScenario, ScenarioError> {
 /// # Errors
 /// As [`load`].
 pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioError> {
-    let scenario: Scenario = toml::from_str(text).map_err(|e| {
+    let mut scenario: Scenario = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of_offset(text, s.start));
         ScenarioError { source_name: source_name.into(), line, field: None, message: e.message().trim().to_string() }
     })?;
+    crate::plan::fill_planned_tube(&mut scenario, text, source_name)?; // issue 16: `[tube] plan`
     let v = Validator { text, source_name };
     let tube = v.check(&scenario)?;
     Ok(LoadedScenario { scenario, source_name: source_name.into(), tube })
@@ -705,9 +717,8 @@ impl Validator<'_> {
         if !r.low_level_hz.is_multiple_of(r.high_level_hz) {
             return Err(self.err("rates", "high_level_hz", "must divide low_level_hz evenly".into()));
         }
-        let rigid_bw = vl.rigid_body.and_then(|t| t.cfo_bandwidth_rad_s);
-        for (table, bw) in [("velocity_loop", Some(vl.cfo_bandwidth_rad_s)), ("velocity_loop.rigid_body", rigid_bw)] {
-            let Some(bw) = bw else { continue };
+        let rigid_bw = vl.tuning(UavModel::RigidBody).0;
+        for (table, bw) in [("velocity_loop", vl.cfo_bandwidth_rad_s), ("velocity_loop.rigid_body", rigid_bw)] {
             if bw / f64::from(r.low_level_hz) > 0.5 {
                 return Err(self.err(table, "cfo_bandwidth_rad_s", format!(
                     "mu * h = {:.3} > 0.5: the discrete observer would be unstable at low_level_hz = {}",

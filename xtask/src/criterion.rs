@@ -1,4 +1,4 @@
-//! The host benches: runs `cargo bench -p host-sim --bench control` (criterion) and reads the
+//! The host benches: runs `cargo bench -p host-sim --bench control --bench plan` (criterion) and reads the
 //! medians it wrote under `CRITERION_HOME`.
 
 use std::fs;
@@ -24,6 +24,12 @@ pub struct HostBench {
     pub locate_cold_ns: Option<f64>,
     /// `plant_step/<n>`.
     pub plant_step_ns: Vec<(usize, f64)>,
+    /// `plan/paper_map` (issue 16, `host-sim/benches/plan.rs`).
+    pub plan_paper_map_ns: Option<f64>,
+    /// `plan/obstacles_500`.
+    pub plan_500_obstacles_ns: Option<f64>,
+    /// `plan/grid_1000`.
+    pub plan_grid_1000_ns: Option<f64>,
 }
 
 /// Team sizes of the control and allocation groups.
@@ -50,7 +56,7 @@ pub fn run(paths: &Paths, extra_args: &[String]) -> Result<HostBench, String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(cargo)
         .current_dir(&paths.root)
-        .args(["bench", "-p", "host-sim", "--bench", "control", "--"])
+        .args(["bench", "-p", "host-sim", "--bench", "control", "--bench", "plan", "--"])
         .args(extra_args)
         .env("CRITERION_HOME", &home)
         .stdout(Stdio::from(log))
@@ -74,6 +80,9 @@ pub fn run(paths: &Paths, extra_args: &[String]) -> Result<HostBench, String> {
         locate_warm_ns: median_ns(&home.join("tube_locate").join("warm")),
         locate_cold_ns: median_ns(&home.join("tube_locate").join("cold")),
         plant_step_ns: read_n("plant_step", &PLANT_SIZES),
+        plan_paper_map_ns: median_ns(&home.join("plan").join("paper_map")),
+        plan_500_obstacles_ns: median_ns(&home.join("plan").join("obstacles_500")),
+        plan_grid_1000_ns: median_ns(&home.join("plan").join("grid_1000")),
     };
     if bench.control_step_ns.is_empty() {
         return Err(format!("criterion wrote no estimates under {}", home.display()));

@@ -144,6 +144,7 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
             "allocation_over_controller": "allocation_ns[n] / host_ns_per_uav_step[n]",
             "sil_realtime_factor": "simulated s / wall s of host-sim's mission loop (one thread), median over runs; point-mass UAVs and the paper's clamped cable",
             "sil_realtime_factor_10uav_rigid": "UAV-seconds simulated per wall second (10 x simulated s / wall s), rigid-body UAVs and elastic cables, one thread, median over runs; sil_uav_seconds_per_s_10uav_point_mass: the same for point-mass UAVs, same bench run",
+            "plan_ms": "criterion median of one vt_plan::plan call incl. its work-space allocation (host-sim/benches/plan.rs): paper_map = the 11 paper obstacles, 500_obstacles = 25 seeded groves of 20 trunks over 100 m x 60 m, grid_1000 = a 1000 x 1000 cell grid incl. the distance transform",
             "firmware_flash_bytes": "ALLOC non-NOBITS sections of the release ELF (vector table, text, rodata, data initialisers)",
             "firmware_static_ram_bytes": "ALLOC+WRITE sections (data, bss, uninit); the stack is separate",
         }),
@@ -159,6 +160,11 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     doc.insert("host_ns_tube_locate_warm".into(), host_or_null(&|h| json!(h.locate_warm_ns)));
     doc.insert("host_ns_tube_locate_cold".into(), host_or_null(&|h| json!(h.locate_cold_ns)));
     doc.insert("host_ns_plant_step".into(), host_or_null(&|h| by_n(&h.plant_step_ns)));
+    // Issue 16: planner medians, ms (budgets 10 ms and 100 ms, docs/planning.md).
+    let ms = |x: Option<f64>| x.map_or(Value::Null, |ns| json!(ns * 1e-6));
+    doc.insert("plan_ms_paper_map".into(), host_or_null(&|h| ms(h.plan_paper_map_ns)));
+    doc.insert("plan_ms_500_obstacles".into(), host_or_null(&|h| ms(h.plan_500_obstacles_ns)));
+    doc.insert("plan_ms_grid_1000".into(), host_or_null(&|h| ms(h.plan_grid_1000_ns)));
     let rt = |m: &Result<MissionBench, String>| m.as_ref().map_or(Value::Null, |m| json!(m.realtime_factor));
     doc.insert("sil_realtime_factor_10uav".into(), rt(&m10));
     doc.insert("sil_realtime_factor_100uav".into(), rt(&m100));

@@ -1,0 +1,489 @@
+//! Search over candidate disc centres: a square lattice, A* for the corridor and a widest-path
+//! (maximin) search that names the narrowest passage when no corridor is wide enough.
+//!
+//! A node's value is its free-disc radius `r = min(clearance - margin, r_max)` (computed on
+//! demand, so A* evaluates the map only where it looks). A node is usable when `r >= need`.
+//! Edges join the 8 neighbours; an edge between usable nodes is at most `sqrt(2) h` long and
+//! lies inside both discs when `h <= need` (checked by the planner).
+//!
+//! A* edge cost (a corridor-volume cost in the spirit of the authors' RRT* tube planner):
+//! `len (1 + k_w (r_max / min(r_u, r_v) - 1))`, `k_w` = [`crate::PlanParams::clearance_weight`]:
+//! narrow space costs more, so the path keeps to the middle of passages. The heuristic is the
+//! Euclidean distance to the goal (admissible, the factor is >= 1). Ties are broken by node
+//! index, so the result is deterministic.
+#![allow(clippy::indexing_slicing)] // kernels only; every index is < Lattice::len() <= Workspace::capacity(), checked on entry
+
+use crate::{ClearanceMap, PlanError, Vec2};
+
+/// Marks a node that is not in the open set.
+const NOT_QUEUED: u32 = u32::MAX;
+/// Marks a node taken out of the open set for good.
+const CLOSED: u32 = u32::MAX - 1;
+/// Marks "no parent".
+pub const NO_PARENT: u32 = u32::MAX;
+/// The 8 neighbour offsets and their lengths in lattice steps.
+const NEIGHBOURS: [(i32, i32, f32); 8] = [
+    (1, 0, 1.0),
+    (-1, 0, 1.0),
+    (0, 1, 1.0),
+    (0, -1, 1.0),
+    (1, 1, core::f32::consts::SQRT_2),
+    (1, -1, core::f32::consts::SQRT_2),
+    (-1, 1, core::f32::consts::SQRT_2),
+    (-1, -1, core::f32::consts::SQRT_2),
+];
+
+/// A square lattice of candidate disc centres over the map rectangle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lattice {
+    /// Node `(0, 0)`, m.
+    pub origin_m: Vec2,
+    /// Spacing `h`, m.
+    pub spacing_m: f32,
+    /// Columns.
+    pub nx: usize,
+    /// Rows.
+    pub ny: usize,
+}
+
+impl Lattice {
+    /// The lattice of spacing at least `spacing_m` covering `[min, max]`, coarsened until it has
+    /// at most `capacity` nodes.
+    ///
+    /// # Errors
+    /// [`PlanError::BadParams`] for a non-positive spacing or an empty rectangle.
+    pub fn covering(min_m: Vec2, max_m: Vec2, spacing_m: f32, capacity: usize) -> Result<Self, PlanError> {
+        if !(spacing_m > 0.0 && spacing_m.is_finite()) {
+            return Err(PlanError::BadParams { field: "lattice_m" });
+        }
+        let size = max_m - min_m;
+        if !(size.x > 0.0 && size.y > 0.0 && size.x.is_finite() && size.y.is_finite()) {
+            return Err(PlanError::BadParams { field: "map bounds" });
+        }
+        let mut h = spacing_m;
+        loop {
+            let nx = (size.x / h) as usize + 1;
+            let ny = (size.y / h) as usize + 1;
+            match nx.checked_mul(ny) {
+                Some(n) if n <= capacity => return Ok(Self { origin_m: min_m, spacing_m: h, nx, ny }),
+                _ if capacity < 4 => return Err(PlanError::WorkspaceTooSmall { needed: 4 }),
+                _ => h *= 1.05,
+            }
+        }
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// Whether the lattice has no node.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Position of node `k`, m.
+    pub fn point_m(&self, k: usize) -> Vec2 {
+        let (i, j) = (k % self.nx.max(1), k / self.nx.max(1));
+        self.origin_m + Vec2::new(i as f32, j as f32) * self.spacing_m
+    }
+
+    /// The (up to 4) nodes of the lattice cell containing `p_m`, nearest first.
+    pub fn around(&self, p_m: Vec2) -> [Option<usize>; 4] {
+        let rel = (p_m - self.origin_m) / self.spacing_m;
+        let fi = libm::floorf(rel.x).max(0.0) as usize;
+        let fj = libm::floorf(rel.y).max(0.0) as usize;
+        let mut out = [None; 4];
+        let mut best = [f32::INFINITY; 4];
+        for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let (i, j) = (fi + di, fj + dj);
+            if i >= self.nx || j >= self.ny {
+                continue;
+            }
+            let k = j * self.nx + i;
+            let d = (self.point_m(k) - p_m).norm_squared();
+            // Insertion by distance, then index (deterministic).
+            let mut slot = (k, d);
+            for (o, b) in out.iter_mut().zip(best.iter_mut()) {
+                let replace = match o {
+                    None => true,
+                    Some(ok) => slot.1 < *b || (slot.1 == *b && slot.0 < *ok),
+                };
+                if replace {
+                    let prev = (*o, *b);
+                    *o = Some(slot.0);
+                    *b = slot.1;
+                    match prev.0 {
+                        Some(pk) => slot = (pk, prev.1),
+                        None => break,
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn neighbour(&self, k: usize, di: i32, dj: i32) -> Option<usize> {
+        let i = (k % self.nx) as i64 + i64::from(di);
+        let j = (k / self.nx) as i64 + i64::from(dj);
+        if i < 0 || j < 0 || i >= self.nx as i64 || j >= self.ny as i64 {
+            None
+        } else {
+            Some(j as usize * self.nx + i as usize)
+        }
+    }
+}
+
+/// The planner's work space, borrowed from the caller: 3 `f32` and 3 `u32` per lattice node.
+#[derive(Debug)]
+pub struct Workspace<'a> {
+    radius_m: &'a mut [f32],
+    cost: &'a mut [f32],
+    key: &'a mut [f32],
+    /// Parent of each node in the last search ([`NO_PARENT`] for none).
+    pub(crate) parent: &'a mut [u32],
+    heap: &'a mut [u32],
+    pos: &'a mut [u32],
+}
+
+impl<'a> Workspace<'a> {
+    /// Splits caller buffers: `floats` holds `3 capacity` values, `ints` `3 capacity`.
+    pub fn new(floats: &'a mut [f32], ints: &'a mut [u32]) -> Self {
+        let cap = (floats.len() / 3).min(ints.len() / 3).min(NO_PARENT as usize - 2);
+        let (radius_m, rest) = floats.split_at_mut(cap);
+        let (cost, rest) = rest.split_at_mut(cap);
+        let key = rest.split_at_mut(cap).0;
+        let (parent, rest) = ints.split_at_mut(cap);
+        let (heap, rest) = rest.split_at_mut(cap);
+        let pos = rest.split_at_mut(cap).0;
+        Self { radius_m, cost, key, parent, heap, pos }
+    }
+
+    /// Lattice nodes this work space can hold.
+    pub fn capacity(&self) -> usize {
+        self.radius_m.len()
+    }
+
+    /// Clears the search state of the first `n` nodes; `keep_radii` keeps the cached radii.
+    fn reset(&mut self, n: usize, keep_radii: bool) {
+        if !keep_radii {
+            self.radius_m[..n].fill(f32::NAN);
+        }
+        self.cost[..n].fill(f32::INFINITY);
+        self.key[..n].fill(f32::INFINITY);
+        self.parent[..n].fill(NO_PARENT);
+        self.pos[..n].fill(NOT_QUEUED);
+    }
+}
+
+/// What the searches need to know about the disc radii.
+#[derive(Debug, Clone, Copy)]
+pub struct RadiusRule {
+    /// Margin subtracted from the clearance, m.
+    pub margin_m: f32,
+    /// Cap on a disc's radius, m.
+    pub max_radius_m: f32,
+    /// Radius a usable node needs, m.
+    pub need_m: f32,
+    /// Weight `k_w` of the clearance term in the edge cost.
+    pub clearance_weight: f32,
+}
+
+impl RadiusRule {
+    /// Free-disc radius at `p`: `min(clearance - margin, r_max)`, m.
+    pub fn radius_m<M: ClearanceMap>(&self, map: &M, p_m: Vec2) -> f32 {
+        (map.clearance_m(p_m) - self.margin_m).min(self.max_radius_m)
+    }
+}
+
+/// Indexed binary min-heap over node keys, ties broken by node index.
+struct Heap<'w, 'a> {
+    ws: &'w mut Workspace<'a>,
+    len: usize,
+}
+
+impl Heap<'_, '_> {
+    fn less(&self, a: u32, b: u32) -> bool {
+        let (ka, kb) = (self.ws.key[a as usize], self.ws.key[b as usize]);
+        ka < kb || (ka == kb && a < b)
+    }
+
+    fn swap(&mut self, i: usize, j: usize) {
+        self.ws.heap.swap(i, j);
+        let (a, b) = (self.ws.heap[i], self.ws.heap[j]);
+        self.ws.pos[a as usize] = i as u32;
+        self.ws.pos[b as usize] = j as u32;
+    }
+
+    fn up(&mut self, mut i: usize) {
+        while i > 0 {
+            let p = (i - 1) / 2;
+            if self.less(self.ws.heap[i], self.ws.heap[p]) {
+                self.swap(i, p);
+                i = p;
+            } else {
+                break;
+            }
+        }
+    }
+
+    fn down(&mut self, mut i: usize) {
+        loop {
+            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let mut m = i;
+            if l < self.len && self.less(self.ws.heap[l], self.ws.heap[m]) {
+                m = l;
+            }
+            if r < self.len && self.less(self.ws.heap[r], self.ws.heap[m]) {
+                m = r;
+            }
+            if m == i {
+                break;
+            }
+            self.swap(i, m);
+            i = m;
+        }
+    }
+
+    /// Inserts `k` or lowers its key (the key is already written).
+    fn push_or_decrease(&mut self, k: usize) {
+        let p = self.ws.pos[k];
+        if p == NOT_QUEUED {
+            self.ws.heap[self.len] = k as u32;
+            self.ws.pos[k] = self.len as u32;
+            self.len += 1;
+            self.up(self.len - 1);
+        } else if p != CLOSED {
+            self.up(p as usize);
+        }
+    }
+
+    fn pop(&mut self) -> Option<usize> {
+        if self.len == 0 {
+            return None;
+        }
+        let top = self.ws.heap[0] as usize;
+        self.len -= 1;
+        if self.len > 0 {
+            self.swap(0, self.len);
+            self.down(0);
+        }
+        self.ws.pos[top] = CLOSED;
+        Some(top)
+    }
+}
+
+fn radius_of<M: ClearanceMap>(ws: &mut Workspace<'_>, lat: &Lattice, map: &M, rule: &RadiusRule, k: usize) -> f32 {
+    let r = ws.radius_m[k];
+    if r.is_nan() {
+        let r = rule.radius_m(map, lat.point_m(k));
+        // A NaN clearance (never from the maps here) counts as blocked.
+        let r = if r.is_nan() { f32::NEG_INFINITY } else { r };
+        ws.radius_m[k] = r;
+        r
+    } else {
+        r
+    }
+}
+
+/// Cached disc radius of node `k` after a search (NaN if never evaluated).
+pub(crate) fn cached_radius(ws: &Workspace<'_>, k: usize) -> f32 {
+    ws.radius_m.get(k).copied().unwrap_or(f32::NAN)
+}
+
+/// A* from `from` to `to` over usable nodes. On success the parents lead from `to` back to
+/// `from` (`parent[from] = NO_PARENT`); returns whether `to` was reached.
+///
+/// # Errors
+/// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
+pub fn astar<M: ClearanceMap>(
+    map: &M,
+    lat: &Lattice,
+    rule: &RadiusRule,
+    ws: &mut Workspace<'_>,
+    from: usize,
+    to: usize,
+) -> Result<bool, PlanError> {
+    let n = lat.len();
+    if n > ws.capacity() || from >= n || to >= n {
+        return Err(PlanError::WorkspaceTooSmall { needed: n });
+    }
+    ws.reset(n, false);
+    let goal = lat.point_m(to);
+    let h = lat.spacing_m;
+    if radius_of(ws, lat, map, rule, from) < rule.need_m {
+        return Ok(false);
+    }
+    ws.cost[from] = 0.0;
+    ws.key[from] = vt_fpu::norm(&(lat.point_m(from) - goal));
+    let mut heap = Heap { ws, len: 0 };
+    heap.push_or_decrease(from);
+    while let Some(u) = heap.pop() {
+        if u == to {
+            return Ok(true);
+        }
+        let ru = heap.ws.radius_m[u];
+        let gu = heap.ws.cost[u];
+        for (di, dj, len) in NEIGHBOURS {
+            let Some(v) = lat.neighbour(u, di, dj) else { continue };
+            if heap.ws.pos[v] == CLOSED {
+                continue;
+            }
+            let rv = radius_of(heap.ws, lat, map, rule, v);
+            if rv < rule.need_m {
+                continue;
+            }
+            let r_edge = ru.min(rv);
+            let cost = len * h * (1.0 + rule.clearance_weight * (rule.max_radius_m / r_edge - 1.0));
+            let g = gu + cost;
+            if g < heap.ws.cost[v] {
+                heap.ws.cost[v] = g;
+                heap.ws.key[v] = g + vt_fpu::norm(&(lat.point_m(v) - goal));
+                heap.ws.parent[v] = u as u32;
+                heap.push_or_decrease(v);
+            }
+        }
+    }
+    Ok(false)
+}
+
+/// Widest path from `from` to `to` (maximises the smallest disc radius along the way, any
+/// node allowed). Returns the narrowest node of that path and its radius, m: the bottleneck
+/// no route can avoid.
+///
+/// # Errors
+/// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
+pub fn widest_path_bottleneck<M: ClearanceMap>(
+    map: &M,
+    lat: &Lattice,
+    rule: &RadiusRule,
+    ws: &mut Workspace<'_>,
+    from: usize,
+    to: usize,
+) -> Result<(usize, f32), PlanError> {
+    let n = lat.len();
+    if n > ws.capacity() || from >= n || to >= n {
+        return Err(PlanError::WorkspaceTooSmall { needed: n });
+    }
+    ws.reset(n, true);
+    // key = -bottleneck (min-heap), cost = bottleneck.
+    let r0 = radius_of(ws, lat, map, rule, from);
+    ws.cost[from] = r0;
+    ws.key[from] = -r0;
+    let mut heap = Heap { ws, len: 0 };
+    heap.push_or_decrease(from);
+    while let Some(u) = heap.pop() {
+        if u == to {
+            break;
+        }
+        let bu = heap.ws.cost[u];
+        for (di, dj, _) in NEIGHBOURS {
+            let Some(v) = lat.neighbour(u, di, dj) else { continue };
+            if heap.ws.pos[v] == CLOSED {
+                continue;
+            }
+            let b = bu.min(radius_of(heap.ws, lat, map, rule, v));
+            if heap.ws.cost[v] == f32::INFINITY || b > heap.ws.cost[v] {
+                heap.ws.cost[v] = b;
+                heap.ws.key[v] = -b;
+                heap.ws.parent[v] = u as u32;
+                heap.push_or_decrease(v);
+            }
+        }
+    }
+    Ok(narrowest_on_path(ws, to, n))
+}
+
+/// The narrowest passage between `from` and `to`: the widest-path bottleneck `b`
+/// ([`widest_path_bottleneck`]), then located on the A* path over nodes with radius `>= b`
+/// (which keeps to the middle of passages, so the reported node is where the route is
+/// squeezed rather than any node that ties with it). Returns the node and its radius, m.
+///
+/// # Errors
+/// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
+pub fn narrowest_passage<M: ClearanceMap>(
+    map: &M,
+    lat: &Lattice,
+    rule: &RadiusRule,
+    ws: &mut Workspace<'_>,
+    from: usize,
+    to: usize,
+) -> Result<(usize, f32), PlanError> {
+    let (k, b) = widest_path_bottleneck(map, lat, rule, ws, from, to)?;
+    if !b.is_finite() {
+        return Ok((k, b));
+    }
+    let at_b = RadiusRule { need_m: b, ..*rule };
+    if astar(map, lat, &at_b, ws, from, to)? {
+        Ok(narrowest_on_path(ws, to, lat.len()))
+    } else {
+        Ok((k, b))
+    }
+}
+
+/// Walks the parents back from `to`: the first node with the smallest radius.
+fn narrowest_on_path(ws: &Workspace<'_>, to: usize, n: usize) -> (usize, f32) {
+    let mut k = to;
+    let mut worst = (to, ws.radius_m[to]);
+    for _ in 0..n {
+        let r = ws.radius_m[k];
+        if r < worst.1 {
+            worst = (k, r);
+        }
+        match ws.parent[k] {
+            NO_PARENT => break,
+            p => k = p as usize,
+        }
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Obstacle, ObstacleMap};
+
+    fn rule(need: f32) -> RadiusRule {
+        RadiusRule { margin_m: 0.0, max_radius_m: 5.0, need_m: need, clearance_weight: 0.5 }
+    }
+
+    #[test]
+    fn lattice_coarsens_to_capacity_and_finds_cells() {
+        let l = Lattice::covering(Vec2::zeros(), Vec2::new(10.0, 5.0), 0.5, 1000).unwrap();
+        assert_eq!((l.nx, l.ny), (21, 11));
+        let c = Lattice::covering(Vec2::zeros(), Vec2::new(10.0, 5.0), 0.1, 1000).unwrap();
+        assert!(c.len() <= 1000 && c.spacing_m > 0.2);
+        let a = l.around(Vec2::new(1.1, 0.4));
+        assert_eq!(a[0], Some(2 + 21)); // (1.0, 0.5)
+        assert!(a.iter().all(Option::is_some));
+    }
+
+    #[test]
+    fn astar_goes_around_a_wall_and_maximin_finds_the_gap() {
+        // A wall across x = 10 ending at y = 8.6; the map is 20 x 10, so the gap above the end
+        // has 1.4 m of clearance.
+        let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
+        let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+        let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
+        let (mut f, mut u) = (vec![0.0; 3 * 4096], vec![0; 3 * 4096]);
+        let mut ws = Workspace::new(&mut f, &mut u);
+        let from = lat.around(Vec2::new(2.0, 2.0))[0].unwrap();
+        let to = lat.around(Vec2::new(18.0, 2.0))[0].unwrap();
+        assert!(astar(&map, &lat, &rule(0.5), &mut ws, from, to).unwrap());
+        // The path passes above the wall's end.
+        let mut k = to;
+        let mut top = f32::MIN;
+        while ws.parent[k] != NO_PARENT {
+            top = top.max(lat.point_m(k).y);
+            k = ws.parent[k] as usize;
+        }
+        assert_eq!(k, from);
+        assert!(top > 8.6);
+        // A need wider than the gap is refused, and the widest path's narrowest node is the gap.
+        assert!(!astar(&map, &lat, &rule(1.5), &mut ws, from, to).unwrap());
+        let (k, r) = narrowest_passage(&map, &lat, &rule(1.5), &mut ws, from, to).unwrap();
+        let p = lat.point_m(k);
+        assert!((p.x - 10.0).abs() <= 0.5 && p.y > 8.6, "{p:?}");
+        assert!(r > 1.1 && r <= 1.4, "{r}");
+    }
+}

@@ -1,0 +1,136 @@
+//! Tube planning glue (issue 16): the `plan` subcommand and the scenario's
+//! `[tube] plan = { map, start, goal }`, which plans before validation so that everything
+//! downstream (run, sweep, compare, pil) flies the planned tube unchanged.
+
+use crate::map::{self, LoadedMap};
+use crate::scenario::{Scenario, ScenarioError};
+use serde::Deserialize;
+use std::path::Path;
+use vt_plan::PlannedTube;
+
+/// `[tube] plan = { map = "...", start = [x, y], goal = [x, y] }`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PlanSpec {
+    /// Map file (TOML obstacle list or ROS map_server YAML), relative to the scenario's folder;
+    /// absent: the scenario's own `[world]` bounds and obstacles.
+    #[serde(default)]
+    pub map: Option<String>,
+    /// Start of the generator curve `[x, y]`, m.
+    pub start: [f64; 2],
+    /// Goal `[x, y]`, m.
+    pub goal: [f64; 2],
+    /// Half-width every section must have, m (default `r_active_m + safety_distance_m`; at
+    /// least `r_safe_m + safety_distance_m`, Proposition 2).
+    #[serde(default)]
+    pub min_half_width_m: Option<f64>,
+}
+
+/// The map a scenario's plan names (its own `[world]` when `map` is absent).
+///
+/// # Errors
+/// The map file's error.
+pub fn scenario_map(s: &Scenario, spec: &PlanSpec, source_name: &str) -> Result<LoadedMap, ScenarioError> {
+    match &spec.map {
+        None => Ok(LoadedMap::from_world(s, &format!("{source_name} [world]"))),
+        Some(m) => {
+            let dir = Path::new(source_name).parent().unwrap_or_else(|| Path::new(""));
+            LoadedMap::load(&dir.join(m))
+        }
+    }
+}
+
+/// When the scenario's `[tube]` has a `plan`, plans and fills `waypoints` (called by
+/// `scenario::parse` before validation).
+///
+/// # Errors
+/// Both or neither of `waypoints` and `plan`; a bad map; a planner error (too narrow, start or
+/// goal outside the map or inside an obstacle), at the line of `plan`.
+pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Result<(), ScenarioError> {
+    let line = text.lines().position(|l| {
+        let t = l.trim_start();
+        t.starts_with("plan ") || t.starts_with("plan=")
+    });
+    let err = |message: String| ScenarioError {
+        source_name: source_name.into(),
+        line: line.map(|i| i + 1),
+        field: Some("tube.plan".into()),
+        message,
+    };
+    let Some(spec) = s.tube.plan.clone() else {
+        return Ok(());
+    };
+    if !s.tube.waypoints.is_empty() {
+        return Err(err("give either `waypoints` or `plan`, not both".into()));
+    }
+    if let Some(w) = spec.min_half_width_m {
+        let floor = map::prop2_half_width_m(s);
+        let max = f64::from(map::params_for(s).max_half_width_m);
+        if !(w.is_finite() && w >= floor && w <= max) {
+            return Err(err(format!("min_half_width_m must be in [r_safe_m + safety_distance_m = {floor}, {max}] m (got {w})")));
+        }
+    }
+    let params = params_of(s, &spec);
+    let m = scenario_map(s, &spec, source_name)?;
+    let t = m.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", m.source_name)))?;
+    s.tube.waypoints = waypoints_f64(&t);
+    Ok(())
+}
+
+/// The planner parameters of a scenario's plan: the team's (`map::params_for`) with
+/// `min_half_width_m` when given (validated by [`fill_planned_tube`]).
+pub fn params_of(s: &Scenario, spec: &PlanSpec) -> vt_plan::PlanParams {
+    let mut p = map::params_for(s);
+    if let Some(w) = spec.min_half_width_m {
+        p.need_half_width_m = w as f32;
+    }
+    p
+}
+
+/// The planned waypoints as the scenario stores them `[x, y, w_L, w_R]`, m.
+pub fn waypoints_f64(t: &PlannedTube) -> Vec<[f64; 4]> {
+    t.waypoints
+        .iter()
+        .map(|w| [f64::from(w.pos_m.x), f64::from(w.pos_m.y), f64::from(w.w_left_m), f64::from(w.w_right_m)])
+        .collect()
+}
+
+/// Parses `X,Y` (metres) for `--start` and `--goal`.
+///
+/// # Errors
+/// Not two finite numbers.
+pub fn parse_point(s: &str) -> Result<[f64; 2], String> {
+    let mut it = s.split(',').map(|p| p.trim().parse::<f64>());
+    match (it.next(), it.next(), it.next()) {
+        (Some(Ok(x)), Some(Ok(y)), None) if x.is_finite() && y.is_finite() => Ok([x, y]),
+        _ => Err(format!("expected X,Y in metres (two finite numbers), got {s:?}")),
+    }
+}
+
+/// What `host-sim plan` did.
+#[derive(Debug, Clone)]
+pub struct PlanOutcome {
+    /// The map.
+    pub map: LoadedMap,
+    /// The tube.
+    pub tube: PlannedTube,
+    /// The `[tube]` table, TOML.
+    pub toml: String,
+    /// Planning time (map loading excluded), ms.
+    pub plan_ms: f64,
+}
+
+/// `host-sim plan`: loads the map and the team, plans, returns the tube.
+///
+/// # Errors
+/// `Err((message, exit code))`: 2 for bad input (map, team, terminals, too narrow).
+pub fn run_cli(map_path: &Path, start: [f64; 2], goal: [f64; 2], team: Option<&Path>) -> Result<PlanOutcome, String> {
+    let team = crate::scenario::load(team).map_err(|e| e.to_string())?;
+    let m = LoadedMap::load(map_path).map_err(|e| e.to_string())?;
+    let params = map::params_for(&team.scenario);
+    let t0 = std::time::Instant::now();
+    let tube = m.plan(start, goal, &params).map_err(|e| format!("{}: {e}", m.source_name))?;
+    let plan_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let toml = map::tube_toml(&tube, &m.source_name, start, goal);
+    Ok(PlanOutcome { map: m, tube, toml, plan_ms })
+}
