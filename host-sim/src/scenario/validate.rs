@@ -1,0 +1,325 @@
+//! Validation of a parsed scenario: every field's range and the cross-field checks (tube
+//! against obstacles, team against tube, rates, cable stiffness against the plant step), each
+//! error naming the file, line and field.
+
+use super::*;
+
+pub(super) fn line_of_offset(text: &str, offset: usize) -> usize {
+    text.get(..offset.min(text.len())).map_or(0, |t| t.matches('\n').count()) + 1
+}
+
+/// Finds the 1-based line of `key` inside table `table` (`""` for the top level).
+fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
+    let mut current = String::new();
+    for (i, raw) in text.lines().enumerate() {
+        // Without a trailing comment (`[controller]   # paper Table II`: issue 17 found that
+        // fields of such tables got no line). A `#` inside a quoted value only cuts the value.
+        let line = raw.split('#').next().unwrap_or_default().trim();
+        if line.starts_with('[') {
+            current = line.trim_matches(|c| c == '[' || c == ']').trim().to_string();
+            continue;
+        }
+        if current == table {
+            if let Some((k, _)) = line.split_once('=') {
+                if k.trim() == key {
+                    return Some(i + 1);
+                }
+            }
+        }
+    }
+    // Arrays of tables and inline keys: fall back to the table header.
+    text.lines()
+        .position(|l| l.split('#').next().unwrap_or_default().trim().trim_matches(|c| c == '[' || c == ']').trim() == table)
+        .map(|i| i + 1)
+}
+
+pub(super) struct Validator<'a> {
+    pub(super) text: &'a str,
+    pub(super) source_name: &'a str,
+}
+
+impl Validator<'_> {
+    fn err(&self, table: &str, key: &str, message: String) -> ScenarioError {
+        let field = if table.is_empty() { key.to_string() } else { format!("{table}.{key}") };
+        ScenarioError {
+            source_name: self.source_name.into(),
+            line: line_of_key(self.text, table, key),
+            field: Some(field),
+            message,
+        }
+    }
+
+    fn positive(&self, table: &str, key: &str, x: f64) -> Result<(), ScenarioError> {
+        if x.is_finite() && x > 0.0 {
+            Ok(())
+        } else {
+            Err(self.err(table, key, format!("must be a finite number > 0 (got {x})")))
+        }
+    }
+
+    fn non_negative(&self, table: &str, key: &str, x: f64) -> Result<(), ScenarioError> {
+        if x.is_finite() && x >= 0.0 {
+            Ok(())
+        } else {
+            Err(self.err(table, key, format!("must be a finite number >= 0 (got {x})")))
+        }
+    }
+
+    pub(super) fn check(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
+        // World.
+        let b = s.world.bounds_m;
+        if !(b.iter().all(|x| x.is_finite()) && b[0] < b[1] && b[2] < b[3]) {
+            return Err(self.err("world", "bounds_m", "must be finite [x_min, x_max, y_min, y_max] with min < max".into()));
+        }
+        self.positive("world", "ceiling_m", s.world.ceiling_m)?;
+        for o in &s.world.obstacles {
+            if !(o.center_m.iter().all(|x| x.is_finite())) {
+                return Err(self.err("world.obstacles", "center_m", "must be finite".into()));
+            }
+            self.positive("world.obstacles", "radius_m", o.radius_m)?;
+        }
+        // Masses, thrust, cables.
+        self.positive("load", "mass_kg", s.load.mass_kg)?;
+        self.positive("load", "altitude_m", s.load.altitude_m)?;
+        self.non_negative("load", "start_s_m", s.load.start_s_m)?;
+        self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
+        self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
+        self.non_negative("uavs", "thrust_lag_s", s.uavs.thrust_lag_s)?;
+        // issue 17: the velocity loop needs the hover thrust m g within its limits
+        // [0.05 thrust_max, thrust_max] (sim::velocity_loop, vt_cfo::VelocityLoopParams::new, in
+        // f32 as there); else the crate's error surfaced as a bare SimError with no location.
+        let hover_n = s.uavs.mass_kg as f32 * vt_cfo::GRAVITY_MPS2;
+        let thrust_max = s.uavs.thrust_max_n as f32;
+        if hover_n > thrust_max {
+            return Err(self.err("uavs", "thrust_max_n", format!("{} N cannot lift the UAV: its weight uavs.mass_kg * g is {hover_n} N", s.uavs.thrust_max_n)));
+        }
+        if hover_n < 0.05 * thrust_max {
+            return Err(self.err("uavs", "mass_kg", format!("the UAV's weight {hover_n} N is below the minimum thrust 0.05 * uavs.thrust_max_n = {} N", 0.05 * thrust_max)));
+        }
+        if !(s.uavs.tilt_max_deg.is_finite() && s.uavs.tilt_max_deg > 0.0 && s.uavs.tilt_max_deg < 90.0) {
+            return Err(self.err("uavs", "tilt_max_deg", format!("must be in (0, 90) degrees (got {})", s.uavs.tilt_max_deg)));
+        }
+        self.positive("uavs", "formation_radius_m", s.uavs.formation_radius_m)?;
+        let n = s.cables.lengths_m.len();
+        if n == 0 || n > SIM_MAX_UAVS {
+            return Err(self.err("cables", "lengths_m", format!("needs 1..={SIM_MAX_UAVS} entries, one per UAV (got {n})")));
+        }
+        for &l in &s.cables.lengths_m {
+            self.positive("cables", "lengths_m", l)?;
+        }
+        self.positive("cables", "stiffness_n_per_m", s.cables.stiffness_n_per_m)?;
+        self.non_negative("cables", "damping_ns_per_m", s.cables.damping_ns_per_m)?;
+        self.positive("cables", "rated_n", s.cables.rated_n)?;
+        if let Some(b) = s.cables.breaking_n {
+            if !(b.is_finite() && b > s.cables.rated_n) {
+                return Err(self.err("cables", "breaking_n", format!("must be a finite number > rated_n = {} N (got {b})", s.cables.rated_n)));
+            }
+        }
+        // Controller.
+        let c = &s.controller;
+        for (k, v) in [("k1", c.k1), ("k2", c.k2), ("k3", c.k3), ("v_max_mps", c.v_max_mps), ("r_safe_m", c.r_safe_m),
+                       ("tray_height_m", c.tray_height_m), ("kz_per_s", c.kz_per_s), ("vz_max_mps", c.vz_max_mps)] {
+            self.positive("controller", k, v)?;
+        }
+        for (k, v) in [("share_gain_mps_per_n", c.share_gain_mps_per_n), ("load_altitude_gain_per_s", c.load_altitude_gain_per_s),
+                       ("share_offset_max_m", c.share_offset_max_m)] {
+            self.non_negative("controller", k, v)?;
+        }
+        if !(c.r_active_m.is_finite() && c.r_active_m > c.r_safe_m) {
+            return Err(self.err("controller", "r_active_m", format!("must be > r_safe_m = {} (got {})", c.r_safe_m, c.r_active_m)));
+        }
+        let bl = &s.baseline;
+        for (k, v) in [("k1", bl.k1), ("k2", bl.k2), ("k3", bl.k3), ("v_max_mps", bl.v_max_mps), ("r_safe_m", bl.r_safe_m)] {
+            self.positive("baseline", k, v)?;
+        }
+        if !(bl.r_active_m.is_finite() && bl.r_active_m > bl.r_safe_m) {
+            return Err(self.err("baseline", "r_active_m", "must be > r_safe_m".into()));
+        }
+        let vl = &s.velocity_loop;
+        for (k, arr) in [("kp", vl.kp), ("ki", vl.ki), ("kd", vl.kd)] {
+            if !arr.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                return Err(self.err("velocity_loop", k, "gains must be finite and >= 0".into()));
+            }
+        }
+        // issue 17: the crate takes kd in [0, 1) (vt_cfo::VelocityLoopParams::new); said here
+        // with a location instead of a bare SimError.
+        if !vl.kd.iter().all(|&x| x < 1.0) {
+            return Err(self.err("velocity_loop", "kd", format!("derivative gains must be < 1 (got {:?})", vl.kd)));
+        }
+        self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
+        self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
+        if let Some(t) = vl.rigid_body {
+            if let Some(bw) = t.cfo_bandwidth_rad_s {
+                self.positive("velocity_loop.rigid_body", "cfo_bandwidth_rad_s", bw)?;
+            }
+            if let Some(lag) = t.actuator_lag_s {
+                self.non_negative("velocity_loop.rigid_body", "actuator_lag_s", lag)?;
+            }
+        }
+        // Rates.
+        let r = &s.rates;
+        for (k, v) in [("plant_hz", r.plant_hz), ("plant_substeps", r.plant_substeps), ("low_level_hz", r.low_level_hz),
+                       ("high_level_hz", r.high_level_hz), ("record_hz", r.record_hz)] {
+            if v == 0 {
+                return Err(self.err("rates", k, "must be > 0".into()));
+            }
+        }
+        for (k, v) in [("low_level_hz", r.low_level_hz), ("high_level_hz", r.high_level_hz), ("record_hz", r.record_hz)] {
+            if !r.plant_hz.is_multiple_of(v) {
+                return Err(self.err("rates", k, format!("must divide plant_hz = {} evenly (got {v})", r.plant_hz)));
+            }
+        }
+        if !r.low_level_hz.is_multiple_of(r.high_level_hz) {
+            return Err(self.err("rates", "high_level_hz", "must divide low_level_hz evenly".into()));
+        }
+        let rigid_bw = vl.tuning(UavModel::RigidBody).0;
+        for (table, bw) in [("velocity_loop", vl.cfo_bandwidth_rad_s), ("velocity_loop.rigid_body", rigid_bw)] {
+            if bw / f64::from(r.low_level_hz) > 0.5 {
+                return Err(self.err(table, "cfo_bandwidth_rad_s", format!(
+                    "mu * h = {:.3} > 0.5: the discrete observer would be unstable at low_level_hz = {}",
+                    bw / f64::from(r.low_level_hz), r.low_level_hz)));
+            }
+        }
+        // Link and mission.
+        self.non_negative("link", "delay_s", s.link.delay_s)?;
+        if !(s.link.drop_probability.is_finite() && (0.0..1.0).contains(&s.link.drop_probability)) {
+            return Err(self.err("link", "drop_probability", "must be in [0, 1)".into()));
+        }
+        self.positive("link", "stale_timeout_s", s.link.stale_timeout_s)?;
+        let m = &s.mission;
+        for (k, v) in [("time_limit_s", m.time_limit_s), ("end_tolerance_m", m.end_tolerance_m),
+                       ("safety_distance_m", m.safety_distance_m), ("altitude_tolerance_m", m.altitude_tolerance_m)] {
+            self.positive("mission", k, v)?;
+        }
+        self.non_negative("mission", "post_arrival_s", m.post_arrival_s)?;
+        self.non_negative("mission", "settle_time_s", m.settle_time_s)?;
+        let d = &s.disturbances;
+        for (k, v) in [("position_noise_m", d.position_noise_m), ("velocity_noise_mps", d.velocity_noise_mps),
+                       ("latency_s", d.latency_s), ("link_jitter_s", d.link_jitter_s), ("gust_std_mps", d.gust_std_mps),
+                       ("uav_drag_area_m2", d.uav_drag_area_m2), ("load_drag_area_m2", d.load_drag_area_m2),
+                       ("intensity", d.intensity)] {
+            self.non_negative("disturbances", k, v)?;
+        }
+        self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
+        if !d.wind_mean_mps.iter().all(|x| x.is_finite()) {
+            return Err(self.err("disturbances", "wind_mean_mps", "must be finite".into()));
+        }
+        for (k, v) in [("cable_length_error", d.cable_length_error), ("cable_stiffness_error", d.cable_stiffness_error),
+                       ("uav_mass_error", d.uav_mass_error), ("load_mass_error", d.load_mass_error)] {
+            if !(v.is_finite() && (0.0..0.9).contains(&(v * d.intensity))) {
+                return Err(self.err("disturbances", k, format!("relative error x intensity must be in [0, 0.9) (got {})", v * d.intensity)));
+            }
+        }
+        for (i, f) in s.faults.iter().enumerate() {
+            if f.uav >= s.cables.lengths_m.len() {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_line(self.text, "faults", i),
+                    field: Some(format!("faults[{i}].uav")),
+                    message: format!("no UAV {} in a team of {}", f.uav, s.cables.lengths_m.len()),
+                });
+            }
+            if !(f.time_s.is_finite() && f.time_s >= 0.0) {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_line(self.text, "faults", i),
+                    field: Some(format!("faults[{i}].time_s")),
+                    message: "must be a finite time >= 0".into(),
+                });
+            }
+        }
+        // Cable stiffness against the integrator's sub-step (docs/plant.md).
+        let h = 1.0 / (f64::from(s.rates.plant_hz) * f64::from(s.rates.plant_substeps.max(1)));
+        match check_cable_integration(s.cables.stiffness_n_per_m, s.cables.damping_ns_per_m, s.uavs.mass_kg, s.load.mass_kg, h) {
+            Ok(()) => {}
+            Err(StiffnessError::Stiffness { omega_h }) => {
+                return Err(self.err("cables", "stiffness_n_per_m", format!(
+                    "too stiff for the plant step: sqrt(k/mu) h = {omega_h:.3} > {MAX_OMEGA_H} (mu: reduced UAV-load mass, h = 1/(plant_hz plant_substeps) = {h:.2e} s); raise rates.plant_substeps or lower the stiffness")));
+            }
+            Err(StiffnessError::Damping { damping_h }) => {
+                return Err(self.err("cables", "damping_ns_per_m", format!(
+                    "too much damping for the plant step: (b/mu) h = {damping_h:.3} > {MAX_DAMPING_H}; raise rates.plant_substeps or lower the damping")));
+            }
+        }
+        // Geometry: tube, obstacles, formation, cables.
+        let tube = self.check_tube(s)?;
+        self.check_obstacles(s, &tube)?;
+        self.check_formation(s, &tube)?;
+        Ok(tube)
+    }
+
+    fn check_tube(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
+        let tube = SimTube::from_waypoints(&s.tube.waypoints_f32()).map_err(|e| self.err("tube", "waypoints", e.to_string()))?;
+        // The narrowest section must hold a UAV with its safety margin on both sides.
+        let need = s.mission.safety_distance_m + s.controller.r_safe_m;
+        if f64::from(tube.min_half_width_m()) <= need {
+            return Err(self.err("tube", "waypoints", format!(
+                "narrowest half-width {:.2} m cannot hold a UAV: needs > r_safe_m + safety_distance_m = {need:.2} m",
+                tube.min_half_width_m())));
+        }
+        Ok(tube)
+    }
+
+    fn check_obstacles(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
+        const RIM_POINTS: usize = 72;
+        for (i, o) in s.world.obstacles.iter().enumerate() {
+            let c = vt_tube::Vec2::new(o.center_m[0] as f32, o.center_m[1] as f32);
+            let r = o.radius_m as f32;
+            let inside = |p: vt_tube::Vec2| tube.locate(p, 0).is_some_and(|sec| sec.boundary_distance_m(p) > 0.0);
+            let rim_hit = (0..RIM_POINTS).any(|k| {
+                let a = k as f32 / RIM_POINTS as f32 * core::f32::consts::TAU;
+                inside(c + vt_tube::Vec2::new(a.cos(), a.sin()) * r)
+            });
+            let boundary_hit = tube.samples().iter().any(|smp| {
+                (smp.left_boundary_m() - c).norm() < r || (smp.right_boundary_m() - c).norm() < r
+            });
+            if inside(c) || rim_hit || boundary_hit {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_line(self.text, "world.obstacles", i),
+                    field: Some(format!("world.obstacles[{i}]")),
+                    message: format!("obstacle at ({:.2}, {:.2}) r = {:.2} m intrudes into the tube", o.center_m[0], o.center_m[1], o.radius_m),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn check_formation(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
+        let h = s.controller.tray_height_m;
+        let r = s.uavs.formation_radius_m;
+        for (i, &len) in s.cables.lengths_m.iter().enumerate() {
+            // Taut cable with its node on the take-off circle: height above the load.
+            let height = len / (1.0 + (r / h).powi(2)).sqrt();
+            if height < 1.0 {
+                return Err(self.err("cables", "lengths_m", format!(
+                    "cable {i} ({len} m) is too short for the formation: the UAV would be {height:.2} m above the load")));
+            }
+            if s.load.altitude_m + height + 0.5 > s.world.ceiling_m {
+                return Err(self.err("load", "altitude_m", format!(
+                    "UAV {i} would fly at {:.1} m, above the ceiling {} m", s.load.altitude_m + height, s.world.ceiling_m)));
+            }
+        }
+        let start = tube.locate(vt_tube::Vec2::zeros(), 0);
+        let _ = start;
+        let s0 = s.load.start_s_m as f32;
+        if s0 >= tube.length_m() {
+            return Err(self.err("load", "start_s_m", format!("beyond the tube end ({:.1} m)", tube.length_m())));
+        }
+        let k = ((s0 / tube.ds_m()) as usize).min(TUBE_SAMPLES - 1);
+        let smp = tube.samples().get(k).copied().ok_or_else(|| self.err("load", "start_s_m", "out of range".into()))?;
+        let half = 0.5 * (smp.w_left_m + smp.w_right_m);
+        if f64::from(half) <= r + s.controller.r_safe_m {
+            return Err(self.err("uavs", "formation_radius_m", format!(
+                "take-off formation (radius {r} m + r_safe {} m) does not fit the tube at the start (half-width {half:.2} m)",
+                s.controller.r_safe_m)));
+        }
+        Ok(())
+    }
+}
+
+/// Line of the `index`-th `[[table]]` header.
+fn nth_table_line(text: &str, table: &str, index: usize) -> Option<usize> {
+    let header = format!("[[{table}]]");
+    text.lines().enumerate().filter(|(_, l)| l.trim() == header).nth(index).map(|(i, _)| i + 1)
+}
