@@ -432,3 +432,26 @@ fn planning_is_deterministic() {
         assert_eq!(bits(&a), bits(&b), "{file}");
     }
 }
+
+/// Issue 16: the run's top view of a planned scenario shows the map (here an occupancy grid the
+/// scenario's `[world]` knows nothing of) and the corridor: rendering it with and without the
+/// plan gives different pictures, and a hand-made tube carries no plan.
+#[test]
+fn top_view_of_a_planned_scenario_draws_the_map_and_the_corridor() {
+    let ls = scenario::load(Some(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/yard-3uav.toml")))).expect("yard scenario");
+    let o = sim::run(&ls, &RunOptions { duration_s: Some(3.0), ..RunOptions::default() }).expect("run starts");
+    assert!(o.scene.plan.is_some(), "the planned scenario's scene carries its map and corridor");
+    let dir = std::env::temp_dir().join(format!("vt-topview-{}", std::process::id()));
+    let with = dir.join("with");
+    let without = dir.join("without");
+    host_sim::plots::write_run_plots(&with, &o.scene, &o.record).expect("plots");
+    let mut bare = o.scene.clone();
+    bare.plan = None;
+    host_sim::plots::write_run_plots(&without, &bare, &o.record).expect("plots");
+    let a = std::fs::read(with.join("top_view.png")).expect("png");
+    let b = std::fs::read(without.join("top_view.png")).expect("png");
+    assert_ne!(a, b, "the map and corridor change the top view");
+    let _ = std::fs::remove_dir_all(&dir);
+    let paper = scenario::load(None).expect("paper");
+    assert!(sim::scene(&paper).plan.is_none());
+}

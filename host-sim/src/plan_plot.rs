@@ -1,8 +1,8 @@
 //! Top view of a planned tube (issue 16): the map (obstacles grey), the corridor's free discs
 //! (light blue), the tube's boundaries (blue), the generator curve (black), start (green) and
 //! goal (red) and the bottleneck (orange). No text, so it needs no font; `docs/planning.md`
-//! carries the caption. Kept apart from `plots.rs` so the run plots can hook it in later
-//! ([`draw_map`] takes any plotters chart in metres).
+//! carries the caption. The run's top view (`plots::top_view`) draws [`draw_map`] and
+//! [`draw_corridor`] under its tube and paths for a planned scenario.
 
 use crate::map::{LoadedMap, Map, Shape};
 use plotters::coord::types::RangedCoordf64;
@@ -60,16 +60,29 @@ pub fn draw_map(chart: &mut Chart<'_, '_>, map: &LoadedMap) -> DynResult<()> {
     Ok(())
 }
 
-/// Draws the corridor's discs, the tube and the bottleneck on `chart`.
+/// Draws the corridor's discs (light blue) and the bottleneck (orange) on `chart`: what the
+/// run's top view adds to its own tube and paths.
 ///
 /// # Errors
-/// A plotters drawing error or a tube vt-tube rejects.
-pub fn draw_plan(chart: &mut Chart<'_, '_>, t: &PlannedTube) -> DynResult<()> {
+/// A plotters drawing error.
+pub fn draw_corridor(chart: &mut Chart<'_, '_>, t: &PlannedTube) -> DynResult<()> {
     let disc_col = RGBColor(150, 200, 240);
     for d in &t.discs {
         let pts = circle_pts([f64::from(d.center_m.x), f64::from(d.center_m.y)], f64::from(d.radius_m));
         chart.draw_series(std::iter::once(PathElement::new(pts, disc_col.stroke_width(1))))?;
     }
+    let bn = &t.bottleneck;
+    let pts = circle_pts([f64::from(bn.pos_m.x), f64::from(bn.pos_m.y)], f64::from(bn.half_width_m));
+    chart.draw_series(std::iter::once(PathElement::new(pts, RGBColor(240, 140, 0).stroke_width(3))))?;
+    Ok(())
+}
+
+/// Draws the corridor's discs, the tube and the bottleneck on `chart`.
+///
+/// # Errors
+/// A plotters drawing error or a tube vt-tube rejects.
+pub fn draw_plan(chart: &mut Chart<'_, '_>, t: &PlannedTube) -> DynResult<()> {
+    draw_corridor(chart, t)?;
     let tube = Tube::<DEFAULT_SAMPLES>::from_waypoints(&t.waypoints).map_err(|e| e.to_string())?;
     let xy = |p: vt_tube::Vec2| (f64::from(p.x), f64::from(p.y));
     let left: Vec<_> = tube.samples().iter().map(|s| xy(s.left_boundary_m())).collect();
@@ -86,9 +99,6 @@ pub fn draw_plan(chart: &mut Chart<'_, '_>, t: &PlannedTube) -> DynResult<()> {
         chart.draw_series(std::iter::once(Circle::new(xy(a.pos_m), 8, GREEN.filled())))?;
         chart.draw_series(std::iter::once(Circle::new(xy(b.pos_m), 8, RED.filled())))?;
     }
-    let bn = &t.bottleneck;
-    let pts = circle_pts([f64::from(bn.pos_m.x), f64::from(bn.pos_m.y)], f64::from(bn.half_width_m));
-    chart.draw_series(std::iter::once(PathElement::new(pts, RGBColor(240, 140, 0).stroke_width(3))))?;
     Ok(())
 }
 

@@ -14,6 +14,19 @@ pub struct SceneGeometry {
     pub obstacles: Vec<Obstacle>,
     /// Plot extent `[x_min, x_max, y_min, y_max]`, m.
     pub bounds_m: [f64; 4],
+    /// The map and corridor of a scenario whose tube was planned (`[tube] plan`), drawn in the
+    /// top view; `None` for a hand-made tube.
+    pub plan: Option<std::sync::Arc<PlanScene>>,
+}
+
+/// What the top view shows of a planned tube (issue 16): the map it was planned on and the
+/// planner's result (corridor discs, bottleneck).
+#[derive(Debug)]
+pub struct PlanScene {
+    /// The map (obstacle list or occupancy grid).
+    pub map: crate::map::LoadedMap,
+    /// The planned tube with its corridor.
+    pub tube: vt_plan::PlannedTube,
 }
 
 /// A vertical cylindrical obstacle.

@@ -51,6 +51,12 @@ pub(crate) fn draw_top_panel(
         }
     }
 
+    // A planned tube's map (any obstacle shape, occupancy grids) and corridor (issue 16).
+    if let Some(p) = &scene.plan {
+        crate::plan_plot::draw_map(&mut chart, &p.map)?;
+        crate::plan_plot::draw_corridor(&mut chart, &p.tube)?;
+    }
+
     // Tube: centreline dashed and light, boundaries dark.
     for run in finite_runs(scene.centerline.iter().map(|p| (p[0], p[1]))) {
         chart.draw_series(DashedLineSeries::new(
