@@ -455,3 +455,24 @@ fn top_view_of_a_planned_scenario_draws_the_map_and_the_corridor() {
     let paper = scenario::load(None).expect("paper");
     assert!(sim::scene(&paper).plan.is_none());
 }
+
+/// A campaign over a planned base finds the base's map (its path is relative to the base, not
+/// to the campaign), and a campaign may plan over a base that has waypoints.
+#[test]
+fn campaigns_over_planned_and_hand_made_bases() {
+    let dir = std::env::temp_dir().join(format!("vt-plan-campaign-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scenarios = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios")).canonicalize().expect("scenarios");
+    let over_yard = dir.join("over-yard.toml");
+    let text = format!("base = {:?}\nruns = 2\n\n[disturbances]\nposition_noise_m = 0.02\n", scenarios.join("yard-3uav.toml").display().to_string());
+    std::fs::write(&over_yard, text).expect("write");
+    let c = host_sim::campaign::load(Some(&over_yard)).expect("campaign over the planned yard loads");
+    let direct = scenario::load(Some(&scenarios.join("yard-3uav.toml"))).expect("yard");
+    assert_eq!(c.levels[0].1.scenario.tube.waypoints, direct.scenario.tube.waypoints, "same planned tube");
+    let plan_over_paper = dir.join("plan-over-paper.toml");
+    let text = format!("base = {:?}\n\n[tube]\nplan = {{ start = [2.0, 0.0], goal = [48.0, 1.0] }}\n", scenarios.join("paper-10uav.toml").display().to_string());
+    std::fs::write(&plan_over_paper, text).expect("write");
+    let c = host_sim::campaign::load(Some(&plan_over_paper)).expect("a campaign may plan over a hand-made base");
+    assert!(c.levels[0].1.scenario.tube.plan.is_some());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -111,9 +111,31 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
         (t, p.display().to_string())
     };
     let mut merged: toml::Table = toml::from_str(&base_text).map_err(|e| err(&base_name, None, e.message().to_string()))?;
+    if base != "builtin:paper-10uav" {
+        // A planned base names its map relative to itself; the merged scenario's source is the
+        // campaign, so the map path is made absolute here (issue 16).
+        let base_dir = path.parent().unwrap_or(Path::new(".")).join(base);
+        let base_dir = base_dir.parent().and_then(|d| std::fs::canonicalize(d).ok());
+        if let (Some(dir), Some(toml::Value::Table(tube))) = (base_dir, merged.get_mut("tube")) {
+            if let Some(toml::Value::Table(plan)) = tube.get_mut("plan") {
+                if let Some(toml::Value::String(m)) = plan.get_mut("map") {
+                    *m = dir.join(m.as_str()).display().to_string();
+                }
+            }
+        }
+    }
     let mut over = table.clone();
     for k in CAMPAIGN_KEYS {
         over.remove(k);
+    }
+    // A campaign that gives the tube one way replaces the base's other way (plan vs waypoints).
+    if let (Some(toml::Value::Table(bt)), Some(toml::Value::Table(ot))) = (merged.get_mut("tube"), over.get("tube")) {
+        if ot.contains_key("plan") {
+            bt.remove("waypoints");
+        }
+        if ot.contains_key("waypoints") {
+            bt.remove("plan");
+        }
     }
     merge(&mut merged, &over);
     let runs = match table.get("runs") {
