@@ -407,16 +407,12 @@ fn plan(
 /// For a scenario whose tube is planned, `plan.png` in `out`: the map, the corridor's discs and
 /// the tube (host_sim::plan_plot), beside the run's top view.
 fn write_plan_plot(ls: &scenario::LoadedScenario, out: &std::path::Path) -> Result<(), ExitCode> {
-    let Some(spec) = &ls.scenario.tube.plan else { return Ok(()) };
-    let fail = |e: String| {
+    let Some(plan) = &ls.plan else { return Ok(()) };
+    let path = out.join("plan.png");
+    host_sim::plan_plot::write(&path, &plan.map, &plan.tube).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(EXIT_FAILURE)
-    };
-    let m = host_sim::plan::scenario_map(&ls.scenario, spec, &ls.source_name).map_err(|e| fail(e.to_string()))?;
-    let params = host_sim::plan::params_of(&ls.scenario, spec);
-    let t = m.plan(spec.start, spec.goal, &params).map_err(|e| fail(e.to_string()))?;
-    let path = out.join("plan.png");
-    host_sim::plan_plot::write(&path, &m, &t).map_err(fail)?;
+    })?;
     println!("  wrote {}", path.display());
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! `[tube] plan = { map, start, goal }`, which plans before validation so that everything
 //! downstream (run, sweep, compare, pil) flies the planned tube unchanged.
 
+use crate::record::PlanScene;
 use crate::map::{self, LoadedMap};
 use crate::scenario::{Scenario, ScenarioError};
 use serde::Deserialize;
@@ -41,12 +42,13 @@ pub fn scenario_map(s: &Scenario, spec: &PlanSpec, source_name: &str) -> Result<
 }
 
 /// When the scenario's `[tube]` has a `plan`, plans and fills `waypoints` (called by
-/// `scenario::parse` before validation).
+/// `scenario::parse` before validation); returns the map and the planner's result, kept in
+/// [`crate::scenario::LoadedScenario::plan`] for the plots (planned once per load).
 ///
 /// # Errors
 /// Both or neither of `waypoints` and `plan`; a bad map; a planner error (too narrow, start or
 /// goal outside the map or inside an obstacle), at the line of `plan`.
-pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Result<(), ScenarioError> {
+pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Result<Option<PlanScene>, ScenarioError> {
     let line = text.lines().position(|l| {
         let t = l.trim_start();
         t.starts_with("plan ") || t.starts_with("plan=")
@@ -58,7 +60,7 @@ pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Res
         message,
     };
     let Some(spec) = s.tube.plan.clone() else {
-        return Ok(());
+        return Ok(None);
     };
     if !s.tube.waypoints.is_empty() {
         return Err(err("give either `waypoints` or `plan`, not both".into()));
@@ -74,7 +76,7 @@ pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Res
     let m = scenario_map(s, &spec, source_name)?;
     let t = m.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", m.source_name)))?;
     s.tube.waypoints = waypoints_f64(&t);
-    Ok(())
+    Ok(Some(PlanScene { map: m, tube: t }))
 }
 
 /// The planner parameters of a scenario's plan: the team's (`map::params_for`) with

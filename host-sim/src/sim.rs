@@ -204,12 +204,7 @@ pub fn scene(ls: &LoadedScenario) -> SceneGeometry {
         right_boundary: t.samples().iter().map(|s| p(s.right_boundary_m())).collect(),
         obstacles: ls.scenario.world.obstacles.iter().map(|o| Obstacle { center_m: o.center_m, radius_m: o.radius_m }).collect(),
         bounds_m: ls.scenario.world.bounds_m,
-        // The plan is deterministic: planning again gives the tube the scenario flies.
-        plan: ls.scenario.tube.plan.as_ref().and_then(|spec| {
-            let map = crate::plan::scenario_map(&ls.scenario, spec, &ls.source_name).ok()?;
-            let tube = map.plan(spec.start, spec.goal, &crate::plan::params_of(&ls.scenario, spec)).ok()?;
-            Some(std::sync::Arc::new(crate::record::PlanScene { map, tube }))
-        }),
+        plan: ls.plan.clone(),
     }
 }
 

@@ -512,6 +512,8 @@ pub struct LoadedScenario {
     pub source_name: String,
     /// The validated tube.
     pub tube: SimTube,
+    /// For a planned `[tube]`: the map and the planner's result (corridor, bottleneck).
+    pub plan: Option<std::sync::Arc<crate::record::PlanScene>>,
 }
 
 /// Loads a scenario file, or the built-in paper scenario when `path` is `None`.
@@ -543,10 +545,10 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
         let line = e.span().map(|s| line_of_offset(text, s.start));
         ScenarioError { source_name: source_name.into(), line, field: None, message: e.message().trim().to_string() }
     })?;
-    crate::plan::fill_planned_tube(&mut scenario, text, source_name)?; // issue 16: `[tube] plan`
+    let plan = crate::plan::fill_planned_tube(&mut scenario, text, source_name)?.map(std::sync::Arc::new); // issue 16
     let v = Validator { text, source_name };
     let tube = v.check(&scenario)?;
-    Ok(LoadedScenario { scenario, source_name: source_name.into(), tube })
+    Ok(LoadedScenario { scenario, source_name: source_name.into(), tube, plan })
 }
 
 mod validate;
