@@ -58,6 +58,8 @@ pub struct BaselineController {
     robot_barrier: BarrierParams,
     hint: usize,
     vertical: VerticalLoop,
+    /// Team hold (docs/design.md, "Team failsafe"): the passing term `u1` is off.
+    team_hold: bool,
 }
 
 impl BaselineController {
@@ -78,7 +80,14 @@ impl BaselineController {
             robot_barrier: BarrierParams::robot(params.k2, params.r_safe_m, params.r_active_m),
             hint: 0,
             vertical: VerticalLoop::new(params.vertical),
+            team_hold: false,
         })
+    }
+
+    /// Team hold on or off (`docs/design.md`, "Team failsafe"): the passing term `u1` is off;
+    /// the robot and tube barriers and the altitude law act as in transport.
+    pub fn set_team_hold(&mut self, hold: bool) {
+        self.team_hold = hold;
     }
 
     /// One step: own velocity command. Same failure handling as the dissipative controller.
@@ -94,7 +103,7 @@ impl BaselineController {
             return hold_command(&self.params.vertical, self.vertical.offset_m(), m, Vec2::zeros(), status);
         };
         self.hint = sec.segment;
-        let u1 = sec.tangent * self.params.k1;
+        let u1 = if self.team_hold { Vec2::zeros() } else { sec.tangent * self.params.k1 };
         let mut u2 = Vec2::zeros();
         for j in 0..self.n {
             if j == self.id {

@@ -148,6 +148,8 @@ pub struct DissipativeController<const N: usize> {
     own_hint: usize,
     center_hint: usize,
     vertical: VerticalLoop,
+    /// Team hold (docs/design.md, "Team failsafe"): the passing term is off.
+    team_hold: bool,
 }
 
 impl<const N: usize> DissipativeController<N> {
@@ -180,7 +182,23 @@ impl<const N: usize> DissipativeController<N> {
             own_hint: 0,
             center_hint: 0,
             vertical: VerticalLoop::new(params.vertical),
+            team_hold: false,
         })
+    }
+
+    /// Switches the team hold on or off for the following steps (`docs/design.md`, "Team
+    /// failsafe"): the passing term eq:2-13 is off for the own node and the tray-centre
+    /// replica, so nothing drives the team along the tube; the springs eq:2-5, the tube keeping
+    /// eq:2-14 and the altitude law act as in transport. With the passing potential gone, the
+    /// spring and barrier energy alone is a Lyapunov function of the node dynamics: the team
+    /// comes to rest in its formation, inside the tube.
+    pub fn set_team_hold(&mut self, hold: bool) {
+        self.team_hold = hold;
+    }
+
+    /// True while the team hold is on.
+    pub fn team_hold(&self) -> bool {
+        self.team_hold
     }
 
     /// This controller's UAV id.
@@ -235,7 +253,8 @@ impl<const N: usize> DissipativeController<N> {
             return self.hold(m, status);
         };
         self.own_hint = sec.segment;
-        let mut vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps);
+        // Team hold: no passing term (docs/design.md, "Team failsafe").
+        let mut vbar = if self.team_hold { Vec2::zeros() } else { passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) };
         for (j, (q_j, rest)) in nodes.iter().zip(self.rest_own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
                 let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
@@ -281,7 +300,7 @@ impl<const N: usize> DissipativeController<N> {
             return;
         };
         self.center_hint = sec.segment;
-        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps);
+        let mut v = if self.team_hold { Vec2::zeros() } else { passing_velocity(&sec, &q_u, p.k1, p.v_max_mps) };
         for (q_j, rest) in nodes.iter().zip(self.rest_center_m.iter()).take(self.n) {
             if let Some(q_j) = q_j {
                 let (vs, c) = spring_velocity(&q_u, q_j, *rest, p.k2, false);
@@ -496,12 +515,22 @@ mod tests {
     /// exactly, the load hangs below the UAVs' centroid. Returns (min node d_t, min node
     /// distance, final load s, final spring-shape error).
     fn fly(n: usize, steps: usize) -> (f32, f32, f32) {
+        fly_with_hold(n, steps, 0..0).0
+    }
+
+    /// [`fly`] with the whole team in team hold during the steps `hold`; also returns the
+    /// load's arc position at every step.
+    fn fly_with_hold(n: usize, steps: usize, hold: core::ops::Range<usize>) -> ((f32, f32, f32), Vec<f32>) {
         let t = tube();
         let (mut uavs, mut load) = takeoff(n, 4.0);
         let mut ctl = team(n, &uavs, &load);
         let (mut min_dt, mut min_sep) = (f32::MAX, f32::MAX);
         let tray = params().tray;
-        for _ in 0..steps {
+        let mut s_load = Vec::with_capacity(steps);
+        for k in 0..steps {
+            for c in ctl.iter_mut() {
+                c.set_team_hold(hold.contains(&k));
+            }
             let nb = neighbours(&uavs);
             let vel: Vec<Vec3> = ctl
                 .iter_mut()
@@ -526,9 +555,48 @@ mod tests {
                     min_sep = min_sep.min((qi - qj).norm());
                 }
             }
+            s_load.push(t.locate(load.xy(), 0).unwrap().s_m);
         }
         let s_end = t.locate(load.xy(), 0).unwrap().s_m;
-        (min_dt, min_sep, s_end)
+        ((min_dt, min_sep, s_end), s_load)
+    }
+
+    #[test]
+    fn team_hold_removes_exactly_the_passing_term() {
+        // Same controller twice, one in team hold: the commands differ by the passing term
+        // eq:2-13 of the own node mapped by eq:2-20 (load at rest: factor (z_i - z_l)/H).
+        let (mut uavs, load) = takeoff(4, 8.0);
+        let mut go = team(4, &uavs, &load).swap_remove(0);
+        uavs[0].y += 0.7; // off its rest position: the springs act on UAV 0
+        let nb = neighbours(&uavs);
+        let t = tube();
+        let mut hold = go.clone();
+        hold.set_team_hold(true);
+        assert!(hold.team_hold() && !go.team_hold());
+        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        let (a, b) = (go.update(&t, &m, DT_S), hold.update(&t, &m, DT_S));
+        let sec = t.locate(a.node_m, 0).unwrap();
+        let ratio = (uavs[0].z - load.z) / params().tray.height_above_load_m;
+        let pass = crate::passing::passing_velocity(&sec, &a.node_m, params().k1, params().v_max_mps) * ratio;
+        assert!(pass.norm() > 0.5, "the transport command advances ({pass:?})");
+        assert!(a.vel_mps.xy().norm() < params().v_max_mps, "not saturated: the difference is exact");
+        assert_relative_eq!(a.vel_mps.xy() - b.vel_mps.xy(), pass, epsilon = 1e-5);
+        assert_eq!(a.vel_mps.z, b.vel_mps.z, "altitude law unchanged");
+        assert!(b.vel_mps.xy().norm() > 1e-3, "springs and tube keeping still act in team hold");
+        // The tray-centre replica does not advance in team hold.
+        assert!(go.tray_center_m().x > hold.tray_center_m().x);
+    }
+
+    #[test]
+    fn team_hold_stops_the_virtual_system_in_its_formation_and_it_resumes() {
+        // Transport for 600 steps (12 s), team hold for 500, transport to the end.
+        let ((min_dt, min_sep, s_end), s) = fly_with_hold(6, 3000, 600..1100);
+        let held = s[1099] - s[700];
+        assert!(held.abs() < 0.05, "load moved {held} m during the last 8 s of the hold");
+        assert!(s[600] - s[500] > 0.5, "the team was advancing before the hold");
+        assert!(min_dt > params().r_safe_m, "node came within {min_dt} m of the boundary");
+        assert!(min_sep > 0.5, "nodes came within {min_sep} m");
+        assert!(s_end > tube().length_m() - 3.0, "after the hold the load only reached s = {s_end}");
     }
 
     #[test]

@@ -13,6 +13,7 @@
 //! - [`vertical`]: the altitude law (the paper gives none; see `docs/design.md`).
 //! - [`controller`]: one UAV's distributed command, synthesis eq:2-16 and saturation eq:2-21.
 //! - [`baseline`]: traditional virtual-tube control (no springs, robot-robot barrier).
+//! - [`team_hold`]: the team failsafe's mode and resume hysteresis (`docs/design.md`).
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
@@ -25,6 +26,7 @@ pub mod keeping;
 pub mod passing;
 pub mod springs;
 mod status;
+pub mod team_hold;
 pub mod tray;
 pub mod vertical;
 
@@ -33,6 +35,7 @@ pub use controller::{Command, DissipativeController, DissipativeParams, Measurem
 pub use error::ControlError;
 pub use springs::Formation;
 pub use status::Status;
+pub use team_hold::{TeamHoldSupervisor, TeamMode};
 pub use tray::TrayParams;
 pub use vertical::VerticalParams;
 

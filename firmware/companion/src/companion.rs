@@ -2,7 +2,8 @@
 //! [`Flight`]. The board supplies bytes, a millisecond clock, a cycle counter and a byte sink
 //! ([`Io`]); the firmware's Tickers call [`Companion::high_level_step`] and
 //! [`Companion::low_level_step`], or, with `VT_LOCKSTEP = 1`, each own `LOCAL_POSITION_NED`
-//! runs one low-level period (and the high level when due) on receipt.
+//! runs one low-level period (and the high level when due) on receipt; an own `SYSTEM_TIME`
+//! runs one without a new own state (the position feed stalled).
 //!
 //! The message mapping is documented in `docs/protocol.md`. Every frame with a bad checksum,
 //! an unknown id or an impossible value is counted ([`LinkCounters`], [`ValueCounters`]) and
@@ -14,9 +15,10 @@ use mavlink::dialects::common::{
     HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
-    SYS_STATUS_DATA,
+    SYSTEM_TIME_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
+use vt_dissipative::TeamMode;
 
 use crate::flight::{Flight, HoldReasons, Setpoint, Sources, Stamped, StartError, State};
 use crate::framer::{Frame, Framer, LinkCounters};
@@ -81,8 +83,21 @@ pub enum Mode {
     Ready = 1,
     /// Flying the transport.
     Transport = 2,
-    /// Failsafe hold ([`HoldReasons`]).
+    /// Failsafe hold ([`HoldReasons`]); the team follows (broadcast [`TeamMode::Hold`]).
     Hold = 3,
+    /// Holding with the team (following a neighbour's hold, or waiting out `FS_RESUME`).
+    TeamHold = 4,
+}
+
+impl Mode {
+    /// The mode a team mode is broadcast as.
+    pub fn of_team(m: TeamMode) -> Self {
+        match m {
+            TeamMode::Transport => Self::Transport,
+            TeamMode::Hold => Self::Hold,
+            TeamMode::TeamHold => Self::TeamHold,
+        }
+    }
 }
 
 /// Values rejected after decoding (counted, dropped).
@@ -118,6 +133,8 @@ struct Core<'t> {
     tx_seq: u8,
     clock_ms: u32,
     hl_steps: u32,
+    /// Team mode in the last heartbeat decision (a change sends one at once).
+    team_mode_sent: TeamMode,
     hl_cycles: u32,
     ll_cycles: u32,
     ll_cycles_max: u32,
@@ -143,6 +160,7 @@ impl<'t> Companion<'t> {
                 tx_seq: 0,
                 clock_ms: 0,
                 hl_steps: 0,
+                team_mode_sent: TeamMode::Transport,
                 hl_cycles: 0,
                 ll_cycles: 0,
                 ll_cycles_max: 0,
@@ -362,7 +380,14 @@ impl Core<'_> {
                 }
                 self.on_command(&d, io);
             }
-            HEARTBEAT_DATA::ID => {}
+            HEARTBEAT_DATA::ID => {
+                let d = decode!(HEARTBEAT_DATA);
+                self.on_heartbeat(f, &d);
+            }
+            SYSTEM_TIME_DATA::ID => {
+                let d = decode!(SYSTEM_TIME_DATA);
+                self.on_system_time(f, &d, io);
+            }
             _ => self.ignored(),
         }
     }
@@ -401,6 +426,37 @@ impl Core<'_> {
             }
         } else {
             self.ignored();
+        }
+    }
+
+    /// A team member's companion announces its mode (`custom_mode` low byte): remember whether
+    /// it holds (docs/protocol.md, "Team failsafe"). Other heartbeats are ignored silently.
+    fn on_heartbeat(&mut self, f: &Frame<'_>, d: &HEARTBEAT_DATA) {
+        if f.component_id != COMPANION_COMPONENT_ID || f.system_id == self.own_system_id() {
+            return;
+        }
+        let n = self.params.get_u32(Param::NUavs) as usize;
+        let j = u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize;
+        match self.sources.neighbour_hold.get_mut(j) {
+            Some(slot) if j < n => *slot = d.custom_mode & 0xFF == Mode::Hold as u32,
+            _ => {}
+        }
+    }
+
+    /// Lockstep clock without a new own state (`SYSTEM_TIME` from the own autopilot): one
+    /// low-level period at `time_boot_ms` with the data held (they age; the own state goes
+    /// stale after `FS_OWN_TMO`). Outside lockstep, or before the start, ignored.
+    fn on_system_time(&mut self, f: &Frame<'_>, d: &SYSTEM_TIME_DATA, io: &mut impl Io) {
+        let lockstep = self.params.get_u32(Param::Lockstep) == 1;
+        if !(lockstep && f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
+            return self.ignored();
+        }
+        self.clock_ms = d.time_boot_ms;
+        if self.flight.is_some() {
+            if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+                self.high_level(io);
+            }
+            self.low_level(io);
         }
     }
 
@@ -447,10 +503,16 @@ impl Core<'_> {
             let (x, y, z) = (self.hl_cycles as f32, self.ll_cycles as f32, self.ll_cycles_max as f32);
             self.send(io, &DEBUG_VECT_DATA { time_usec, x, y, z, name: NAME_CYCLES.into() });
         }
-        // Slow telemetry once per second of high-level steps.
+        // Slow telemetry once per second of high-level steps; the heartbeat also at every step
+        // while holding and on every change of the team mode (docs/protocol.md, "Team failsafe").
         let per_second = self.params.get_u32(Param::HlHz).max(1);
+        let team = self.flight.as_ref().map_or(TeamMode::Transport, Flight::team_mode);
+        let beat = team.is_holding() || team != self.team_mode_sent;
+        self.team_mode_sent = team;
         if self.hl_steps.is_multiple_of(per_second) {
             self.send_status(io);
+        } else if beat {
+            self.send_heartbeat(io);
         }
         self.hl_steps = self.hl_steps.wrapping_add(1);
     }
@@ -486,8 +548,9 @@ impl Core<'_> {
 
     fn update_mode(&mut self) {
         let new = match &self.flight {
-            Some(fl) if fl.hold_reasons().is_clear() => Mode::Transport,
-            Some(_) => Mode::Hold,
+            // The team mode of the last high-level step; a low-level hold in between is a hold.
+            Some(fl) if fl.team_mode() == TeamMode::Transport && !fl.hold_reasons().is_clear() => Mode::Hold,
+            Some(fl) => Mode::of_team(fl.team_mode()),
             None if self.tube_ok => Mode::Ready,
             None => Mode::Unconfigured,
         };
@@ -497,12 +560,12 @@ impl Core<'_> {
         }
     }
 
-    fn send_status(&mut self, io: &mut impl Io) {
+    fn send_heartbeat(&mut self, io: &mut impl Io) {
         let reasons = self.flight.as_ref().map_or(0, |f| f.hold_reasons().0);
         let system_status = match self.mode {
             Mode::Unconfigured | Mode::Ready => MavState::MAV_STATE_STANDBY,
             Mode::Transport => MavState::MAV_STATE_ACTIVE,
-            Mode::Hold => MavState::MAV_STATE_CRITICAL,
+            Mode::Hold | Mode::TeamHold => MavState::MAV_STATE_CRITICAL,
         };
         self.send(
             io,
@@ -515,6 +578,10 @@ impl Core<'_> {
                 mavlink_version: 3,
             },
         );
+    }
+
+    fn send_status(&mut self, io: &mut impl Io) {
+        self.send_heartbeat(io);
         let c = self.link;
         let sat = |x: u32| x.min(u32::from(u16::MAX)) as u16;
         self.send(
@@ -625,6 +692,7 @@ impl Core<'_> {
                         Ok(fl) => {
                             self.flight = Some(fl);
                             self.hl_steps = 0;
+                            self.team_mode_sent = TeamMode::Transport;
                             log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
                             MavResult::MAV_RESULT_ACCEPTED
                         }

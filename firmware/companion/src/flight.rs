@@ -11,19 +11,25 @@
 //! same parameters, `dt = 1/rate`, `own_cable_force_n = Some(f_hat)` from the previous
 //! low-level step, high level before low level when both are due.
 //!
-//! # Failsafe (hold)
-//! Own state older than `FS_OWN_TMO`, load state older than `FS_LOAD_TMO`, any neighbour older
-//! than `FS_NBR_TMO` (or never heard; with `FS_NBR_ACT = 0` such a neighbour is only dropped
-//! from the spring set, as host-sim's controllers do), or a controller output that is
-//! non-finite or flagged invalid: the velocity command becomes zero (no horizontal motion, no climb), which the
-//! velocity loop turns into the hover thrust corrected by the CFO's force estimate. With no
-//! fresh own velocity the velocity loop gets NaN and flies its own failsafe: the compensated
-//! hover thrust `f_hat - G` without feedback. Hold ends by itself when every input is fresh
-//! again. The reasons are reported in `HEARTBEAT.custom_mode` ([`HoldReasons`]).
+//! # Failsafe (hold) and team failsafe (team hold)
+//! Own state older than `FS_OWN_TMO`, load state older than `FS_LOAD_TMO`, or a controller
+//! output that is non-finite or flagged invalid: the velocity command becomes zero (no
+//! horizontal motion, no climb), which the velocity loop turns into the hover thrust corrected
+//! by the CFO's force estimate. With no fresh own velocity the velocity loop gets NaN and flies
+//! its own failsafe: the compensated hover thrust `f_hat - G` without feedback.
+//!
+//! The team holds with it (`docs/design.md`, "Team failsafe"): every such detection, and with
+//! `FS_NBR_ACT = 1` a neighbour older than `FS_NBR_TMO` (or never heard), makes this UAV
+//! broadcast [`TeamMode::Hold`]; a fresh neighbour broadcasting `Hold` makes it follow. While
+//! holding with usable own and load data, it flies the controller's team hold (passing off;
+//! springs to the fresh neighbours, tube keeping and altitude law on). The hold ends
+//! `FS_RESUME` seconds after the last alarm ([`TeamHoldSupervisor`]), for every UAV within a
+//! high-level period or two of the others. The reasons are reported in
+//! `HEARTBEAT.custom_mode` ([`HoldReasons`]).
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{thrust_to_attitude, VelocityLoop};
-use vt_dissipative::{Command, DissipativeController, Formation, Measurements};
+use vt_dissipative::{Command, DissipativeController, Formation, Measurements, TeamHoldSupervisor, TeamMode};
 
 use crate::frames::{finite3, ned_frd_quaternion};
 use crate::params::{Param, Params};
@@ -87,6 +93,9 @@ pub struct Sources {
     pub load: Option<Stamped<State>>,
     /// Neighbours' positions by UAV index (own slot unused).
     pub neighbours: [Option<Stamped<Vec3>>; MAX_UAVS],
+    /// Per neighbour, its last broadcast mode was [`TeamMode::Hold`] (own slot unused); it
+    /// counts while the neighbour's position is fresh.
+    pub neighbour_hold: [bool; MAX_UAVS],
 }
 
 impl Default for Sources {
@@ -98,7 +107,7 @@ impl Default for Sources {
 impl Sources {
     /// Nothing received yet.
     pub const fn new() -> Self {
-        Self { own: None, load: None, neighbours: [None; MAX_UAVS] }
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: [false; MAX_UAVS] }
     }
 }
 
@@ -150,6 +159,8 @@ pub struct Flight {
     hl_reasons: HoldReasons,
     ll_reasons: HoldReasons,
     last_command: Option<Command>,
+    supervisor: TeamHoldSupervisor,
+    team_mode: TeamMode,
 }
 
 impl Flight {
@@ -186,6 +197,7 @@ impl Flight {
             .map_err(StartError::Controller)?;
         let high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
+        let supervisor = TeamHoldSupervisor::new(params.get(Param::FsResume), params.high_level_dt_s()).map_err(StartError::Controller)?;
         Ok(Self {
             id,
             n,
@@ -207,6 +219,8 @@ impl Flight {
             hl_reasons: HoldReasons::default(),
             ll_reasons: HoldReasons::default(),
             last_command: None,
+            supervisor,
+            team_mode: TeamMode::Transport,
         })
     }
 
@@ -216,7 +230,8 @@ impl Flight {
         self.ll_ticks.is_multiple_of(self.low_per_high.max(1))
     }
 
-    /// One high-level step at `now_ms`: the velocity command (zero in hold).
+    /// One high-level step at `now_ms`: the velocity command (zero in hold without usable own
+    /// or load data; the controller's team hold while the team holds).
     pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
         let mut reasons = 0u8;
         let own = src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms));
@@ -228,6 +243,7 @@ impl Flight {
             reasons |= HoldReasons::LOAD_STALE;
         }
         let mut view: [Option<Vec3>; MAX_UAVS] = [None; MAX_UAVS];
+        let mut follow = false;
         for (j, slot) in view.iter_mut().enumerate().take(self.n) {
             if j == self.id {
                 *slot = own.map(|o| o.pos_m);
@@ -237,10 +253,16 @@ impl Flight {
                 if slot.is_none() && self.hold_on_stale_neighbour {
                     reasons |= HoldReasons::NEIGHBOUR_STALE;
                 }
+                // A fresh neighbour in hold: the team holds (docs/design.md, "Team failsafe").
+                follow |= slot.is_some() && src.neighbour_hold.get(j).copied().unwrap_or(false);
             }
         }
         self.vel_cmd_mps = Vec3::zeros();
-        if let (0, Some(own), Some(load)) = (reasons, own, load) {
+        let detected = reasons;
+        let mut mode = self.supervisor.step(detected != 0, follow);
+        if let (Some(own), Some(load)) = (own, load) {
+            // Own and load usable: transport, or the team hold while the team holds.
+            self.high.set_team_hold(mode.is_holding());
             let m = Measurements {
                 own_pos_m: own.pos_m,
                 load_pos_m: load.pos_m,
@@ -258,7 +280,12 @@ impl Flight {
                 self.vel_cmd_mps = cmd.vel_mps;
             }
         }
+        if reasons != detected {
+            // The controller flagged its output: an own detection after all.
+            mode = self.supervisor.step(true, follow);
+        }
         self.hl_reasons = HoldReasons(reasons);
+        self.team_mode = mode;
         self.vel_cmd_mps
     }
 
@@ -272,8 +299,8 @@ impl Flight {
                 Vec3::repeat(f32::NAN) // the velocity loop's no-measurement failsafe
             }
         };
-        let v_cmd = if self.hl_reasons.is_clear() { self.vel_cmd_mps } else { Vec3::zeros() };
-        let out = self.low.update(v_cmd, v_meas, self.ll_dt_s);
+        // Zero unless the high level had usable own and load data (then also in team hold).
+        let out = self.low.update(self.vel_cmd_mps, v_meas, self.ll_dt_s);
         self.f_hat_n = out.f_hat_n;
         let att = thrust_to_attitude(out.thrust_n, self.heading, self.thrust_max_n);
         let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };
@@ -304,6 +331,11 @@ impl Flight {
         HoldReasons(self.hl_reasons.0 | self.ll_reasons.0)
     }
 
+    /// The team mode decided at the last high-level step (what this UAV broadcasts).
+    pub fn team_mode(&self) -> TeamMode {
+        self.team_mode
+    }
+
     /// The last velocity command, m/s, world ENU.
     pub fn velocity_command_mps(&self) -> Vec3 {
         self.vel_cmd_mps
@@ -324,3 +356,7 @@ impl Flight {
         self.ll_ticks
     }
 }
+
+#[cfg(test)]
+#[path = "flight_tests.rs"]
+mod tests;

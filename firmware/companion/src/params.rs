@@ -73,7 +73,8 @@ params! {
     FsOwnTmo => real("FS_OWN_TMO", 0.1, 0.001, 10.0), "Own state older than this: hold, s.";
     FsLoadTmo => real("FS_LOAD_TMO", 0.5, 0.001, 10.0), "Load state older than this: hold, s.";
     FsNbrTmo => real("FS_NBR_TMO", 0.5, 0.001, 10.0), "A neighbour's position older than this is stale, s.";
-    FsNbrAct => int("FS_NBR_ACT", 1.0, 0.0, 1.0), "Stale neighbour: 1 hold (failsafe), 0 drop its springs and fly on (as host-sim's controllers).";
+    FsNbrAct => int("FS_NBR_ACT", 1.0, 0.0, 1.0), "Stale neighbour: 1 the team holds (failsafe), 0 drop its springs and fly on.";
+    FsResume => real("FS_RESUME", 1.0, 0.0, 10.0), "Team hold: resume after this long without any alarm, s (rounded to high-level steps).";
     K1 => real("VT_K1", 0.3, 0.0, GAIN_MAX), "Passing gain `k1`, 1/s (eq:2-13).";
     K2 => real("VT_K2", 0.1, 0.0, GAIN_MAX), "Spring gain `k2`, 1/s (eq:2-5).";
     K3 => real("VT_K3", 1.0, 0.0, GAIN_MAX), "Tube barrier gain `k3`, m^2/s (eq:2-15-1).";

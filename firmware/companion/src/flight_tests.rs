@@ -1,0 +1,306 @@
+//! Tests of the armed controllers' failsafe and team failsafe (`docs/design.md`, "Team
+//! failsafe"), on the paper experiment's defaults (`Params::new`): three UAVs, 50 Hz high level.
+
+use super::*;
+use crate::params::Params;
+use vt_tube::Waypoint;
+
+const HL_MS: u32 = 20;
+
+fn tube() -> Box<CompanionTube> {
+    let mut t = Box::new(CompanionTube::placeholder());
+    t.rebuild(&[Waypoint::new(0.0, 0.0, 3.5, 3.5), Waypoint::new(20.0, 0.0, 3.5, 3.5), Waypoint::new(40.0, 0.0, 3.5, 3.5)]).unwrap();
+    t
+}
+
+fn load_pos() -> Vec3 {
+    Vec3::new(5.0, 0.0, 3.0)
+}
+
+/// UAV `j` of three on a 1.5 m circle, 2.6 m above the load.
+fn uav_pos(j: usize) -> Vec3 {
+    let a = j as f32 * core::f32::consts::TAU / 3.0;
+    load_pos() + Vec3::new(1.5 * libm::cosf(a), 1.5 * libm::sinf(a), 2.6)
+}
+
+/// Everything fresh at `now_ms` (UAV 0's view).
+fn sources(now_ms: u32) -> Sources {
+    let mut s = Sources::new();
+    let st = |p| Stamped { value: State { pos_m: p, vel_mps: Vec3::zeros() }, stamp_ms: now_ms };
+    s.own = Some(st(uav_pos(0)));
+    s.load = Some(st(load_pos()));
+    for j in 1..3 {
+        s.neighbours[j] = Some(Stamped { value: uav_pos(j), stamp_ms: now_ms });
+    }
+    s
+}
+
+fn params(nbr_act: f32) -> Params {
+    let mut p = Params::new();
+    p.set(Param::FsNbrAct, nbr_act).unwrap();
+    p.set(Param::FsResume, 0.1).unwrap(); // 5 high-level steps
+    p.set(Param::FsOwnTmo, 0.02).unwrap(); // 10 low-level steps, as host-sim sets it
+    p
+}
+
+/// UAV 0's controller stepped beside the Flight with the same inputs (the reference).
+fn reference(p: &Params) -> DissipativeController<MAX_UAVS> {
+    let f = Formation::<MAX_UAVS>::from_takeoff(&[uav_pos(0), uav_pos(1), uav_pos(2)], &load_pos(), &p.tray()).unwrap();
+    DissipativeController::new(0, p.dissipative().unwrap(), &f).unwrap()
+}
+
+fn measurements(nb: &[Option<Vec3>]) -> Measurements<'_> {
+    Measurements { own_pos_m: uav_pos(0), load_pos_m: load_pos(), load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: Some(Vec3::zeros()) }
+}
+
+#[test]
+fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_after_fs_resume() {
+    let (p, t) = (params(1.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let mut r = reference(&p);
+    let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
+    let mut now = 0;
+    // Transport: the command is the controller's, advancing along +x.
+    let v = fl.high_level(&t, &sources(now), now);
+    assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
+    assert!(v.x > 0.1, "advancing: {v:?}");
+    assert_eq!(fl.team_mode(), TeamMode::Transport);
+    // UAV 2 broadcasts Hold: UAV 0 follows, flying the team hold (passing off), bit for bit.
+    let mut held = sources(0);
+    held.neighbour_hold[2] = true;
+    r.set_team_hold(true);
+    for _ in 0..3 {
+        now += HL_MS;
+        let mut src = sources(now);
+        src.neighbour_hold = held.neighbour_hold;
+        let v = fl.high_level(&t, &src, now);
+        assert_eq!(fl.team_mode(), TeamMode::TeamHold, "following is not broadcast as Hold");
+        assert!(fl.hold_reasons().is_clear(), "following is no fault of its own");
+        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
+        assert!(v.x.abs() < 0.05, "no progress in team hold: {v:?}");
+    }
+    // The hold flag clears: team hold for FS_RESUME = 5 quiet steps, then transport again.
+    for k in 0..5 {
+        now += HL_MS;
+        let v = fl.high_level(&t, &sources(now), now);
+        let expect = if k < 4 { TeamMode::TeamHold } else { TeamMode::Transport };
+        assert_eq!(fl.team_mode(), expect, "quiet step {k}");
+        r.set_team_hold(k < 4);
+        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "quiet step {k}");
+    }
+    assert!(fl.velocity_command_mps().x > 0.1, "advancing again");
+}
+
+#[test]
+fn a_stale_neighbours_hold_flag_is_not_followed() {
+    // FS_NBR_ACT = 0: a stale neighbour is dropped from the springs, and its last hold flag
+    // with it (its position is what makes the flag current).
+    let (p, t) = (params(0.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let now = 50 * HL_MS;
+    let mut src = sources(now);
+    src.neighbours[2] = Some(Stamped { value: uav_pos(2), stamp_ms: now - 600 }); // > FS_NBR_TMO
+    src.neighbour_hold[2] = true;
+    fl.high_level(&t, &src, now);
+    assert_eq!(fl.team_mode(), TeamMode::Transport);
+    assert!(fl.hold_reasons().is_clear());
+    assert_eq!(fl.last_command().map(|c| c.status.neighbours_dropped), Some(1));
+}
+
+#[test]
+fn a_stale_neighbour_is_an_own_detection_and_the_team_hold_flies_without_it() {
+    // FS_NBR_ACT = 1: broadcast Hold (the team must hold) and fly the team hold with the
+    // fresh neighbours' springs, not a blind zero command.
+    let (p, t) = (params(1.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let mut r = reference(&p);
+    r.set_team_hold(true);
+    let now = HL_MS;
+    let mut src = sources(now);
+    src.neighbours[1] = None;
+    let v = fl.high_level(&t, &src, now);
+    assert_eq!(fl.team_mode(), TeamMode::Hold);
+    assert_eq!(fl.hold_reasons().0, HoldReasons::NEIGHBOUR_STALE);
+    let nb = [Some(uav_pos(0)), None, Some(uav_pos(2))];
+    assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
+    // The low level flies that command (not zero).
+    fl.low_level(&src, now);
+    assert_eq!(fl.velocity_command_mps(), v);
+}
+
+#[test]
+fn stale_own_state_holds_with_zero_command_and_the_velocity_loops_failsafe() {
+    let (p, t) = (params(1.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let mut now = 0;
+    fl.high_level(&t, &sources(now), now);
+    for _ in 0..10 {
+        fl.low_level(&sources(now), now);
+    }
+    // The own state stops: its stamp stays at `last` while the clock runs on.
+    let last = now;
+    let mut saw_hold = false;
+    for _ in 0..20 {
+        now += 2;
+        let mut src = sources(now);
+        src.own = sources(last).own;
+        if fl.high_level_due() {
+            let v = fl.high_level(&t, &src, now);
+            if now - last > p.timeout_ms(Param::FsOwnTmo) {
+                assert_eq!(v, Vec3::zeros());
+                assert_eq!(fl.team_mode(), TeamMode::Hold);
+                assert_eq!(fl.hold_reasons().0 & HoldReasons::OWN_STALE, HoldReasons::OWN_STALE);
+                saw_hold = true;
+            }
+        }
+        let sp = fl.low_level(&src, now);
+        assert!(sp.q_ned.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&sp.thrust));
+    }
+    assert!(saw_hold, "own state older than FS_OWN_TMO must hold");
+    // Fresh again: team hold for FS_RESUME, then transport.
+    let modes: Vec<TeamMode> = (0..6)
+        .map(|_| {
+            now += HL_MS;
+            fl.high_level(&t, &sources(now), now);
+            fl.team_mode()
+        })
+        .collect();
+    assert_eq!(modes, [TeamMode::TeamHold; 4].into_iter().chain([TeamMode::Transport; 2]).collect::<Vec<_>>());
+}
+
+mod wire {
+    //! The same logic through the companion's MAVLink interface: a relayed `HEARTBEAT` in
+    //! hold from a team member's companion, and the lockstep clock without own state.
+    use crate::companion::{Companion, Io, Mode};
+    use crate::frames::ned_from_enu;
+    use crate::{CompanionTube, Param, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
+    use mavlink::dialects::common::*;
+    use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
+
+    struct TestIo(Vec<u8>);
+    impl Io for TestIo {
+        fn now_ms(&self) -> u32 {
+            0
+        }
+        fn cycles(&self) -> u32 {
+            0
+        }
+        fn send(&mut self, frame: &[u8]) {
+            self.0.extend_from_slice(frame);
+        }
+    }
+
+    fn frame<D: MessageData>(sys: u8, comp: u8, d: &D) -> Vec<u8> {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        raw.serialize_message_data(MavHeader { system_id: u32::from(sys), component_id: comp, sequence: 0 }, d);
+        raw.raw_bytes().to_vec()
+    }
+
+    fn lpn(t: u32, p: &crate::Vec3) -> LOCAL_POSITION_NED_DATA {
+        let [x, y, z] = ned_from_enu(p);
+        LOCAL_POSITION_NED_DATA { time_boot_ms: t, x, y, z, vx: 0.0, vy: 0.0, vz: 0.0 }
+    }
+
+    fn set(c: &mut Companion<'_>, io: &mut TestIo, p: Param, v: f32) {
+        let d = PARAM_SET_DATA { param_value: v, target_system: 0, target_component: 0, param_id: p.info().name.into(), param_type: MavParamType::MAV_PARAM_TYPE_REAL32 };
+        c.on_bytes(&frame(255, 190, &d), io);
+    }
+
+    /// One lockstep tick of UAV 0 (system 1) at `t`: team data when `hl`, then the own state
+    /// (or, `stalled`, the autopilot's `SYSTEM_TIME`); `extra` frames first.
+    fn tick(c: &mut Companion<'_>, io: &mut TestIo, t: u32, hl: bool, stalled: bool, extra: &[u8]) {
+        let mut b = extra.to_vec();
+        if hl {
+            b.extend(frame(1, 100, &lpn(t, &super::load_pos())));
+            for j in 1..3u8 {
+                b.extend(frame(1 + j, AUTOPILOT_COMPONENT_ID, &lpn(t, &super::uav_pos(usize::from(j)))));
+            }
+        }
+        if stalled {
+            b.extend(frame(1, AUTOPILOT_COMPONENT_ID, &SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: t }));
+        } else {
+            b.extend(frame(1, AUTOPILOT_COMPONENT_ID, &lpn(t, &super::uav_pos(0))));
+        }
+        c.on_bytes(&b, io);
+    }
+
+    #[test]
+    fn relayed_hold_heartbeat_and_stalled_own_feed_through_the_wire() {
+        let mut storage = Box::new(CompanionTube::placeholder());
+        let mut c = Companion::new(&mut storage);
+        let mut io = TestIo(Vec::new());
+        for (p, v) in [(Param::Lockstep, 1.0), (Param::FsOwnTmo, 0.02), (Param::FsResume, 0.1)] {
+            set(&mut c, &mut io, p, v);
+        }
+        // The tube: 3 waypoints along +x (north in NED is x: the mission's x is north).
+        let count = MISSION_COUNT_DATA { count: 3, target_system: 1, target_component: COMPANION_COMPONENT_ID, ..Default::default() };
+        c.on_bytes(&frame(255, 190, &count), &mut io);
+        for seq in 0..3u16 {
+            let item = MISSION_ITEM_INT_DATA {
+                seq,
+                x: 0,
+                y: i32::from(seq) * 200_000,
+                param1: 3.5,
+                param2: 3.5,
+                command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                target_system: 1,
+                target_component: COMPANION_COMPONENT_ID,
+                ..Default::default()
+            };
+            c.on_bytes(&frame(255, 190, &item), &mut io);
+        }
+        assert_eq!(c.mode(), Mode::Ready);
+        tick(&mut c, &mut io, 0, true, false, &[]);
+        let start = COMMAND_LONG_DATA { command: MavCmd::MAV_CMD_MISSION_START, target_system: 1, target_component: COMPANION_COMPONENT_ID, ..Default::default() };
+        c.on_bytes(&frame(255, 190, &start), &mut io);
+        assert_eq!(c.mode(), Mode::Transport);
+        let mut t = 0;
+        let mut run = |c: &mut Companion<'_>, io: &mut TestIo, ticks: u32, stalled: bool, extra: &[u8]| {
+            for _ in 0..ticks {
+                tick(c, io, t, (t / 2) % 10 == 0, stalled, extra);
+                t += 2;
+            }
+        };
+        run(&mut c, &mut io, 20, false, &[]);
+        assert_eq!(c.mode(), Mode::Transport);
+        // UAV 2's companion (system 3, component 191) announces Hold: UAV 0 follows.
+        let hold = frame(3, COMPANION_COMPONENT_ID, &HEARTBEAT_DATA { custom_mode: Mode::Hold as u32, ..Default::default() });
+        run(&mut c, &mut io, 20, false, &hold);
+        assert_eq!(c.mode(), Mode::TeamHold);
+        assert!(c.hold_reasons().is_clear());
+        // A heartbeat from the autopilot of system 3 (component 1) is not a companion's: ignored.
+        let moving = frame(3, COMPANION_COMPONENT_ID, &HEARTBEAT_DATA { custom_mode: Mode::TeamHold as u32, ..Default::default() });
+        run(&mut c, &mut io, 1, false, &moving);
+        run(&mut c, &mut io, 60, false, &frame(3, AUTOPILOT_COMPONENT_ID, &HEARTBEAT_DATA { custom_mode: Mode::Hold as u32, ..Default::default() }));
+        assert_eq!(c.mode(), Mode::Transport, "released FS_RESUME after UAV 2 left Hold");
+        // The own feed stalls (SYSTEM_TIME ticks the clock): own state stale, Hold, announced
+        // by a HEARTBEAT at every high-level step.
+        let sent_before = heartbeats(&io.0);
+        run(&mut c, &mut io, 60, true, &[]);
+        assert_eq!(c.mode(), Mode::Hold);
+        assert_eq!(c.hold_reasons().0 & crate::HoldReasons::OWN_STALE, crate::HoldReasons::OWN_STALE);
+        let hold_beats = heartbeats(&io.0).iter().skip(sent_before.len()).filter(|m| *m & 0xFF == Mode::Hold as u32).count();
+        assert!(hold_beats >= 4, "{hold_beats} HEARTBEATs in hold over 6 high-level steps");
+        // Back: team hold, then transport.
+        run(&mut c, &mut io, 20, false, &[]);
+        assert_eq!(c.mode(), Mode::TeamHold);
+        run(&mut c, &mut io, 60, false, &[]);
+        assert_eq!(c.mode(), Mode::Transport);
+    }
+
+    /// `custom_mode` of every HEARTBEAT in the companion's output.
+    fn heartbeats(out: &[u8]) -> Vec<u32> {
+        let mut f = crate::Framer::new();
+        let mut modes = Vec::new();
+        for &b in out {
+            f.push(b);
+            while let Some(fr) = f.next_frame() {
+                if fr.message_id == HEARTBEAT_DATA::ID {
+                    modes.push(HEARTBEAT_DATA::deser(mavlink::MavlinkVersion::V2, fr.payload).unwrap().custom_mode);
+                }
+            }
+        }
+        modes
+    }
+}
