@@ -37,6 +37,8 @@ pub struct Link<T: Copy> {
     jitter_steps: u64,
     drop_probability: f64,
     silent: Vec<bool>,
+    /// Receivers whose link died: nothing reaches them.
+    deaf: Vec<bool>,
     stale_steps: u64,
     rng: SplitMix64,
     /// In flight, per (receiver, sender): (delivery step, stamp step, payload).
@@ -61,6 +63,7 @@ impl<T: Copy> Link<T> {
             jitter_steps: 0,
             drop_probability,
             silent: vec![false; n],
+            deaf: vec![false; n],
             stale_steps,
             rng: SplitMix64::new(seed ^ 0x4C49_4E4B),
             queues: vec![VecDeque::new(); n * n],
@@ -104,6 +107,23 @@ impl<T: Copy> Link<T> {
         }
     }
 
+    /// UAV `i`'s link dies (fault): from now on nothing it sends arrives and nothing reaches it;
+    /// messages in flight to or from it are lost.
+    pub fn kill(&mut self, i: usize) {
+        self.leave_ideal();
+        if let (Some(s), Some(d)) = (self.silent.get_mut(i), self.deaf.get_mut(i)) {
+            *s = true;
+            *d = true;
+        }
+        for other in 0..self.n {
+            for k in [i * self.n + other, other * self.n + i] {
+                if let Some(q) = self.queues.get_mut(k) {
+                    q.clear();
+                }
+            }
+        }
+    }
+
     /// Every UAV broadcasts its payload at step `now`; messages due are delivered.
     pub fn exchange(&mut self, now: u64, payloads: &[T]) {
         if self.ideal {
@@ -118,7 +138,7 @@ impl<T: Copy> Link<T> {
                     continue;
                 }
                 let k = rx * self.n + tx;
-                let silent = self.silent.get(tx).copied().unwrap_or(false);
+                let silent = self.silent.get(tx).copied().unwrap_or(false) || self.deaf.get(rx).copied().unwrap_or(false);
                 let lost = silent || (self.drop_probability > 0.0 && self.rng.next_f64() < self.drop_probability);
                 let jitter = if self.jitter_steps > 0 { self.rng.next_u64() % (self.jitter_steps + 1) } else { 0 };
                 if let Some(q) = self.queues.get_mut(k) {
@@ -237,6 +257,23 @@ mod tests {
         assert_eq!(v[1], None, "silent UAV must go stale");
         l.view(1, 3, 0, &mut v);
         assert_eq!(v[0], Some(1), "the silent UAV still hears the others");
+    }
+
+    #[test]
+    fn a_dead_link_neither_sends_nor_receives() {
+        let mut l = Link::new(3, 1, 0.0, 2, 1);
+        let mut v = Vec::new();
+        l.exchange(0, &[1, 2, 3]);
+        l.kill(1); // the messages of step 0 to and from UAV 1 are still in flight: lost
+        for k in 1..5 {
+            l.exchange(k, &[1, 2, 3]);
+        }
+        l.view(0, 4, 0, &mut v);
+        assert_eq!(v, vec![Some(0), None, Some(3)], "nothing from the dead UAV");
+        l.view(1, 4, 0, &mut v);
+        assert_eq!(v, vec![None, Some(0), None], "nothing reaches the dead UAV");
+        l.view(2, 4, 0, &mut v);
+        assert_eq!(v[0], Some(1), "the others still hear each other");
     }
 
     #[test]

@@ -86,8 +86,8 @@ pub struct RunRecord {
 
 /// Controller mode of a UAV in [`RunRecord::uav_mode`]: flying the transport law.
 pub const MODE_TRANSPORT: u8 = 0;
-/// Controller mode of a UAV in [`RunRecord::uav_mode`]: hold (invalid input or non-finite
-/// command, `vt_dissipative::Status`), zero horizontal velocity.
+/// Controller mode of a UAV in [`RunRecord::uav_mode`]: hold (its own failsafe, or the team
+/// failsafe's team hold; docs/design.md, "Team failsafe").
 pub const MODE_HOLD: u8 = 1;
 
 /// What happened at a [`RecordEvent`].
@@ -100,6 +100,10 @@ pub enum EventKind {
     Silent,
     /// The UAV lost its thrust (fault).
     ThrustLoss,
+    /// The UAV's own position feed to its companion stalled (fault, for its duration).
+    OwnFeedStall,
+    /// The UAV's team link died (fault).
+    LinkDead,
     /// The UAV's controller entered hold.
     Hold,
     /// The UAV's controller left hold (back to transport).
@@ -124,6 +128,8 @@ impl From<crate::scenario::FaultKind> for EventKind {
             FaultKind::CableSnap => Self::Snap,
             FaultKind::UavSilent => Self::Silent,
             FaultKind::ThrustLoss => Self::ThrustLoss,
+            FaultKind::OwnFeedStall => Self::OwnFeedStall,
+            FaultKind::LinkDead => Self::LinkDead,
         }
     }
 }

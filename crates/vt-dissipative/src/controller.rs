@@ -187,11 +187,12 @@ impl<const N: usize> DissipativeController<N> {
     }
 
     /// Switches the team hold on or off for the following steps (`docs/design.md`, "Team
-    /// failsafe"): the passing term eq:2-13 is off for the own node and the tray-centre
-    /// replica, so nothing drives the team along the tube; the springs eq:2-5, the tube keeping
-    /// eq:2-14 and the altitude law act as in transport. With the passing potential gone, the
+    /// failsafe"): the passing term eq:2-13 of the own node is off and the tray-centre replica
+    /// stands still (zero tray velocity), so nothing drives the team along the tube and the
+    /// centre springs anchor it; the springs eq:2-5, the tube keeping eq:2-14 and the altitude
+    /// law act as in transport. With the passing potential gone and the centre fixed, the
     /// spring and barrier energy alone is a Lyapunov function of the node dynamics: the team
-    /// comes to rest in its formation, inside the tube.
+    /// comes to rest in its formation around the held centre, inside the tube.
     pub fn set_team_hold(&mut self, hold: bool) {
         self.team_hold = hold;
     }
@@ -269,8 +270,9 @@ impl<const N: usize> DissipativeController<N> {
         status.outside_tube = d_t <= 0.0;
         vbar += v_l + v_u + v_t;
 
-        // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler.
-        if dt_s.is_finite() && dt_s > 0.0 {
+        // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler; in
+        // team hold it stands still (zero tray velocity: the anchor of the held formation).
+        if dt_s.is_finite() && dt_s > 0.0 && !self.team_hold {
             self.step_center(tube, &nodes, dt_s, &mut status);
         }
 
@@ -300,7 +302,7 @@ impl<const N: usize> DissipativeController<N> {
             return;
         };
         self.center_hint = sec.segment;
-        let mut v = if self.team_hold { Vec2::zeros() } else { passing_velocity(&sec, &q_u, p.k1, p.v_max_mps) };
+        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps);
         for (q_j, rest) in nodes.iter().zip(self.rest_center_m.iter()).take(self.n) {
             if let Some(q_j) = q_j {
                 let (vs, c) = spring_velocity(&q_u, q_j, *rest, p.k2, false);
@@ -583,8 +585,11 @@ mod tests {
         assert_relative_eq!(a.vel_mps.xy() - b.vel_mps.xy(), pass, epsilon = 1e-5);
         assert_eq!(a.vel_mps.z, b.vel_mps.z, "altitude law unchanged");
         assert!(b.vel_mps.xy().norm() > 1e-3, "springs and tube keeping still act in team hold");
-        // The tray-centre replica does not advance in team hold.
-        assert!(go.tray_center_m().x > hold.tray_center_m().x);
+        // The tray-centre replica stands still in team hold (and advances in transport).
+        let c0 = hold.tray_center_m();
+        hold.update(&t, &m, DT_S);
+        assert_eq!(hold.tray_center_m(), c0);
+        assert!(go.tray_center_m().x > c0.x);
     }
 
     #[test]

@@ -52,6 +52,8 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
     let wall = Instant::now();
     while !world.done() {
         if world.low_level_due() {
+            // What each UAV broadcasts travels with its position (team failsafe).
+            team.team_modes(world.team_mode_slots());
             let tick = world.measure();
             team.step(&tick, &mut setpoints)?;
             if opts.record {

@@ -7,12 +7,14 @@
 //! backends, the firmware's companion compiled for the host (SIL twin) and the firmware in QEMU
 //! (PIL), speak MAVLink and live in [`crate::pil`].
 
-use crate::scenario::{LoadedScenario, SimTube, SIM_MAX_UAVS};
+use crate::scenario::{LoadedScenario, SimTube, StaleNeighbour, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, SimError, Takeoff};
 use nalgebra::{UnitVector2, Vector2, Vector3};
 use vt_cfo::{thrust_to_attitude, VelocityLoop};
 use vt_companion::frames::ned_frd_quaternion;
-use vt_dissipative::{BaselineController, BaselineParams, Command, DissipativeController, Formation, Measurements};
+use vt_dissipative::{
+    BaselineController, BaselineParams, Command, DissipativeController, Formation, Measurements, TeamHoldSupervisor, TeamMode,
+};
 
 pub use vt_companion::flight::Setpoint;
 
@@ -38,11 +40,17 @@ pub struct Tick<'a> {
     pub high_level: bool,
     /// Each UAV's own measured state (from its autopilot).
     pub own: &'a [Meas],
+    /// Per UAV, its own state did not reach its computer this period (`own_feed_stall`
+    /// fault): it still has the last one it received.
+    pub own_stalled: &'a [bool],
     /// The load's measured state (from the load tracker; valid when `high_level`).
     pub load: Meas,
     /// Per UAV, the team's positions as its link delivered them (`None`: not delivered; own
     /// slot: its own position; valid when `high_level`).
     pub views: &'a [Vec<Option<V3f>>],
+    /// Per UAV, the team mode each other UAV broadcast with the position in `views` (`None`
+    /// with it; docs/design.md, "Team failsafe"; valid when `high_level`).
+    pub modes: &'a [Vec<Option<TeamMode>>],
 }
 
 /// What the team knows at take-off, before its first tick.
@@ -83,6 +91,10 @@ pub trait Team {
     /// Writes each UAV's last velocity command (m/s) and cable-force estimate `f_hat` (N),
     /// ENU, into the slices (for the record); a team that does not report leaves them.
     fn controller_outputs(&self, _vel_cmd_mps: &mut [V3f], _f_hat_n: &mut [V3f]) {}
+
+    /// Writes the team mode each UAV broadcasts to its team (docs/design.md, "Team failsafe");
+    /// a team without the team failsafe leaves them (transport).
+    fn team_modes(&self, _out: &mut [TeamMode]) {}
 }
 
 enum HighLevel {
@@ -91,9 +103,12 @@ enum HighLevel {
 }
 
 /// The controller crates called directly, one instance per UAV: exactly the calls of the
-/// firmware's `Flight` (vt-companion), without MAVLink. The high-level command falls back to
-/// zero (hold) when the controller flags invalid input or a non-finite output, like the
-/// companion's failsafe.
+/// firmware's `Flight` (vt-companion), without MAVLink, including its failsafe: own state
+/// older than the companion's `FS_OWN_TMO` ([`crate::pil::OWN_TIMEOUT_S`]) or a controller
+/// output flagged invalid or non-finite gives a zero command (hold); the team failsafe
+/// (`docs/design.md`, "Team failsafe") follows a neighbour's `Hold` and, with
+/// `failsafe.stale_neighbour = "hold"`, holds on a stale neighbour. (The load state arrives
+/// every high-level period here, so its timeout never trips.)
 pub struct CrateTeam {
     kind: ControllerKind,
     high: Option<HighLevel>,
@@ -108,9 +123,13 @@ pub struct CrateTeam {
     ll_dt: f32,
     invalid: u64,
     holding: Vec<bool>,
-    /// Each UAV's own position as last measured, ENU, m: what the high level reads (the
-    /// firmware's high level runs before it takes the new own state; `lockstep_tick`).
-    own_prev: Vec<V3f>,
+    /// Each UAV's own state as last received and its time, ms: the high level reads it before
+    /// the new one is taken (the firmware's `lockstep_tick`), the low level after.
+    own_last: Vec<(Meas, u32)>,
+    own_tmo_ms: u32,
+    hold_on_stale: bool,
+    supervisors: Vec<TeamHoldSupervisor>,
+    team_mode: Vec<TeamMode>,
 }
 
 impl CrateTeam {
@@ -132,7 +151,11 @@ impl CrateTeam {
             ll_dt: 0.0,
             invalid: 0,
             holding: Vec::new(),
-            own_prev: Vec::new(),
+            own_last: Vec::new(),
+            own_tmo_ms: 0,
+            hold_on_stale: false,
+            supervisors: Vec::new(),
+            team_mode: Vec::new(),
         }
     }
 }
@@ -180,9 +203,15 @@ impl Team for CrateTeam {
         self.vel_cmd = vec![V3f::zeros(); n];
         self.f_hat = vec![V3f::zeros(); n];
         self.holding = vec![false; n];
-        self.own_prev = start.tick.own.iter().map(|m| m.pos_m).collect();
+        self.own_last = start.tick.own.iter().map(|m| (*m, start.tick.time_ms)).collect();
         self.hl_dt = 1.0 / s.rates.high_level_hz as f32;
         self.ll_dt = 1.0 / s.rates.low_level_hz as f32;
+        // As the companion converts FS_OWN_TMO (`Params::timeout_ms`).
+        self.own_tmo_ms = (crate::pil::OWN_TIMEOUT_S * 1000.0) as u32;
+        self.hold_on_stale = s.failsafe.stale_neighbour == StaleNeighbour::Hold;
+        let sup = TeamHoldSupervisor::new(s.failsafe.resume_s as f32, self.hl_dt).map_err(|e| SimError(format!("failsafe: {e}")))?;
+        self.supervisors = vec![sup; n];
+        self.team_mode = vec![TeamMode::Transport; n];
         Ok(())
     }
 
@@ -191,28 +220,63 @@ impl Team for CrateTeam {
             return Err(SimError("team stepped before start".into()));
         };
         let n = self.low.len();
-        if tick.own.len() != n || out.len() != n || (tick.high_level && tick.views.len() != n) {
+        let sizes_ok = tick.own.len() == n && tick.own_stalled.len() == n && out.len() == n;
+        if !sizes_ok || (tick.high_level && (tick.views.len() != n || tick.modes.len() != n)) {
             return Err(SimError(format!("tick for {} UAVs, team of {n}", tick.own.len())));
         }
+        let now = tick.time_ms;
         for i in 0..n {
+            let (own, own_ms) = self.own_last[i];
+            let own_fresh = now.wrapping_sub(own_ms) <= self.own_tmo_ms;
             if tick.high_level {
-                let m = Measurements {
-                    own_pos_m: self.own_prev.get(i).copied().unwrap_or(tick.own[i].pos_m),
-                    load_pos_m: tick.load.pos_m,
-                    load_vel_mps: tick.load.vel_mps,
-                    neighbours_m: &tick.views[i],
-                    own_cable_force_n: Some(self.f_hat[i]),
-                };
-                let cmd: Command = match high {
-                    HighLevel::Dissipative(c) => c[i].update(tube, &m, self.hl_dt),
-                    HighLevel::Baseline(c) => c[i].update(tube, &m, self.hl_dt),
-                };
-                let bad = cmd.status.invalid_input || cmd.status.nonfinite_command || !cmd.vel_mps.iter().all(|x| x.is_finite());
-                self.invalid += u64::from(bad);
-                self.holding[i] = bad;
-                self.vel_cmd[i] = if bad { V3f::zeros() } else { cmd.vel_mps };
+                // The companion's `Flight::high_level`, decision for decision.
+                let mut detected = !own_fresh;
+                let mut follow = false;
+                for (j, (v, m)) in tick.views[i].iter().zip(&tick.modes[i]).enumerate() {
+                    if j != i {
+                        detected |= v.is_none() && self.hold_on_stale;
+                        follow |= v.is_some() && *m == Some(TeamMode::Hold);
+                    }
+                }
+                let mut mode = self.supervisors[i].step(detected, follow);
+                self.vel_cmd[i] = V3f::zeros();
+                if own_fresh {
+                    let m = Measurements {
+                        own_pos_m: own.pos_m,
+                        load_pos_m: tick.load.pos_m,
+                        load_vel_mps: tick.load.vel_mps,
+                        neighbours_m: &tick.views[i],
+                        own_cable_force_n: Some(self.f_hat[i]),
+                    };
+                    let cmd: Command = match high {
+                        HighLevel::Dissipative(c) => {
+                            c[i].set_team_hold(mode.is_holding());
+                            c[i].update(tube, &m, self.hl_dt)
+                        }
+                        HighLevel::Baseline(c) => {
+                            c[i].set_team_hold(mode.is_holding());
+                            c[i].update(tube, &m, self.hl_dt)
+                        }
+                    };
+                    let bad = cmd.status.invalid_input || cmd.status.nonfinite_command || !cmd.vel_mps.iter().all(|x| x.is_finite());
+                    self.invalid += u64::from(bad);
+                    if bad {
+                        mode = self.supervisors[i].step(true, follow);
+                    } else {
+                        self.vel_cmd[i] = cmd.vel_mps;
+                    }
+                }
+                self.team_mode[i] = mode;
+                self.holding[i] = mode.is_holding();
             }
-            let o = self.low[i].update(self.vel_cmd[i], tick.own[i].vel_mps, self.ll_dt);
+            // Take this period's own state (unless its feed stalls); the low level flies it,
+            // or, once it is older than FS_OWN_TMO, the velocity loop's no-measurement failsafe.
+            if !tick.own_stalled[i] {
+                self.own_last[i] = (tick.own[i], now);
+            }
+            let (own, own_ms) = self.own_last[i];
+            let v_meas = if now.wrapping_sub(own_ms) <= self.own_tmo_ms { own.vel_mps } else { V3f::repeat(f32::NAN) };
+            let o = self.low[i].update(self.vel_cmd[i], v_meas, self.ll_dt);
             self.f_hat[i] = o.f_hat_n;
             let att = thrust_to_attitude(o.thrust_n, self.heading, self.thrust_max_n);
             let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };
@@ -222,9 +286,6 @@ impl Team for CrateTeam {
                 self.holding[i] = true;
             }
             out[i] = sp;
-            if let Some(p) = self.own_prev.get_mut(i) {
-                *p = tick.own[i].pos_m;
-            }
         }
         Ok(())
     }
@@ -240,5 +301,9 @@ impl Team for CrateTeam {
     fn controller_outputs(&self, vel_cmd_mps: &mut [V3f], f_hat_n: &mut [V3f]) {
         vel_cmd_mps.iter_mut().zip(&self.vel_cmd).for_each(|(o, v)| *o = *v);
         f_hat_n.iter_mut().zip(&self.f_hat).for_each(|(o, f)| *o = *f);
+    }
+
+    fn team_modes(&self, out: &mut [TeamMode]) {
+        out.iter_mut().zip(&self.team_mode).for_each(|(o, m)| *o = *m);
     }
 }

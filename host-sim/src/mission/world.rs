@@ -13,13 +13,21 @@ use crate::scenario::{FaultKind, LoadedScenario, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, RunOptions, SimError, Takeoff};
 use crate::summary::{CableBreak, Summary};
 use nalgebra::Vector3;
-use vt_dissipative::Formation;
+use vt_dissipative::{Formation, TeamMode};
 
 type V3 = Vector3<f64>;
 type V3f = Vector3<f32>;
 
 fn v3f(v: &V3) -> V3f {
     V3f::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// What each UAV sends its team every high-level period: its position (from its autopilot)
+/// and its companion's team mode (docs/design.md, "Team failsafe").
+#[derive(Debug, Clone, Copy)]
+struct TeamMsg {
+    pos_m: V3f,
+    mode: TeamMode,
 }
 
 /// The simulated world of one mission.
@@ -29,8 +37,8 @@ pub struct World<'a> {
     pub plant: Plant,
     sensors: Sensors,
     wind: Wind,
-    link: Link<V3f>,
-    faults: Vec<(u64, FaultKind, usize)>,
+    link: Link<TeamMsg>,
+    faults: Vec<(u64, FaultKind, usize, u64)>,
     next_fault: usize,
     motors_off: Vec<bool>,
     /// Running metrics.
@@ -44,10 +52,21 @@ pub struct World<'a> {
     start_own: Vec<Meas>,
     start_load: Meas,
     start_views: Vec<Vec<Option<V3f>>>,
+    start_modes: Vec<Vec<Option<TeamMode>>>,
     own: Vec<Meas>,
     load: Meas,
     views: Vec<Vec<Option<V3f>>>,
-    link_pos: Vec<V3f>,
+    /// Per receiver, per sender: the team mode that came with the position in `views`.
+    modes: Vec<Vec<Option<TeamMode>>>,
+    link_msg: Vec<TeamMsg>,
+    view_buf: Vec<Option<TeamMsg>>,
+    /// Per UAV, the team mode its companion broadcasts (reported by the team).
+    team_mode: Vec<TeamMode>,
+    /// Per UAV, the plant step until which its own position feed stalls (fault).
+    stall_until: Vec<Option<u64>>,
+    /// Per UAV, its own state did not reach its companion this period.
+    own_stalled: Vec<bool>,
+    no_stall: Vec<bool>,
     uav_hints: Vec<usize>,
     load_hint: usize,
     dt: f64,
@@ -125,8 +144,9 @@ impl<'a> World<'a> {
             seed,
         )
         .with_jitter((dist.link_jitter_s * dist.intensity * hl_hz).round() as u64);
-        let mut faults: Vec<(u64, FaultKind, usize)> =
-            s.faults.iter().map(|f| ((f.time_s * f64::from(r.plant_hz)).round() as u64, f.kind, f.uav)).collect();
+        let plant_steps = |t: f64| (t * f64::from(r.plant_hz)).round() as u64;
+        let mut faults: Vec<(u64, FaultKind, usize, u64)> =
+            s.faults.iter().map(|f| (plant_steps(f.time_s), f.kind, f.uav, plant_steps(f.duration_s.unwrap_or(0.0)))).collect();
         faults.sort_by_key(|f| f.0);
         let time_limit = opts.duration_s.map_or(s.mission.time_limit_s, |d| d.min(s.mission.time_limit_s));
         let mut metrics = Metrics::new(n, f_max, s, ls.tube.length_m());
@@ -157,10 +177,17 @@ impl<'a> World<'a> {
             own: start_own.clone(),
             load: start_load,
             views: start_views.clone(),
+            modes: vec![vec![Some(TeamMode::Transport); n]; n],
+            start_modes: vec![vec![Some(TeamMode::Transport); n]; n],
             start_own,
             start_load,
             start_views,
-            link_pos: vec![V3f::zeros(); n],
+            link_msg: vec![TeamMsg { pos_m: V3f::zeros(), mode: TeamMode::Transport }; n],
+            view_buf: Vec::with_capacity(n),
+            team_mode: vec![TeamMode::Transport; n],
+            stall_until: vec![None; n],
+            own_stalled: vec![false; n],
+            no_stall: vec![false; n],
             uav_hints: vec![0; n],
             load_hint: 0,
             dt: 1.0 / f64::from(r.plant_hz),
@@ -186,7 +213,16 @@ impl<'a> World<'a> {
     /// What the team knows at take-off.
     pub fn start(&self) -> TeamStart<'_> {
         TeamStart {
-            tick: Tick { step: 0, time_ms: 0, high_level: true, own: &self.start_own, load: self.start_load, views: &self.start_views },
+            tick: Tick {
+                step: 0,
+                time_ms: 0,
+                high_level: true,
+                own: &self.start_own,
+                own_stalled: &self.no_stall,
+                load: self.start_load,
+                views: &self.start_views,
+                modes: &self.start_modes,
+            },
             calibrated_len_m: &self.calibrated_len_m,
             takeoff: &self.takeoff,
         }
@@ -230,18 +266,25 @@ impl<'a> World<'a> {
         if high_level {
             let hl_step = self.step / self.hl_every;
             let snap = self.sensors.delayed().clone();
-            for (p, x) in self.link_pos.iter_mut().zip(&snap.uav_pos_m) {
-                *p = v3f(&self.sensors.position(x));
+            for ((msg, x), mode) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode) {
+                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(x)), mode: *mode };
             }
             self.load = Meas {
                 pos_m: v3f(&self.sensors.position(&snap.load_pos_m)),
                 vel_mps: v3f(&self.sensors.velocity(&snap.load_vel_mps)),
             };
-            self.link.exchange(hl_step, &self.link_pos);
-            for (i, view) in self.views.iter_mut().enumerate() {
-                let own = self.link_pos.get(i).copied().unwrap_or_default();
-                self.link.view(i, hl_step, own, view);
+            self.link.exchange(hl_step, &self.link_msg);
+            for (i, (view, modes)) in self.views.iter_mut().zip(self.modes.iter_mut()).enumerate() {
+                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), mode: TeamMode::Transport });
+                self.link.view(i, hl_step, own, &mut self.view_buf);
+                view.clear();
+                view.extend(self.view_buf.iter().map(|m| m.map(|m| m.pos_m)));
+                modes.clear();
+                modes.extend(self.view_buf.iter().map(|m| m.map(|m| m.mode)));
             }
+        }
+        for (stalled, until) in self.own_stalled.iter_mut().zip(&self.stall_until) {
+            *stalled = until.is_some_and(|e| self.step < e);
         }
         self.sensors.sample(&self.plant);
         let snap = self.sensors.delayed().clone();
@@ -253,9 +296,17 @@ impl<'a> World<'a> {
             time_ms: (self.step as f64 * self.dt * 1000.0).round() as u32,
             high_level,
             own: &self.own,
+            own_stalled: &self.own_stalled,
             load: self.load,
             views: &self.views,
+            modes: &self.modes,
         }
+    }
+
+    /// Per UAV, the team mode its companion broadcasts (docs/design.md, "Team failsafe"), for
+    /// the team to fill in before [`Self::measure`]; it travels with the UAV's position.
+    pub fn team_mode_slots(&mut self) -> &mut [TeamMode] {
+        &mut self.team_mode
     }
 
     /// Per UAV, whether its controller holds (reported by the team, for the record): a change
@@ -291,7 +342,7 @@ impl<'a> World<'a> {
                 self.arrival_step = Some(self.step);
             }
         }
-        while let Some(&(due, kind, i)) = self.faults.get(self.next_fault) {
+        while let Some(&(due, kind, i, duration)) = self.faults.get(self.next_fault) {
             if due > self.step {
                 break;
             }
@@ -301,6 +352,12 @@ impl<'a> World<'a> {
                     self.metrics.snapped_by_fault += 1;
                 }
                 FaultKind::UavSilent => self.link.silence(i),
+                FaultKind::LinkDead => self.link.kill(i),
+                FaultKind::OwnFeedStall => {
+                    if let Some(u) = self.stall_until.get_mut(i) {
+                        *u = Some(due + duration);
+                    }
+                }
                 FaultKind::ThrustLoss => {
                     if let Some(l) = self.motors_off.get_mut(i) {
                         *l = true;

@@ -4,7 +4,7 @@
 use super::port::Port;
 use super::wire::{Encoder, Rx};
 use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, LOAD_COMPONENT_ID, LOAD_TIMEOUT_S, OWN_TIMEOUT_S, SYSID_BASE};
-use crate::scenario::LoadedScenario;
+use crate::scenario::{LoadedScenario, StaleNeighbour};
 use crate::sim::{self, Takeoff};
 use mavlink::dialects::common::{
     MavCmd, MavFrame, MavParamType, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_SET_DATA,
@@ -108,7 +108,12 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
                 (Param::LlHz, r.low_level_hz as f32),
                 (Param::FsOwnTmo, OWN_TIMEOUT_S),
                 (Param::FsLoadTmo, LOAD_TIMEOUT_S),
-                (Param::FsNbrTmo, s.link.stale_timeout_s as f32),
+                // The host's link model ages the team's data (link.stale_timeout_s) and relays
+                // only what is fresh, once per high-level period: half a period makes the
+                // companion use exactly that (docs/design.md, "Team failsafe").
+                (Param::FsNbrTmo, 0.5 / r.high_level_hz as f32),
+                (Param::FsNbrAct, if s.failsafe.stale_neighbour == StaleNeighbour::Hold { 1.0 } else { 0.0 }),
+                (Param::FsResume, s.failsafe.resume_s as f32),
                 (Param::K1, c.k1 as f32),
                 (Param::K2, c.k2 as f32),
                 (Param::K3, c.k3 as f32),

@@ -6,7 +6,9 @@ use nalgebra::Vector3;
 use vt_companion::frames::enu_from_ned;
 use super::config::{configure, start_mission, team_setup_with, UavConfig};
 use super::port::Port;
-use super::wire::{Encoders, Rx, TickFrames};
+use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
+use vt_companion::Mode;
+use vt_dissipative::TeamMode;
 use super::{err, PilError};
 use crate::mission::{self, Setpoint, Team, TeamStart, Tick};
 use crate::record::RunRecord;
@@ -84,6 +86,9 @@ pub struct PortTeam<'p, P: Port> {
     pub custom_mode: Vec<u32>,
     /// Last velocity command and cable-force estimate per companion, ENU (m/s, N).
     last_high_level: Vec<(Vector3<f32>, Vector3<f32>)>,
+    /// Per receiver, per sender: the team mode last relayed (the network relays a member's
+    /// `HEARTBEAT` when the mode that came with its position changes).
+    relayed: Vec<Vec<TeamMode>>,
 }
 
 impl<'p, P: Port> PortTeam<'p, P> {
@@ -101,10 +106,23 @@ impl<'p, P: Port> PortTeam<'p, P> {
             status: vec![[0u16; 5]; n],
             custom_mode: vec![0u32; n],
             last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
+            relayed: vec![vec![TeamMode::Transport; n]; n],
         }
     }
 
     fn tick_frames(&mut self, i: usize, tick: &Tick<'_>) -> Vec<u8> {
+        // Team failsafe: the neighbours' mode changes, as `HEARTBEAT`s of their companions.
+        let mut beats = Vec::new();
+        if let (true, Some(modes), Some(relayed)) = (tick.high_level, tick.modes.get(i), self.relayed.get_mut(i)) {
+            for (j, (m, last)) in modes.iter().zip(relayed.iter_mut()).enumerate() {
+                if let (Some(m), true) = (m, j != i) {
+                    if m != last {
+                        *last = *m;
+                        beats.extend(relayed_heartbeat(&mut self.enc[i].network, j, Mode::of_team(*m) as u32));
+                    }
+                }
+            }
+        }
         let own = tick.own.get(i).copied().unwrap_or_default();
         let frames = TickFrames {
             time_ms: tick.time_ms,
@@ -115,7 +133,12 @@ impl<'p, P: Port> PortTeam<'p, P> {
             id: i,
         };
         let e = &mut self.enc[i];
-        frames.encode(&mut e.autopilot, &mut e.tracker, &mut e.network)
+        if tick.own_stalled.get(i).copied().unwrap_or(false) {
+            beats.extend(frames.encode_stalled(&mut e.autopilot, &mut e.tracker, &mut e.network));
+        } else {
+            beats.extend(frames.encode(&mut e.autopilot, &mut e.tracker, &mut e.network));
+        }
+        beats
     }
 
     fn fail(&self, i: usize, what: impl std::fmt::Display) -> SimError {
@@ -196,7 +219,21 @@ impl<P: Port> Team for PortTeam<'_, P> {
 
     fn holding(&self) -> Vec<bool> {
         // HEARTBEAT.custom_mode = mode | hold reasons << 8 (docs/protocol.md).
-        self.custom_mode.iter().map(|m| (m >> 8) & 0xff != 0).collect()
+        self.custom_mode.iter().map(|m| (m >> 8) & 0xff != 0 || team_mode_of(*m).is_holding()).collect()
+    }
+
+    fn team_modes(&self, out: &mut [TeamMode]) {
+        // The companion sends a HEARTBEAT at every change of its team mode.
+        out.iter_mut().zip(&self.custom_mode).for_each(|(o, m)| *o = team_mode_of(*m));
+    }
+}
+
+/// The team mode in a companion's `HEARTBEAT.custom_mode` (low byte, docs/protocol.md).
+fn team_mode_of(custom_mode: u32) -> TeamMode {
+    match custom_mode & 0xFF {
+        m if m == Mode::Hold as u32 => TeamMode::Hold,
+        m if m == Mode::TeamHold as u32 => TeamMode::TeamHold,
+        _ => TeamMode::Transport,
     }
 }
 

@@ -3,12 +3,14 @@
 
 use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
 use mavlink::dialects::common::{
-    COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA,
-    NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, SYS_STATUS_DATA,
+    MavAutopilot, MavModeFlag, MavState, MavType, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
+    MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA,
+    SET_ATTITUDE_TARGET_DATA, SYSTEM_TIME_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use nalgebra::Vector3;
 use vt_companion::companion::{NAME_CABLE_FORCE, NAME_CYCLES};
+use vt_companion::COMPANION_COMPONENT_ID;
 
 type V3f = Vector3<f32>;
 
@@ -139,6 +141,21 @@ pub struct TickFrames<'a> {
 impl TickFrames<'_> {
     /// Encodes the tick.
     pub fn encode(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
+        let mut out = self.encode_team(tracker, network);
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, &self.own.0, &self.own.1)));
+        out
+    }
+
+    /// Encodes the tick of a UAV whose own position feed stalls (`own_feed_stall`): the load
+    /// and the neighbours as usual, then, instead of the own state, the autopilot's
+    /// `SYSTEM_TIME` at `time_ms`, the lockstep clock (docs/protocol.md).
+    pub fn encode_stalled(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
+        let mut out = self.encode_team(tracker, network);
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: self.time_ms }));
+        out
+    }
+
+    fn encode_team(&self, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
         let mut out = Vec::with_capacity(64 * (2 + self.neighbours.len()));
         if let Some((p, v)) = &self.load {
             out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(self.time_ms, p, v)));
@@ -149,9 +166,22 @@ impl TickFrames<'_> {
                 }
             }
         }
-        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, &self.own.0, &self.own.1)));
         out
     }
+}
+
+/// UAV `j`'s companion `HEARTBEAT` with `custom_mode` as the team network relays it to the
+/// others (docs/protocol.md, "Team failsafe").
+pub fn relayed_heartbeat(network: &mut Encoder, j: usize, custom_mode: u32) -> Vec<u8> {
+    let d = HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    };
+    network.frame(SYSID_BASE.saturating_add(j.min(255) as u8), COMPANION_COMPONENT_ID, &d)
 }
 
 /// Per-UAV encoders (autopilot, load tracker, network relay) and the ground station's.

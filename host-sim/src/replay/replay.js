@@ -117,6 +117,7 @@
   const BG = '#f7f9fc';
   const EVENT_STYLE = {
     snap: ['#d62728', 'cable snap'], silent: ['#7b3fa0', 'UAV silent'], thrust_loss: ['#8c564b', 'thrust loss'],
+    own_feed_stall: ['#e377c2', 'own feed stall'], link_dead: ['#17becf', 'link dead'],
     hold: ['#ff9f1c', 'hold'], resume: ['#2ca02c', 'resume'],
   };
   /** Faults that happened to UAV `i` of `run` up to time `t`. */
@@ -124,7 +125,7 @@
     const f = {};
     for (const e of run.events) {
       if (e.time_s > t) break;
-      if (e.kind === 'snap' || e.kind === 'silent' || e.kind === 'thrust_loss') (f[e.uav] = f[e.uav] || {})[e.kind] = true;
+      if (e.kind === 'snap' || e.kind === 'silent' || e.kind === 'thrust_loss' || e.kind === 'link_dead') (f[e.uav] = f[e.uav] || {})[e.kind] = true;
     }
     return f;
   }
@@ -433,7 +434,7 @@
         if (hollow) { ctx.lineWidth = 3 * dpr; ctx.strokeStyle = run.colors[i]; ctx.stroke(); ctx.fillStyle = 'rgba(255,255,255,0.55)'; ctx.fill(); }
         else { ctx.fill(); ctx.stroke(); }
         if (hold || faults[i]) {
-          ctx.strokeStyle = faults[i]?.thrust_loss ? EVENT_STYLE.thrust_loss[0] : faults[i]?.silent ? EVENT_STYLE.silent[0] : EVENT_STYLE.hold[0];
+          ctx.strokeStyle = faults[i]?.thrust_loss ? EVENT_STYLE.thrust_loss[0] : faults[i]?.silent ? EVENT_STYLE.silent[0] : faults[i]?.link_dead ? EVENT_STYLE.link_dead[0] : EVENT_STYLE.hold[0];
           ctx.lineWidth = 2.5 * dpr;
           if (faults[i]?.silent) ctx.setLineDash([4 * dpr, 3 * dpr]);
           ctx.beginPath(); ctx.arc(q[0], q[1], rad + 4 * dpr, 0, 2 * Math.PI); ctx.stroke();
@@ -595,7 +596,7 @@
         if (hollow) { ctx.fillStyle = 'rgba(255,255,255,0.55)'; ctx.fill(); ctx.strokeStyle = run.colors[i]; ctx.lineWidth = 3 * dpr; ctx.stroke(); }
         else { ctx.fillStyle = run.colors[i]; ctx.fill(); ctx.strokeStyle = '#1b2232'; ctx.lineWidth = 1.3 * dpr; ctx.stroke(); }
         if (mode[i] === '1' || faults[i]) {
-          ctx.strokeStyle = faults[i]?.thrust_loss ? EVENT_STYLE.thrust_loss[0] : faults[i]?.silent ? EVENT_STYLE.silent[0] : EVENT_STYLE.hold[0];
+          ctx.strokeStyle = faults[i]?.thrust_loss ? EVENT_STYLE.thrust_loss[0] : faults[i]?.silent ? EVENT_STYLE.silent[0] : faults[i]?.link_dead ? EVENT_STYLE.link_dead[0] : EVENT_STYLE.hold[0];
           ctx.lineWidth = 2.2 * dpr;
           ctx.beginPath(); ctx.arc(q[0], q[1], rad + 3.5 * dpr, 0, 2 * Math.PI); ctx.stroke();
         }
@@ -712,7 +713,7 @@
     const sw = (col, label, extra) => '<div class="legend-row"><span class="sw" style="background:' + col + ';' + (extra || '') + '"></span>' + label + '</div>';
     html += sw('#9aa0aa', 'slack cable') + sw('#1b1b1b', 'load (trail behind)') + sw('rgba(120,160,230,0.35)', 'virtual tube', 'border:2px solid #283759') +
       sw('#afafaf', 'obstacle') + sw('#7846aa', 'tray nodes and springs (toggle)');
-    for (const k of ['hold', 'snap', 'silent', 'thrust_loss']) html += sw(EVENT_STYLE[k][0], EVENT_STYLE[k][1]);
+    for (const k of ['hold', 'snap', 'silent', 'thrust_loss', 'own_feed_stall', 'link_dead']) html += sw(EVENT_STYLE[k][0], EVENT_STYLE[k][1]);
     if (runs.length > 1) html += '<p>Overlaid: ' + esc(runs[0].name) + ' filled, ' + esc(runs[1].name) + ' as rings with dashed cables.</p>';
     document.getElementById('vt-legend').innerHTML = html;
   }

@@ -93,6 +93,43 @@ pub struct Scenario {
     /// Faults injected at given times.
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
+    /// Team failsafe (docs/design.md, "Team failsafe").
+    #[serde(default)]
+    pub failsafe: FailsafeSpec,
+}
+
+/// What a UAV does when a neighbour's data go stale (`link.stale_timeout_s`).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum StaleNeighbour {
+    /// Drop its springs and fly on (the paper's Remark 2 reading; the firmware's `FS_NBR_ACT = 0`).
+    #[default]
+    Drop,
+    /// The team holds (the firmware's default `FS_NBR_ACT = 1`).
+    Hold,
+}
+
+/// Team failsafe settings (docs/design.md, "Team failsafe"; the firmware's `FS_NBR_ACT`,
+/// `FS_RESUME`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FailsafeSpec {
+    /// Stale neighbour: `drop` (default) or `hold`.
+    #[serde(default)]
+    pub stale_neighbour: StaleNeighbour,
+    /// The team resumes this long after the last alarm, s (rounded to high-level periods).
+    #[serde(default = "default_resume_s")]
+    pub resume_s: f64,
+}
+
+impl Default for FailsafeSpec {
+    fn default() -> Self {
+        Self { stale_neighbour: StaleNeighbour::Drop, resume_s: default_resume_s() }
+    }
+}
+
+fn default_resume_s() -> f64 {
+    1.0
 }
 
 /// Sensor noise, latency, wind and model uncertainty. Zero means off.
@@ -184,6 +221,11 @@ pub enum FaultKind {
     UavSilent,
     /// The UAV loses all thrust and falls with its cable attached.
     ThrustLoss,
+    /// The UAV's own `LOCAL_POSITION_NED` stops reaching its companion for `duration_s`
+    /// (the team network still carries its position).
+    OwnFeedStall,
+    /// The UAV's team link dies for good: it neither sends nor receives team data.
+    LinkDead,
 }
 
 /// One fault.
@@ -196,6 +238,9 @@ pub struct FaultSpec {
     pub uav: usize,
     /// Time of the fault, s.
     pub time_s: f64,
+    /// How long the fault lasts, s (`own_feed_stall` only, where it is required).
+    #[serde(default)]
+    pub duration_s: Option<f64>,
 }
 
 /// The flight space.

@@ -186,6 +186,10 @@ impl Validator<'_> {
             return Err(self.err("link", "drop_probability", "must be in [0, 1)".into()));
         }
         self.positive("link", "stale_timeout_s", s.link.stale_timeout_s)?;
+        // The firmware's FS_RESUME range.
+        if !(s.failsafe.resume_s.is_finite() && (0.0..=10.0).contains(&s.failsafe.resume_s)) {
+            return Err(self.err("failsafe", "resume_s", format!("must be in [0, 10] s (got {})", s.failsafe.resume_s)));
+        }
         let m = &s.mission;
         for (k, v) in [("time_limit_s", m.time_limit_s), ("end_tolerance_m", m.end_tolerance_m),
                        ("safety_distance_m", m.safety_distance_m), ("altitude_tolerance_m", m.altitude_tolerance_m)] {
@@ -226,6 +230,22 @@ impl Validator<'_> {
                     field: Some(format!("faults[{i}].time_s")),
                     message: "must be a finite time >= 0".into(),
                 });
+            }
+            let duration_err = |message: String| ScenarioError {
+                source_name: self.source_name.into(),
+                line: nth_table_key_line(self.text, "faults", i, "duration_s"),
+                field: Some(format!("faults[{i}].duration_s")),
+                message,
+            };
+            match (f.kind, f.duration_s) {
+                (FaultKind::OwnFeedStall, None) => {
+                    return Err(duration_err("`own_feed_stall` needs its duration: a finite time > 0, s".into()))
+                }
+                (FaultKind::OwnFeedStall, Some(d)) if !(d.is_finite() && d > 0.0) => {
+                    return Err(duration_err(format!("must be a finite time > 0 (got {d})")))
+                }
+                (FaultKind::OwnFeedStall, _) | (_, None) => {}
+                (_, Some(_)) => return Err(duration_err("only `own_feed_stall` lasts a duration; the other faults are for good".into())),
             }
         }
         // Cable stiffness against the integrator's sub-step (docs/plant.md).
@@ -321,5 +341,16 @@ impl Validator<'_> {
 /// Line of the `index`-th `[[table]]` header.
 fn nth_table_line(text: &str, table: &str, index: usize) -> Option<usize> {
     let header = format!("[[{table}]]");
-    text.lines().enumerate().filter(|(_, l)| l.trim() == header).nth(index).map(|(i, _)| i + 1)
+    text.lines().enumerate().filter(|(_, l)| l.split('#').next().unwrap_or_default().trim() == header).nth(index).map(|(i, _)| i + 1)
+}
+
+/// Line of `key` in the `index`-th `[[table]]` (1-based), else that table's header line.
+fn nth_table_key_line(text: &str, table: &str, index: usize, key: &str) -> Option<usize> {
+    let start = nth_table_line(text, table, index)?;
+    text.lines()
+        .enumerate()
+        .skip(start)
+        .take_while(|(_, l)| !l.trim_start().starts_with('['))
+        .find(|(_, l)| l.split('#').next().unwrap_or_default().split_once('=').is_some_and(|(k, _)| k.trim() == key))
+        .map_or(Some(start), |(i, _)| Some(i + 1))
 }
