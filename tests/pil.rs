@@ -10,7 +10,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use host_sim::pil::{self, Encoders, Port, QemuOptions, QemuPort, Rx, SilPort, TickFrames, UavConfig};
-use host_sim::scenario::{self, LoadedScenario};
+use host_sim::record::EventKind;
+use host_sim::scenario::{self, FaultKind, FaultSpec, LoadedScenario, StaleNeighbour};
 use mavlink::dialects::common::{HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -156,10 +157,86 @@ fn pil_experiment_3uav_is_bit_exact() {
     assert!(dir.join("pil.mcap").metadata().is_ok_and(|m| m.len() > 10_000), "pil.mcap written");
 }
 
+/// The summary without the fields that measure the host (wall time, realtime factor).
+fn comparable(s: &host_sim::summary::Summary) -> serde_json::Value {
+    let mut v = serde_json::to_value(s).unwrap();
+    if let Some(o) = v.as_object_mut() {
+        o.remove("wall_time_s");
+        o.remove("realtime_factor");
+    }
+    v
+}
+
+/// Issue 15's team failsafe in QEMU: the experiment with `fault`, flown SIL (host twins) and
+/// PIL (three QEMUs), compared bit for bit; the SIL-crates summary (`sim::run`) equals both.
+/// Returns the report and per UAV its (hold, resume) times.
+fn pil_team_failsafe(name: &str, fault: FaultSpec, duration_s: Option<f64>) -> (pil::PilReport, Vec<Vec<(EventKind, f64)>>) {
+    let elf = firmware().expect("checked by the caller");
+    let mut ls = experiment();
+    ls.scenario.faults.push(fault);
+    ls.scenario.failsafe.stale_neighbour = StaleNeighbour::Hold;
+    let dir = out_dir(name);
+    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir, duration_s, uav_model: None, cable_model: None, mcap: None };
+    let r = pil::run(&ls, &opts).unwrap();
+    let s = &r.summary;
+    eprintln!(
+        "PIL {name}: {} commands compared, bit_exact {}, success {} {:?}, UAV-UAV {:.3} m, UAV-boundary {:.3} m, events {:?}",
+        r.commands_compared, r.bit_exact, s.success, s.failures, s.min_uav_uav_m, s.min_uav_boundary_m, r.events
+    );
+    assert!(r.bit_exact, "first difference: {:?}", r.first_difference);
+    assert_eq!(comparable(s), comparable(&r.sil_summary), "PIL and SIL twin summaries");
+    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "PIL and SIL-crates summaries");
+    assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "clean link: no error counted");
+    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3]);
+    let mut per_uav = vec![Vec::new(); 3];
+    for e in r.events.iter().filter(|e| matches!(e.kind, EventKind::Hold | EventKind::Resume)) {
+        per_uav[e.uav].push((e.kind, e.time_s));
+    }
+    (r, per_uav)
+}
+
+#[test]
+fn pil_own_feed_stall_the_team_holds_resumes_and_completes_bit_exact() {
+    if firmware().is_none() {
+        return;
+    }
+    let fault = FaultSpec { kind: FaultKind::OwnFeedStall, uav: 1, time_s: 15.0, duration_s: Some(2.0) };
+    let (r, holds) = pil_team_failsafe("own-feed-stall", fault, None);
+    let s = &r.summary;
+    assert!(s.success && s.reached_end, "{:?}", s.failures);
+    assert!(s.min_uav_uav_m >= 0.4 && s.min_uav_boundary_m > 0.0);
+    for (i, h) in holds.iter().enumerate() {
+        // Each UAV held once (UAV 1 from its own detection, the others following its HEARTBEAT)
+        // and resumed FS_RESUME (1 s) after the stall ended.
+        assert_eq!(h.len(), 2, "UAV {i}: {h:?}");
+        assert!(h[0].0 == EventKind::Hold && h[0].1 > 15.0 && h[0].1 < 15.1, "UAV {i}: {h:?}");
+        assert!(h[1].0 == EventKind::Resume && h[1].1 >= 18.0 && h[1].1 < 18.1, "UAV {i}: {h:?}");
+    }
+}
+
+#[test]
+fn pil_link_dead_the_team_holds_bit_exact() {
+    if firmware().is_none() {
+        return;
+    }
+    let fault = FaultSpec { kind: FaultKind::LinkDead, uav: 2, time_s: 15.0, duration_s: None };
+    let (r, holds) = pil_team_failsafe("link-dead", fault, Some(25.0));
+    let s = &r.summary;
+    assert!(!s.reached_end, "the team holds");
+    assert!(s.min_uav_uav_m >= 0.4 && s.min_uav_boundary_m > 0.0 && s.min_load_boundary_m > 0.0 && !s.nonfinite);
+    for (i, h) in holds.iter().enumerate() {
+        // Held within the stale timeout (0.5 s) and never resumed.
+        assert_eq!(h.len(), 1, "UAV {i}: {h:?}");
+        assert!(h[0].0 == EventKind::Hold && h[0].1 > 15.0 && h[0].1 < 15.6, "UAV {i}: {h:?}");
+    }
+}
+
 #[test]
 fn stale_team_data_switches_to_hold_and_back() {
     let Some(elf) = firmware() else { return };
-    let ls = experiment();
+    let mut ls = experiment();
+    // The firmware's default (FS_NBR_ACT = 1): a stale neighbour is a reason to hold.
+    ls.scenario.failsafe.stale_neighbour = StaleNeighbour::Hold;
     let (cfg, setup) = uav0_config(&ls, true);
     let mut q = spawn(&elf, "stale", false);
     let mut enc = Encoders::default();

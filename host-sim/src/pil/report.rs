@@ -83,6 +83,8 @@ pub struct PilReport {
     pub first_difference: Option<Difference>,
     /// The PIL run's summary.
     pub summary: Summary,
+    /// The PIL run's timeline: faults, and each UAV's hold and resume (team failsafe).
+    pub events: Vec<crate::record::RecordEvent>,
     /// The host twin's (SIL) summary.
     pub sil_summary: Summary,
     /// `sim::run` on the same scenario: the controller crates called directly (SIL-crates),
@@ -228,6 +230,7 @@ pub fn run(ls: &LoadedScenario, opts: &PilOptions) -> Result<PilReport, PilError
         bit_exact,
         first_difference,
         summary: pil.summary.clone(),
+        events: pil.record.events.clone(),
         sil_summary: sil.summary.clone(),
         host_sim_summary,
         lockstep: "event-driven: VT_LOCKSTEP=1, each own LOCAL_POSITION_NED is one low-level period; the host waits for \
