@@ -142,3 +142,51 @@ fn derivative_gain_of_one_names_the_field_and_line() {
     let text = paper().replacen("kd = [0.1, 0.1, 0.1]", "kd = [0.1, 1.0, 0.1]", 1);
     expect_error(&text, "kd.toml", &[&format!(":{}:", line_of("kd = [0.1, 0.1, 0.1]")), "velocity_loop.kd", "< 1"]);
 }
+
+/// `paper` with `extra` appended; the 1-based line number of the appended text's line `k`.
+fn appended(extra: &str) -> (String, impl Fn(usize) -> String) {
+    let base = paper();
+    let text = format!("{base}\n{extra}");
+    let first = base.lines().count() + 2; // the appended text starts after one blank line
+    (text, move |k: usize| format!(":{}:", first + k))
+}
+
+/// Issue 15: the team failsafe's faults and settings name the file, line and field.
+#[test]
+fn own_feed_stall_needs_a_positive_duration() {
+    let (text, line) = appended("[[faults]]\nkind = \"own_feed_stall\"\nuav = 3\ntime_s = 18.0\n");
+    expect_error(&text, "stall-no-duration.toml", &["stall-no-duration.toml", "faults[0].duration_s", "own_feed_stall", &line(0)]);
+    let (text, line) = appended("[[faults]]\nkind = \"own_feed_stall\"\nuav = 3\ntime_s = 18.0\nduration_s = -2.0\n");
+    expect_error(&text, "stall-negative.toml", &["faults[0].duration_s", "> 0", &line(4)]);
+    let (text, line) = appended("[[faults]]\nkind = \"link_dead\"\nuav = 3\ntime_s = 18.0\n\n[[faults]]\nkind = \"link_dead\"\nuav = 2\ntime_s = 20.0\nduration_s = 2.0\n");
+    expect_error(&text, "dead-duration.toml", &["faults[1].duration_s", "only `own_feed_stall`", &line(9)]);
+    let (text, line) = appended("[[faults]]\nkind = \"own_feed_stal\"\nuav = 3\ntime_s = 18.0\n");
+    expect_error(&text, "stall-typo.toml", &["own_feed_stall", &line(1)]);
+    // The valid forms parse.
+    let (ok, _) = appended("[[faults]]\nkind = \"own_feed_stall\"\nuav = 3\ntime_s = 18.0\nduration_s = 2.0\n\n[[faults]]\nkind = \"link_dead\"\nuav = 2\ntime_s = 20.0\n");
+    let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("valid faults");
+    assert_eq!(ls.scenario.faults.len(), 2);
+    assert_eq!(ls.scenario.faults[0].duration_s, Some(2.0));
+}
+
+#[test]
+fn failsafe_settings_are_checked() {
+    let (text, line) = appended("[failsafe]\nstale_neighbour = \"hold\"\nresume_s = 20.0\n");
+    expect_error(&text, "resume.toml", &["failsafe.resume_s", "[0, 10]", &line(2)]);
+    let (text, line) = appended("[failsafe]\nstale_neighbour = \"wait\"\n");
+    expect_error(&text, "policy.toml", &["stale_neighbour", &line(1)]);
+    let (text, _) = appended("[failsafe]\nresume = 1.0\n");
+    expect_error(&text, "unknown-failsafe.toml", &["resume"]);
+    let (ok, _) = appended("[failsafe]\nstale_neighbour = \"hold\"\nresume_s = 0.5\n");
+    let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("valid failsafe table");
+    assert_eq!(ls.scenario.failsafe.stale_neighbour, host_sim::scenario::StaleNeighbour::Hold);
+}
+
+/// A parse error (wrong type, unknown variant) names the field it is in, with its line.
+#[test]
+fn parse_errors_name_the_field() {
+    let text = paper().replacen("mass_kg = 18.0", "mass_kg = \"heavy\"", 1);
+    expect_error(&text, "type-field.toml", &["load.mass_kg", &format!(":{}:", line_of("mass_kg = 18.0"))]);
+    let (text, line) = appended("[[faults]]\nkind = \"link_dead\"\nuav = 3\ntime_s = 18.0\n\n[[faults]]\nkind = \"snap\"\nuav = 3\ntime_s = 18.0\n");
+    expect_error(&text, "kind.toml", &["faults[1].kind", &line(6)]);
+}

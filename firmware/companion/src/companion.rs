@@ -437,9 +437,13 @@ impl Core<'_> {
         }
         let n = self.params.get_u32(Param::NUavs) as usize;
         let j = u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize;
-        match self.sources.neighbour_hold.get_mut(j) {
-            Some(slot) if j < n => *slot = d.custom_mode & 0xFF == Mode::Hold as u32,
-            _ => {}
+        if j < n && j < 32 {
+            let bit = 1u32 << j;
+            if d.custom_mode & 0xFF == Mode::Hold as u32 {
+                self.sources.neighbour_hold |= bit;
+            } else {
+                self.sources.neighbour_hold &= !bit;
+            }
         }
     }
 

@@ -93,10 +93,13 @@ pub struct Sources {
     pub load: Option<Stamped<State>>,
     /// Neighbours' positions by UAV index (own slot unused).
     pub neighbours: [Option<Stamped<Vec3>>; MAX_UAVS],
-    /// Per neighbour, its last broadcast mode was [`TeamMode::Hold`] (own slot unused); it
-    /// counts while the neighbour's position is fresh.
-    pub neighbour_hold: [bool; MAX_UAVS],
+    /// Bit `j` set: neighbour `j`'s last broadcast mode was [`TeamMode::Hold`] (own bit never
+    /// set); it counts while the neighbour's position is fresh.
+    pub neighbour_hold: u32,
 }
+
+// One bit per UAV in `Sources::neighbour_hold`.
+const _: () = assert!(MAX_UAVS <= 32, "Sources::neighbour_hold has 32 bits");
 
 impl Default for Sources {
     fn default() -> Self {
@@ -107,7 +110,7 @@ impl Default for Sources {
 impl Sources {
     /// Nothing received yet.
     pub const fn new() -> Self {
-        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: [false; MAX_UAVS] }
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: 0 }
     }
 }
 
@@ -243,7 +246,6 @@ impl Flight {
             reasons |= HoldReasons::LOAD_STALE;
         }
         let mut view: [Option<Vec3>; MAX_UAVS] = [None; MAX_UAVS];
-        let mut follow = false;
         for (j, slot) in view.iter_mut().enumerate().take(self.n) {
             if j == self.id {
                 *slot = own.map(|o| o.pos_m);
@@ -253,16 +255,17 @@ impl Flight {
                 if slot.is_none() && self.hold_on_stale_neighbour {
                     reasons |= HoldReasons::NEIGHBOUR_STALE;
                 }
-                // A fresh neighbour in hold: the team holds (docs/design.md, "Team failsafe").
-                follow |= slot.is_some() && src.neighbour_hold.get(j).copied().unwrap_or(false);
             }
         }
+        // A fresh neighbour in hold: the team holds (docs/design.md, "Team failsafe"). No
+        // neighbour holds in nominal flight: one test then.
+        let holds = src.neighbour_hold;
+        let follow = holds != 0 && view.iter().enumerate().take(self.n).any(|(j, v)| v.is_some() && (holds >> j) & 1 == 1);
         self.vel_cmd_mps = Vec3::zeros();
-        let detected = reasons;
-        let mut mode = self.supervisor.step(detected != 0, follow);
+        self.team_mode = self.supervisor.step(reasons != 0, follow);
         if let (Some(own), Some(load)) = (own, load) {
             // Own and load usable: transport, or the team hold while the team holds.
-            self.high.set_team_hold(mode.is_holding());
+            self.high.set_team_hold(self.team_mode.is_holding());
             let m = Measurements {
                 own_pos_m: own.pos_m,
                 load_pos_m: load.pos_m,
@@ -279,13 +282,13 @@ impl Flight {
             } else {
                 self.vel_cmd_mps = cmd.vel_mps;
             }
-        }
-        if reasons != detected {
-            // The controller flagged its output: an own detection after all.
-            mode = self.supervisor.step(true, follow);
+            if reasons & (HoldReasons::NONFINITE | HoldReasons::INVALID_INPUT) != 0 {
+                // The controller flagged its output: an own detection after all (the hold
+                // restarts whatever the neighbours say).
+                self.team_mode = self.supervisor.step(true, false);
+            }
         }
         self.hl_reasons = HoldReasons(reasons);
-        self.team_mode = mode;
         self.vel_cmd_mps
     }
 

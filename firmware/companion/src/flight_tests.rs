@@ -67,7 +67,7 @@ fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_aft
     assert_eq!(fl.team_mode(), TeamMode::Transport);
     // UAV 2 broadcasts Hold: UAV 0 follows, flying the team hold (passing off), bit for bit.
     let mut held = sources(0);
-    held.neighbour_hold[2] = true;
+    held.neighbour_hold = 1 << 2;
     r.set_team_hold(true);
     for _ in 0..3 {
         now += HL_MS;
@@ -100,7 +100,7 @@ fn a_stale_neighbours_hold_flag_is_not_followed() {
     let now = 50 * HL_MS;
     let mut src = sources(now);
     src.neighbours[2] = Some(Stamped { value: uav_pos(2), stamp_ms: now - 600 }); // > FS_NBR_TMO
-    src.neighbour_hold[2] = true;
+    src.neighbour_hold = 1 << 2;
     fl.high_level(&t, &src, now);
     assert_eq!(fl.team_mode(), TeamMode::Transport);
     assert!(fl.hold_reasons().is_clear());
@@ -233,7 +233,7 @@ mod wire {
             set(&mut c, &mut io, p, v);
         }
         // The tube: 3 waypoints along +x (north in NED is x: the mission's x is north).
-        let count = MISSION_COUNT_DATA { count: 3, target_system: 1, target_component: COMPANION_COMPONENT_ID, ..Default::default() };
+        let count = MISSION_COUNT_DATA { count: 3, target_system: 1, target_component: COMPANION_COMPONENT_ID };
         c.on_bytes(&frame(255, 190, &count), &mut io);
         for seq in 0..3u16 {
             let item = MISSION_ITEM_INT_DATA {

@@ -588,7 +588,8 @@ pub fn load(path: Option<&Path>) -> Result<LoadedScenario, ScenarioError> {
 pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioError> {
     let mut scenario: Scenario = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of_offset(text, s.start));
-        ScenarioError { source_name: source_name.into(), line, field: None, message: e.message().trim().to_string() }
+        let field = line.and_then(|l| field_at_line(text, l));
+        ScenarioError { source_name: source_name.into(), line, field, message: e.message().trim().to_string() }
     })?;
     let plan = crate::plan::fill_planned_tube(&mut scenario, text, source_name)?.map(std::sync::Arc::new); // issue 16
     let v = Validator { text, source_name };
@@ -598,4 +599,4 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
 
 mod validate;
 
-use validate::{line_of_offset, Validator};
+use validate::{field_at_line, line_of_offset, Validator};

@@ -8,6 +8,27 @@ pub(super) fn line_of_offset(text: &str, offset: usize) -> usize {
     text.get(..offset.min(text.len())).map_or(0, |t| t.matches('\n').count()) + 1
 }
 
+/// The field a `key = value` on 1-based `line` sets, as `table.key` (`faults[1].kind` in the
+/// second `[[faults]]`), for parse errors; `None` on a line without a key.
+pub(super) fn field_at_line(text: &str, line: usize) -> Option<String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let here = lines.get(line.checked_sub(1)?)?.split('#').next().unwrap_or_default();
+    let key = here.split_once('=')?.0.trim();
+    if key.is_empty() || key.starts_with('[') {
+        return None;
+    }
+    let header = lines.get(..line - 1)?.iter().rev().map(|l| l.split('#').next().unwrap_or_default().trim()).find(|l| l.starts_with('['));
+    Some(match header {
+        None => key.to_string(),
+        Some(h) if h.starts_with("[[") => {
+            let table = h.trim_matches(|c| c == '[' || c == ']').trim();
+            let index = lines.get(..line - 1)?.iter().filter(|l| l.split('#').next().unwrap_or_default().trim() == h).count().saturating_sub(1);
+            format!("{table}[{index}].{key}")
+        }
+        Some(h) => format!("{}.{key}", h.trim_matches(|c| c == '[' || c == ']').trim()),
+    })
+}
+
 /// Finds the 1-based line of `key` inside table `table` (`""` for the top level).
 fn line_of_key(text: &str, table: &str, key: &str) -> Option<usize> {
     let mut current = String::new();
