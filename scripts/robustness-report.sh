@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
-for c in nominal nominal-point-mass cable-uncertainty cable-snap uav-silent nominal-levels latency-levels; do
+for c in nominal nominal-point-mass cable-uncertainty cable-snap uav-silent own-feed-stall nominal-levels latency-levels; do
   echo "## $c"
   ./target/release/host-sim sweep "scenarios/campaigns/$c.toml" --out "out/robustness/$c" | sed -n '1,20p'
 done

@@ -18,6 +18,10 @@ const KD_MAX: f32 = 1.0;
 /// Default bound on the integral term `|Ki int e_v|`, m/s², per axis (project choice: about
 /// 0.2 g; the observer carries the cable force, the integral only trims what is left).
 const DEFAULT_INTEGRAL_LIMIT_MPS2: f32 = 2.0;
+/// Time constant of the mean thrust the no-measurement failsafe flies, s (docs/design.md,
+/// "Team failsafe": the mean over a few seconds carries the cable force, the wind and the
+/// integral's trim without the observer's fast swings; 3 s measured best of 0.5-8 s).
+pub const BLIND_HOLD_TAU_S: f32 = 3.0;
 
 /// Diagonal PID gains of eq:2-3, per axis (x east, y north, z up).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -223,8 +227,12 @@ pub struct ThrustOutput {
 /// since the previous call (s). Failsafe ([`Status::InvalidInput`]):
 ///
 /// - `v_meas` non-finite, or `dt_s` non-finite or `<= 0`: no feedback is possible; the output
-///   is the compensated hover thrust `clamp(f_hat - G)` with the last `f_hat` (zero
-///   acceleration expected), the observer and the integral are held.
+///   is the compensated hover, taken as the mean thrust of the last [`BLIND_HOLD_TAU_S`]
+///   (the observer's `f_hat - G` plus the integral's trim, without the observer's fast
+///   swings), minus a brake `m Kp v_blind` on the last measured velocity dead-reckoned
+///   under that brake (`v_blind' = -Kp v_blind`); the integral is held, the observer skips
+///   the step and re-seeds at the next measurement, keeping its slow state
+///   (`docs/design.md`, "Team failsafe").
 /// - `v_cmd` non-finite (measurement fine): the command is taken as zero (brake to a hover),
 ///   the observer runs, the integral is held.
 ///
@@ -263,6 +271,12 @@ pub struct VelocityLoop {
     thrust_applied_n: Vector3<f32>,
     /// `(dt, 1 - exp(-dt / actuator_lag_s))` of the last step (`exp` is costly on the MCU).
     lag_gain: (f32, f32),
+    /// Mean of the thrust returned while measurements were usable, N (time constant
+    /// [`BLIND_HOLD_TAU_S`]): the no-measurement failsafe's hover thrust.
+    thrust_mean_n: Vector3<f32>,
+    /// The last measured velocity, then, without measurements, its dead-reckoned decay under
+    /// the failsafe's braking, m/s.
+    v_blind_mps: Vector3<f32>,
     status: Status,
 }
 
@@ -276,6 +290,8 @@ impl VelocityLoop {
             integral_mps2: Vector3::zeros(),
             thrust_applied_n: hover_vector_n(&params),
             lag_gain: (0.0, 1.0),
+            thrust_mean_n: hover_vector_n(&params),
+            v_blind_mps: Vector3::zeros(),
             status: Status::Ok,
         }
     }
@@ -343,10 +359,20 @@ impl VelocityLoop {
             };
             (demand_n, f_hat_n, e_v, status)
         } else {
-            // No usable measurement: hold the observer, fly the compensated hover.
-            let f_hat_n = self.cfo.estimate_n();
+            // No usable measurement (docs/design.md, "Team failsafe"): the observer skips the
+            // step (it re-seeds on the next measurement, keeping its slow state). The thrust is
+            // the compensated hover, taken as the mean recent thrust (without the observer's
+            // fast swings), minus a brake on the dead-reckoned velocity: the P term of eq:2-3
+            // on `v_blind`, which decays as `v_blind' = -Kp v_blind` if the brake acts as
+            // commanded. The UAV stops within about `|v| / Kp` metres instead of coasting.
+            let f_hat_n = self.cfo.update(v_meas_mps, self.thrust_applied_n, dt_s);
+            let brake_mps2 = p.gains.kp.component_mul(&self.v_blind_mps);
+            if dt_s.is_finite() && dt_s > 0.0 {
+                let decay = Vector3::repeat(1.0) - (p.gains.kp * dt_s).map(|g| g.min(1.0));
+                self.v_blind_mps = self.v_blind_mps.component_mul(&decay);
+            }
             (
-                f_hat_n - weight_n,
+                self.thrust_mean_n - brake_mps2 * m,
                 f_hat_n,
                 Vector3::zeros(),
                 Status::InvalidInput,
@@ -364,6 +390,15 @@ impl VelocityLoop {
 
         if status != Status::InvalidInput {
             self.integrate(&e_v, &excess_n, dt_s);
+        }
+        if meas_ok {
+            // Exponential mean over BLIND_HOLD_TAU_S (explicit Euler, gain at most 1).
+            let k = (dt_s * (1.0 / BLIND_HOLD_TAU_S)).min(1.0);
+            let mean = self.thrust_mean_n + (thrust_n - self.thrust_mean_n) * k;
+            if is_finite(&mean) {
+                self.thrust_mean_n = mean;
+            }
+            self.v_blind_mps = v_meas_mps;
         }
 
         let status = if saturated {
@@ -529,12 +564,14 @@ mod tests {
 
     #[test]
     fn nan_measurement_outputs_compensated_hover_and_holds_state() {
+        // At rest under a constant force for 10 BLIND_HOLD_TAU_S: the mean thrust is the
+        // compensated hover `f - G`, the velocity (hence the brake) zero.
         let p = VelocityLoopParams::default();
         let m = p.mass_kg();
         let mut ctl = VelocityLoop::new(p);
         let f = Vector3::new(2.0, 0.0, 6.0);
         let mut v = Vector3::zeros();
-        for _ in 0..2000 {
+        for _ in 0..(10.0 * BLIND_HOLD_TAU_S / DT_S) as usize {
             let out = ctl.update(Vector3::zeros(), v, DT_S);
             v = plant_step(v, out.thrust_n, f, m);
         }
@@ -543,8 +580,40 @@ mod tests {
         let out = ctl.update(Vector3::zeros(), Vector3::new(f32::NAN, 0.0, 0.0), DT_S);
         assert_eq!(out.status, Status::InvalidInput);
         assert_eq!(out.f_hat_n, f_hat);
-        assert_relative_eq!(out.thrust_n, f_hat - gravity_mps2() * m, epsilon = 1e-5);
+        // The f32 mean stops moving once `|T - mean| dt / tau` is below half an ulp of the
+        // mean: within about 1.5 mN of 25 N here.
+        assert_relative_eq!(out.thrust_n, f - gravity_mps2() * m, epsilon = 3e-3);
         assert_eq!(ctl.integral_mps2(), integral);
+    }
+
+    #[test]
+    fn without_measurements_the_loop_brakes_and_the_observer_resumes_without_a_jump() {
+        // Cruising at 1 m/s east under a constant cable force, then 2 s without measurements:
+        // the dead-reckoned brake stops the UAV (the old compensated hover coasted on at
+        // 1 m/s), and the first measurement after the gap re-seeds the observer.
+        let p = VelocityLoopParams::default();
+        let m = p.mass_kg();
+        let mut ctl = VelocityLoop::new(p);
+        let f = Vector3::new(-3.0, 1.0, 8.0);
+        let v_cmd = Vector3::new(1.0, 0.0, 0.0);
+        let mut v = Vector3::zeros();
+        for _ in 0..(10.0 * BLIND_HOLD_TAU_S / DT_S) as usize {
+            let out = ctl.update(v_cmd, v, DT_S);
+            v = plant_step(v, out.thrust_n, f, m);
+        }
+        assert_relative_eq!(v, v_cmd, epsilon = 0.01);
+        let f_hat = ctl.observer().estimate_n();
+        for _ in 0..(2.0 / DT_S) as usize {
+            let out = ctl.update(Vector3::zeros(), Vector3::repeat(f32::NAN), DT_S);
+            assert_eq!(out.status, Status::InvalidInput);
+            assert!(within_limits(&out.thrust_n, p.limits()));
+            v = plant_step(v, out.thrust_n, f, m);
+        }
+        assert!(v.norm() < 0.05, "braked to {v:?} after 2 s");
+        // The gap is over: no spike in the estimate (the old loop predicted over the gap).
+        let out = ctl.update(Vector3::zeros(), v, DT_S);
+        assert_eq!(out.status, Status::ObserverReset);
+        assert!((out.f_hat_n - f_hat).norm() < 0.5, "f_hat {:?} after the gap, {f_hat:?} before", out.f_hat_n);
     }
 
     #[test]

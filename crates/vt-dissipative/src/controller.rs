@@ -150,6 +150,8 @@ pub struct DissipativeController<const N: usize> {
     vertical: VerticalLoop,
     /// Team hold (docs/design.md, "Team failsafe"): the passing term is off.
     team_hold: bool,
+    /// The own node where the team hold began (its anchor), m.
+    anchor_m: Option<Vec2>,
 }
 
 impl<const N: usize> DissipativeController<N> {
@@ -183,6 +185,7 @@ impl<const N: usize> DissipativeController<N> {
             center_hint: 0,
             vertical: VerticalLoop::new(params.vertical),
             team_hold: false,
+            anchor_m: None,
         })
     }
 
@@ -190,11 +193,16 @@ impl<const N: usize> DissipativeController<N> {
     /// failsafe"): the passing term eq:2-13 of the own node is off and the tray-centre replica
     /// stands still (zero tray velocity), so nothing drives the team along the tube and the
     /// centre springs anchor it; the springs eq:2-5, the tube keeping eq:2-14 and the altitude
-    /// law act as in transport. With the passing potential gone and the centre fixed, the
-    /// spring and barrier energy alone is a Lyapunov function of the node dynamics: the team
-    /// comes to rest in its formation around the held centre, inside the tube.
+    /// law act as in transport. Once a neighbour is missing during the hold, a spring of rest
+    /// length 0 also holds the own node where it was then. With the passing potential gone and
+    /// the centre (and anchor) fixed, the spring and barrier energy alone is a Lyapunov
+    /// function of the node dynamics: the team comes to rest in its formation around the held
+    /// centre, inside the tube.
     pub fn set_team_hold(&mut self, hold: bool) {
         self.team_hold = hold;
+        if !hold {
+            self.anchor_m = None;
+        }
     }
 
     /// True while the team hold is on.
@@ -254,8 +262,16 @@ impl<const N: usize> DissipativeController<N> {
             return self.hold(m, status);
         };
         self.own_hint = sec.segment;
-        // Team hold: no passing term (docs/design.md, "Team failsafe").
-        let mut vbar = if self.team_hold { Vec2::zeros() } else { passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) };
+        // Team hold (docs/design.md, "Team failsafe"): no passing term. Once a neighbour is
+        // missing during the hold, a spring of rest length 0 holds the own node where it was
+        // then: the missing springs no longer fix its place on the formation's ring.
+        let mut vbar = Vec2::zeros();
+        if !self.team_hold {
+            vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps);
+        } else if status.neighbours_dropped > 0 || self.anchor_m.is_some() {
+            let anchor = *self.anchor_m.get_or_insert(q_i);
+            vbar = spring_velocity(&q_i, &anchor, 0.0, p.k2, true).0;
+        }
         for (j, (q_j, rest)) in nodes.iter().zip(self.rest_own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
                 let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
@@ -590,6 +606,38 @@ mod tests {
         hold.update(&t, &m, DT_S);
         assert_eq!(hold.tray_center_m(), c0);
         assert!(go.tray_center_m().x > c0.x);
+    }
+
+    #[test]
+    fn in_team_hold_a_missing_neighbour_anchors_the_own_node_where_the_hold_began() {
+        // UAV 0 of four in team hold loses UAV 2: from then on a zero-length spring pulls its
+        // node back to where it was (k2 times the offset, the load at rest); with every
+        // neighbour present no anchor acts.
+        let (uavs, load) = takeoff(4, 8.0);
+        let t = tube();
+        let mut c = team(4, &uavs, &load).swap_remove(0);
+        c.set_team_hold(true);
+        let all = neighbours(&uavs);
+        let m = |own: Vec3, nb| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: None };
+        let at_rest = c.update(&t, &m(uavs[0], &all), DT_S).vel_mps;
+        assert!(at_rest.xy().norm() < 1e-4, "formation at rest, all neighbours: {at_rest:?}");
+        let partial = [Some(uavs[0]), Some(uavs[1]), None, Some(uavs[3])];
+        c.update(&t, &m(uavs[0], &partial), DT_S); // anchored here
+        let moved = uavs[0] + Vec3::new(0.3, 0.0, 0.0);
+        let with_anchor = c.update(&t, &m(moved, &partial), DT_S).vel_mps;
+        let mut free = team(4, &uavs, &load).swap_remove(0);
+        free.set_team_hold(true);
+        let without = free.update(&t, &m(moved, &partial), DT_S).vel_mps;
+        let ratio = (uavs[0].z - load.z) / params().tray.height_above_load_m;
+        let node_offset = params().tray.project(&moved, &load).0 - params().tray.project(&uavs[0], &load).0;
+        assert_relative_eq!(with_anchor.xy() - without.xy(), -node_offset * params().k2 * ratio, epsilon = 1e-4);
+        // The hold ends: the anchor is forgotten.
+        c.set_team_hold(false);
+        c.set_team_hold(true);
+        let fresh = c.update(&t, &m(moved, &all), DT_S).vel_mps;
+        free.set_team_hold(false);
+        free.set_team_hold(true);
+        assert_eq!(fresh, free.update(&t, &m(moved, &all), DT_S).vel_mps);
     }
 
     #[test]
