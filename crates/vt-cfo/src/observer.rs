@@ -228,9 +228,7 @@ impl Cfo {
             && dt_s > 0.0;
         if !input_ok {
             // Skip, keep the state; the prediction no longer matches the next measurement.
-            self.seeded = false;
-            self.status = Status::InvalidInput;
-            return self.estimate_n();
+            return self.skip();
         }
         if !self.seeded {
             // First measurement since new()/reset(), or the first after skipped steps.
@@ -271,6 +269,15 @@ impl Cfo {
             self.thrust_last_n = thrust_applied_n;
             self.status = Status::ObserverReset;
         }
+        self.estimate_n()
+    }
+
+    /// A step without a usable measurement (what [`update`](Self::update) does with one): the
+    /// state is kept and the next valid measurement re-seeds the prediction (keeping the slow
+    /// state `z`). Returns the estimate `f_hat`, N.
+    pub fn skip(&mut self) -> Vector3<f32> {
+        self.seeded = false;
+        self.status = Status::InvalidInput;
         self.estimate_n()
     }
 

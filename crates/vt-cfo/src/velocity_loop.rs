@@ -274,8 +274,10 @@ pub struct VelocityLoop {
     /// Mean of the thrust returned while measurements were usable, N (time constant
     /// [`BLIND_HOLD_TAU_S`]): the no-measurement failsafe's hover thrust.
     thrust_mean_n: Vector3<f32>,
-    /// The last measured velocity, then, without measurements, its dead-reckoned decay under
-    /// the failsafe's braking, m/s.
+    /// `(dt, dt / BLIND_HOLD_TAU_S)` of the last step with a measurement.
+    mean_gain: (f32, f32),
+    /// Without measurements: the velocity, dead-reckoned from the observer's last estimate
+    /// under the failsafe's braking, m/s.
     v_blind_mps: Vector3<f32>,
     status: Status,
 }
@@ -291,6 +293,7 @@ impl VelocityLoop {
             thrust_applied_n: hover_vector_n(&params),
             lag_gain: (0.0, 1.0),
             thrust_mean_n: hover_vector_n(&params),
+            mean_gain: (0.0, 0.0),
             v_blind_mps: Vector3::zeros(),
             status: Status::Ok,
         }
@@ -365,7 +368,12 @@ impl VelocityLoop {
             // fast swings), minus a brake on the dead-reckoned velocity: the P term of eq:2-3
             // on `v_blind`, which decays as `v_blind' = -Kp v_blind` if the brake acts as
             // commanded. The UAV stops within about `|v| / Kp` metres instead of coasting.
-            let f_hat_n = self.cfo.update(v_meas_mps, self.thrust_applied_n, dt_s);
+            if self.status != Status::InvalidInput {
+                // The first step without: start from the observer's velocity estimate (the
+                // last measurement, predicted one step).
+                self.v_blind_mps = self.cfo.velocity_estimate_mps();
+            }
+            let f_hat_n = self.cfo.skip();
             let brake_mps2 = p.gains.kp.component_mul(&self.v_blind_mps);
             if dt_s.is_finite() && dt_s > 0.0 {
                 let decay = Vector3::repeat(1.0) - (p.gains.kp * dt_s).map(|g| g.min(1.0));
@@ -392,13 +400,13 @@ impl VelocityLoop {
             self.integrate(&e_v, &excess_n, dt_s);
         }
         if meas_ok {
-            // Exponential mean over BLIND_HOLD_TAU_S (explicit Euler, gain at most 1).
-            let k = (dt_s * (1.0 / BLIND_HOLD_TAU_S)).min(1.0);
-            let mean = self.thrust_mean_n + (thrust_n - self.thrust_mean_n) * k;
-            if is_finite(&mean) {
-                self.thrust_mean_n = mean;
+            // Exponential mean over BLIND_HOLD_TAU_S (explicit Euler, gain at most 1; the gain
+            // is recomputed only when `dt` changes). Finite: `thrust_n` is (replaced by the
+            // hover if not), and the gain is in (0, 1].
+            if self.mean_gain.0 != dt_s {
+                self.mean_gain = (dt_s, (dt_s * (1.0 / BLIND_HOLD_TAU_S)).min(1.0));
             }
-            self.v_blind_mps = v_meas_mps;
+            self.thrust_mean_n += (thrust_n - self.thrust_mean_n) * self.mean_gain.1;
         }
 
         let status = if saturated {
