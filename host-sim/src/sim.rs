@@ -10,7 +10,7 @@ use crate::scenario::{LoadedScenario, Scenario, SimTube};
 use crate::summary::Summary;
 use nalgebra::Vector3;
 use vt_cfo::{CfoParams, PidGains, ThrustLimits, VelocityLoop, VelocityLoopParams};
-use vt_dissipative::{DissipativeParams, TrayParams, VerticalParams};
+use vt_dissipative::{CapacityParams, DissipativeParams, TrayParams, VerticalParams};
 
 type V3 = Vector3<f64>;
 type V3f = Vector3<f32>;
@@ -113,7 +113,7 @@ pub fn takeoff(s: &Scenario, tube: &SimTube, f_max_n: f64) -> Takeoff {
 pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64], stiffness_n_per_m: &[f64]) -> Takeoff {
     let n = lengths_m.len();
     let h_tray = s.controller.tray_height_m;
-    let r = s.uavs.formation_radius_m;
+    let r = s.uavs.formation_radius_m * takeoff_scale(s);
     let cos_lean = h_tray / (h_tray * h_tray + r * r).sqrt();
     let weight = s.load.mass_kg * GRAVITY_MPS2;
     let share = weight / (n as f64 * cos_lean);
@@ -136,6 +136,19 @@ pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64
         })
         .collect();
     Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin }
+}
+
+/// Scale of the take-off formation: the capacity-aware formation's `lambda*` for the declared
+/// load (issue 15; the team lifts the load in the formation the law chooses), 1 when the law is
+/// off or rejects the scenario (validation reports the scenario's errors).
+pub fn takeoff_scale(s: &Scenario) -> f64 {
+    let cap = capacity_params(s);
+    if !(cap.load_mass_kg > 0.0) {
+        return 1.0;
+    }
+    let lengths: Vec<f32> = s.cables.lengths_m.iter().map(|&l| l as f32).collect();
+    vt_dissipative::capacity::plan_circle(s.uavs.formation_radius_m as f32, &lengths, s.controller.tray_height_m as f32, &cap)
+        .map_or(1.0, |p| f64::from(p.scale))
 }
 
 /// The altitude law's parameters for a UAV whose cable is `cable_m` long (calibrated at
@@ -174,6 +187,22 @@ pub fn dissipative_params(s: &Scenario, cable_m: f64, to: &Takeoff) -> Dissipati
 /// The tray used by the dissipative controller and by the formation metric.
 pub fn tray(s: &Scenario) -> TrayParams {
     TrayParams { height_above_load_m: s.controller.tray_height_m as f32, ..TrayParams::default() }
+}
+
+/// The capacity-aware formation's parameters (issue 15): the declared load `load.mass_kg`
+/// (0 when `[controller.capacity] enabled = false`: the law is off), the rated capacity per
+/// UAV, and `[controller.capacity]`.
+pub fn capacity_params(s: &Scenario) -> CapacityParams {
+    let c = &s.controller.capacity;
+    CapacityParams {
+        load_mass_kg: if c.enabled { s.load.mass_kg as f32 } else { 0.0 },
+        uav_capacity_n: s.cables.rated_n as f32,
+        margin: c.margin as f32,
+        separation_m: c.separation_m.unwrap_or(s.mission.safety_distance_m + s.controller.r_safe_m) as f32,
+        rate_per_s: c.rate_per_s as f32,
+        sag_start_m: c.sag_start_m as f32,
+        sag_full_m: c.sag_full_m as f32,
+    }
 }
 
 /// Builds the velocity loop of one UAV from the scenario, with the observer tuning of its UAV

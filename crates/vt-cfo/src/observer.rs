@@ -317,6 +317,23 @@ impl Cfo {
         self.status
     }
 
+    /// Presets the disturbance estimate to `f_hat_n` (N, ENU; non-finite: ignored) with
+    /// `thrust_applied_n` as the last thrust, keeping the prediction unseeded: a warm start at
+    /// mission start when the cable force is already known from the declared load
+    /// (docs/design.md, "Capacity-aware formation": bumpless transfer). `f_hat = -m a_hat`
+    /// (REFERENCE §4), so `z = a_hat = -f_hat / m`.
+    pub fn preload(&mut self, f_hat_n: Vector3<f32>, thrust_applied_n: Vector3<f32>) {
+        let a = -f_hat_n / self.params.mass_kg;
+        if !(is_finite(&a) && is_finite(&thrust_applied_n)) {
+            return;
+        }
+        self.z_mps2 = a;
+        self.a_hat_mps2 = a;
+        self.innovation_mps = Vector3::zeros();
+        self.thrust_last_n = thrust_applied_n;
+        self.seeded = false;
+    }
+
     /// Starts the prediction at the measurement, keeping the disturbance state `z`.
     fn seed(&mut self, v_meas_mps: Vector3<f32>, thrust_applied_n: Vector3<f32>) {
         self.v_hat_mps = v_meas_mps;

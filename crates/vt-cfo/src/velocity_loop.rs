@@ -304,6 +304,20 @@ impl VelocityLoop {
         self.status
     }
 
+    /// Warm start at mission start: the observer's cable-force estimate preset to `f_hat_n`
+    /// (N, ENU) and the last thrust to the one that balances it, `f_hat - G` (eq:2-3 with zero
+    /// velocity error), so that the first steps hold the hover the vehicle is in instead of
+    /// dropping to `-G` while the observer converges from zero (docs/design.md, "Capacity-aware
+    /// formation"). A non-finite `f_hat_n` leaves the loop unchanged.
+    pub fn preload(&mut self, f_hat_n: Vector3<f32>) {
+        let thrust_n = f_hat_n - self.params.cfo.weight_n();
+        if !is_finite(&thrust_n) {
+            return;
+        }
+        self.cfo.preload(f_hat_n, thrust_n);
+        self.thrust_applied_n = thrust_n;
+    }
+
     /// Back to the state of [`new`](Self::new).
     pub fn reset(&mut self) {
         *self = Self::new(self.params);

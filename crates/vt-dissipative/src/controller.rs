@@ -12,6 +12,7 @@
 //! With the same inputs all replicas coincide; with delayed or dropped data they differ
 //! slightly, which the springs tolerate (the centre only sets a weak shape reference).
 
+use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, Formation, NodeId};
@@ -148,6 +149,8 @@ pub struct DissipativeController<const N: usize> {
     own_hint: usize,
     center_hint: usize,
     vertical: VerticalLoop,
+    /// Capacity-aware formation scale (`FormationScale::NEUTRAL` unless configured).
+    scale: FormationScale,
 }
 
 impl<const N: usize> DissipativeController<N> {
@@ -180,7 +183,22 @@ impl<const N: usize> DissipativeController<N> {
             own_hint: 0,
             center_hint: 0,
             vertical: VerticalLoop::new(params.vertical),
+            scale: FormationScale::NEUTRAL,
         })
+    }
+
+    /// The same controller with the capacity-aware formation law (docs/design.md,
+    /// "Capacity-aware formation"): rest lengths scaled by `scale`'s `lambda`, the passing
+    /// term by its progress factor. Without it the controller is the paper's, bit for bit.
+    #[must_use]
+    pub fn with_capacity(mut self, scale: FormationScale) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// The formation scale `lambda` now (1 = the take-off formation).
+    pub fn formation_scale(&self) -> f32 {
+        self.scale.scale()
     }
 
     /// This controller's UAV id.
@@ -215,6 +233,10 @@ impl<const N: usize> DissipativeController<N> {
         let load_xy = m.load_pos_m.xy();
         let (q_i, floored) = p.tray.project(&m.own_pos_m, &m.load_pos_m);
         status.projection_floored = floored;
+        // Capacity-aware formation: rest lengths x lambda, passing x progress (capacity.rs).
+        let so = self.scale.update(m.load_pos_m.z, p.vertical.load_altitude_ref_m, dt_s);
+        status.overload = so.overload > 0.0;
+        let lam = so.scale;
 
         // Neighbour nodes (eq:2-4), dropped when missing or non-finite.
         let mut nodes: [Option<Vec2>; N] = [None; N];
@@ -235,24 +257,24 @@ impl<const N: usize> DissipativeController<N> {
             return self.hold(m, status);
         };
         self.own_hint = sec.segment;
-        let mut vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps);
+        let mut vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) * so.progress;
         for (j, (q_j, rest)) in nodes.iter().zip(self.rest_own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
-                let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
+                let (v, c) = spring_velocity(&q_i, q_j, *rest * lam, p.k2, self.id < j);
                 vbar += v;
                 status.coincident_nodes |= c;
             }
         }
-        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest_own_load_m, p.k2, true);
-        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest_own_center_m, p.k2, true);
+        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest_own_load_m * lam, p.k2, true);
+        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest_own_center_m * lam, p.k2, true);
         status.coincident_nodes |= c_l | c_u;
-        let (v_t, d_t) = keeping_velocity(&sec, &q_i, &self.barrier);
+        let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         status.outside_tube = d_t <= 0.0;
         vbar += v_l + v_u + v_t;
 
         // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler.
         if dt_s.is_finite() && dt_s > 0.0 {
-            self.step_center(tube, &nodes, dt_s, &mut status);
+            self.step_center(tube, &nodes, lam, so.progress, dt_s, &mut status);
         }
 
         // Map back to the UAV (eq:2-20) and saturate (eq:2-21).
@@ -274,17 +296,37 @@ impl<const N: usize> DissipativeController<N> {
         }
     }
 
-    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], dt_s: f32, status: &mut Status) {
+    /// Tube-keeping term (eq:2-14/15) in node velocity, and the boundary distance it keeps.
+    /// Normally at the own node: below the tray plane the UAV lies between the load and its
+    /// node, so a node inside the tube keeps the UAV inside. A UAV higher than `H` above the
+    /// load (the load sank far below its reference: overload) lies *beyond* its node; the term
+    /// is then evaluated at the UAV's own horizontal position and scaled by `H / (z_i - z_l)`,
+    /// so that eq:2-20 hands the UAV exactly the barrier velocity of its own position
+    /// (docs/design.md, "Overload in flight").
+    fn keeping<const S: usize>(&mut self, tube: &Tube<S>, sec: &vt_tube::Section, q_i: &Vec2, m: &Measurements<'_>) -> (Vec2, f32) {
+        let h = self.params.tray.height_above_load_m;
+        let dz = m.own_pos_m.z - m.load_pos_m.z;
+        if dz > h {
+            let p_i = m.own_pos_m.xy();
+            if let Some(s_uav) = tube.locate(p_i, sec.segment) {
+                let (v, d) = keeping_velocity(&s_uav, &p_i, &self.barrier);
+                return (v * (h / dz), d);
+            }
+        }
+        keeping_velocity(sec, q_i, &self.barrier)
+    }
+
+    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], lam: f32, progress: f32, dt_s: f32, status: &mut Status) {
         let p = &self.params;
         let q_u = self.center_m;
         let Some(sec) = tube.locate(q_u, self.center_hint) else {
             return;
         };
         self.center_hint = sec.segment;
-        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps);
+        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps) * progress;
         for (q_j, rest) in nodes.iter().zip(self.rest_center_m.iter()).take(self.n) {
             if let Some(q_j) = q_j {
-                let (vs, c) = spring_velocity(&q_u, q_j, *rest, p.k2, false);
+                let (vs, c) = spring_velocity(&q_u, q_j, *rest * lam, p.k2, false);
                 v += vs;
                 status.coincident_nodes |= c;
             }

@@ -11,6 +11,7 @@
 //! - [`springs`]: virtual springs eq:2-5 .. eq:2-7 and their energy (Prop. 1).
 //! - [`passing`]: passing term eq:2-13. [`keeping`]: tube-keeping term eq:2-14/eq:2-15.
 //! - [`vertical`]: the altitude law (the paper gives none; see `docs/design.md`).
+//! - [`capacity`]: the capacity-aware formation (Remark 1 made automatic; issue 15).
 //! - [`controller`]: one UAV's distributed command, synthesis eq:2-16 and saturation eq:2-21.
 //! - [`baseline`]: traditional virtual-tube control (no springs, robot-robot barrier).
 #![cfg_attr(not(test), no_std)]
@@ -19,6 +20,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 pub mod baseline;
+pub mod capacity;
 pub mod controller;
 mod error;
 pub mod keeping;
@@ -29,6 +31,7 @@ pub mod tray;
 pub mod vertical;
 
 pub use baseline::{BaselineController, BaselineParams};
+pub use capacity::{CapacityParams, CapacityPlan, FormationScale};
 pub use controller::{Command, DissipativeController, DissipativeParams, Measurements};
 pub use error::ControlError;
 pub use springs::Formation;

@@ -23,7 +23,7 @@
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{thrust_to_attitude, VelocityLoop};
-use vt_dissipative::{Command, DissipativeController, Formation, Measurements};
+use vt_dissipative::{capacity, Command, DissipativeController, Formation, FormationScale, Measurements};
 
 use crate::frames::{finite3, ned_frd_quaternion};
 use crate::params::{Param, Params};
@@ -184,13 +184,24 @@ impl Flight {
         let tray = params.tray();
         let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray)
             .map_err(StartError::Controller)?;
-        let high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+        // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
+        let cap = params.capacity().map_err(StartError::Controller)?;
+        let plan = capacity::plan_from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray, &cap)
+            .map_err(StartError::Controller)?;
+        let high = DissipativeController::new(id, dissipative, &formation)
+            .map_err(StartError::Controller)?
+            .with_capacity(FormationScale::new(&plan, &cap));
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
+        let mut low = VelocityLoop::new(vl);
+        // Warm start with the declared load's share (bumpless transfer; capacity.rs).
+        if let Some(f) = capacity::takeoff_cable_force_n(&own.pos_m, &load.pos_m, cap.load_mass_kg, n) {
+            low.preload(f);
+        }
         Ok(Self {
             id,
             n,
             high,
-            low: VelocityLoop::new(vl),
+            low,
             heading: params.heading(),
             thrust_max_n: vl.limits().thrust_max_n(),
             hover_n: vl.hover_thrust_n(),

@@ -10,7 +10,7 @@
 
 use nalgebra::{Unit, Vector2, Vector3};
 use vt_cfo::{CfoError, CfoParams, PidGains, ThrustLimits, VelocityLoopParams};
-use vt_dissipative::{ControlError, DissipativeParams, TrayParams, VerticalParams};
+use vt_dissipative::{CapacityParams, ControlError, DissipativeParams, TrayParams, VerticalParams};
 
 /// One parameter's description.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,6 +111,13 @@ params! {
     ActLag => real("VL_ACT_LAG", 0.0, 0.0, 1.0), "Time constant of the thrust the autopilot realises, as the CFO models it, s (0: thrust = command).";
     Mass => real("VL_MASS", 1.47, 0.0, 1.0e3), "UAV mass, kg.";
     Yaw => real("VL_YAW", 0.0, -3.15, 3.15), "Heading held while transporting, rad (NED yaw: 0 north, pi/2 east).";
+    LoadKg => real("VT_LOAD_KG", 0.0, 0.0, 1.0e4), "Declared load mass, kg (0: not declared, capacity-aware formation off).";
+    CapN => real("VT_CAP_N", 20.0, 0.0, FORCE_MAX_N), "Vertical pull one UAV may give its cable, N (the paper's `f_max`).";
+    CapMargin => real("VT_CAP_MRG", 0.05, 0.0, 10.0), "Capacity margin the formation is chosen for.";
+    SepMin => real("VT_SEP_MIN", 0.9, 0.0, LENGTH_MAX_M), "Smallest UAV-UAV distance the adapted formation keeps, m.";
+    CapRate => real("VT_CAP_RATE", 0.2, 0.0, 100.0), "Largest closing rate of the formation scale, 1/s (opens at a quarter of it).";
+    SagLo => real("VT_SAG_LO", 0.3, 0.0, LENGTH_MAX_M), "Load sag where the overload response begins, m.";
+    SagHi => real("VT_SAG_HI", 0.8, 0.0, LENGTH_MAX_M), "Load sag where the overload response is complete, m.";
 }
 
 /// Number of parameters.
@@ -239,6 +246,25 @@ impl Params {
         Ok(params)
     }
 
+    /// The capacity-aware formation's parameters (validated by `vt-dissipative`; issue 15).
+    ///
+    /// # Errors
+    /// The crate's [`ControlError`] naming the field.
+    pub fn capacity(&self) -> Result<CapacityParams, ControlError> {
+        let g = |p| self.get(p);
+        let params = CapacityParams {
+            load_mass_kg: g(Param::LoadKg),
+            uav_capacity_n: g(Param::CapN),
+            margin: g(Param::CapMargin),
+            separation_m: g(Param::SepMin),
+            rate_per_s: g(Param::CapRate),
+            sag_start_m: g(Param::SagLo),
+            sag_full_m: g(Param::SagHi),
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
     /// The virtual tray.
     pub fn tray(&self) -> TrayParams {
         TrayParams { height_above_load_m: self.get(Param::TrayH), min_height_above_load_m: self.get(Param::TrayHMin) }
@@ -306,6 +332,7 @@ mod tests {
         let p = Params::new();
         p.dissipative().unwrap();
         p.velocity_loop().unwrap();
+        assert_eq!(p.capacity().unwrap().load_mass_kg, 0.0, "capacity law off by default");
         assert_eq!(p.low_per_high(), Some(10));
         assert_eq!(p.own_system_id(), 1);
     }

@@ -12,7 +12,7 @@ use crate::sim::{self, ControllerKind, SimError, Takeoff};
 use nalgebra::{UnitVector2, Vector2, Vector3};
 use vt_cfo::{thrust_to_attitude, VelocityLoop};
 use vt_companion::frames::ned_frd_quaternion;
-use vt_dissipative::{BaselineController, BaselineParams, Command, DissipativeController, Formation, Measurements};
+use vt_dissipative::{capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements};
 
 pub use vt_companion::flight::Setpoint;
 
@@ -146,11 +146,17 @@ impl Team for CrateTeam {
         let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own, &start.tick.load.pos_m, &tray)
             .map_err(|e| SimError(format!("formation: {e}")))?;
         let cal = |i: usize| start.calibrated_len_m.get(i).copied().unwrap_or(0.0);
+        // Capacity-aware formation (issue 15): one plan from the take-off measurement, as in the
+        // companion's Flight::start.
+        let cap = sim::capacity_params(s);
+        let plan = capacity::plan_from_takeoff(&own, &start.tick.load.pos_m, &tray, &cap).map_err(|e| SimError(format!("capacity: {e}")))?;
+        let scale = FormationScale::new(&plan, &cap);
         self.high = Some(match self.kind {
             ControllerKind::Dissipative => HighLevel::Dissipative(
                 (0..n)
                     .map(|i| {
                         DissipativeController::new(i, sim::dissipative_params(s, cal(i), start.takeoff), &formation)
+                            .map(|c| c.with_capacity(scale))
                             .map_err(|e| SimError(format!("controller: {e}")))
                     })
                     .collect::<Result<_, _>>()?,
@@ -175,6 +181,13 @@ impl Team for CrateTeam {
         });
         self.tube = Some(ls.tube.clone());
         self.low = (0..n).map(|_| sim::velocity_loop(s)).collect::<Result<_, _>>()?;
+        // Warm start with the declared load's share (capacity.rs; the companion's Flight::start).
+        let cap = sim::capacity_params(s);
+        for (l, m) in self.low.iter_mut().zip(start.tick.own) {
+            if let Some(f) = capacity::takeoff_cable_force_n(&m.pos_m, &start.tick.load.pos_m, cap.load_mass_kg, n) {
+                l.preload(f);
+            }
+        }
         self.thrust_max_n = self.low.first().map_or(0.0, |l| l.params().limits().thrust_max_n());
         self.hover_n = self.low.iter().map(|l| l.params().hover_thrust_n()).collect();
         self.vel_cmd = vec![V3f::zeros(); n];

@@ -92,6 +92,7 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
     let tray = sim::tray(s);
     let c = &s.controller;
     let r = &s.rates;
+    let cap = sim::capacity_params(s);
     let configs = (0..n)
         .map(|i| {
             let cable_m = calibrated_len_m.get(i).copied().unwrap_or(0.0);
@@ -146,6 +147,13 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
                 (Param::ActLag, p.actuator_lag_s()),
                 (Param::Mass, p.mass_kg()),
                 (Param::Yaw, 0.0),
+                (Param::LoadKg, cap.load_mass_kg),
+                (Param::CapN, cap.uav_capacity_n),
+                (Param::CapMargin, cap.margin),
+                (Param::SepMin, cap.separation_m),
+                (Param::CapRate, cap.rate_per_s),
+                (Param::SagLo, cap.sag_start_m),
+                (Param::SagHi, cap.sag_full_m),
             ];
             UavConfig { system_id: SYSID_BASE + i as u8, params, waypoints: waypoints.clone() }
         })

@@ -256,6 +256,18 @@ pub struct LoadSpec {
     /// Start: arc length along the tube where the load starts, m.
     #[serde(default = "default_start_s")]
     pub start_s_m: f64,
+    /// Mass the plant's load really has, kg, when it differs from the declared `mass_kg`
+    /// (overload in flight, issue 15). Controllers, the take-off geometry and the checks use
+    /// `mass_kg`; only the plant flies `true_mass_kg` (times `disturbances.load_mass_error`).
+    #[serde(default)]
+    pub true_mass_kg: Option<f64>,
+}
+
+impl LoadSpec {
+    /// The plant's load mass before disturbance draws, kg: `true_mass_kg`, else `mass_kg`.
+    pub fn plant_mass_kg(&self) -> f64 {
+        self.true_mass_kg.unwrap_or(self.mass_kg)
+    }
 }
 
 fn default_start_s() -> f64 {
@@ -349,6 +361,9 @@ pub struct ControllerSpec {
     /// Bound on the sharing altitude offset, m.
     #[serde(default)]
     pub share_offset_max_m: f64,
+    /// Capacity-aware formation (issue 15).
+    #[serde(default)]
+    pub capacity: CapacitySpec,
 }
 
 fn one() -> f64 {
@@ -551,6 +566,9 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
     Ok(LoadedScenario { scenario, source_name: source_name.into(), tube, plan })
 }
 
+mod capacity;
 mod validate;
+
+pub use capacity::CapacitySpec;
 
 use validate::{line_of_offset, Validator};

@@ -80,6 +80,9 @@ impl Validator<'_> {
         }
         // Masses, thrust, cables.
         self.positive("load", "mass_kg", s.load.mass_kg)?;
+        if let Some(m) = s.load.true_mass_kg {
+            self.positive("load", "true_mass_kg", m)?;
+        }
         self.positive("load", "altitude_m", s.load.altitude_m)?;
         self.non_negative("load", "start_s_m", s.load.start_s_m)?;
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
@@ -127,6 +130,16 @@ impl Validator<'_> {
         }
         if !(c.r_active_m.is_finite() && c.r_active_m > c.r_safe_m) {
             return Err(self.err("controller", "r_active_m", format!("must be > r_safe_m = {} (got {})", c.r_safe_m, c.r_active_m)));
+        }
+        let cap = &c.capacity;
+        self.non_negative("controller.capacity", "margin", cap.margin)?;
+        if let Some(sep) = cap.separation_m {
+            self.positive("controller.capacity", "separation_m", sep)?;
+        }
+        self.positive("controller.capacity", "rate_per_s", cap.rate_per_s)?;
+        self.positive("controller.capacity", "sag_start_m", cap.sag_start_m)?;
+        if !(cap.sag_full_m.is_finite() && cap.sag_full_m > cap.sag_start_m) {
+            return Err(self.err("controller.capacity", "sag_full_m", format!("must be > sag_start_m = {} (got {})", cap.sag_start_m, cap.sag_full_m)));
         }
         let bl = &s.baseline;
         for (k, v) in [("k1", bl.k1), ("k2", bl.k2), ("k3", bl.k3), ("v_max_mps", bl.v_max_mps), ("r_safe_m", bl.r_safe_m)] {
@@ -230,7 +243,7 @@ impl Validator<'_> {
         }
         // Cable stiffness against the integrator's sub-step (docs/plant.md).
         let h = 1.0 / (f64::from(s.rates.plant_hz) * f64::from(s.rates.plant_substeps.max(1)));
-        match check_cable_integration(s.cables.stiffness_n_per_m, s.cables.damping_ns_per_m, s.uavs.mass_kg, s.load.mass_kg, h) {
+        match check_cable_integration(s.cables.stiffness_n_per_m, s.cables.damping_ns_per_m, s.uavs.mass_kg, s.load.mass_kg.min(s.load.plant_mass_kg()), h) {
             Ok(()) => {}
             Err(StiffnessError::Stiffness { omega_h }) => {
                 return Err(self.err("cables", "stiffness_n_per_m", format!(
