@@ -353,7 +353,7 @@ fn write_sweep(out: &std::path::Path, rows: &[host_sim::campaign::Row], rep: &ho
         host_sim::plots::write_xy_plot(
             &out.join("success_rate_vs_level.png"),
             &format!("Success rate - {} (level: {key})", rep.scenario),
-            "disturbance level",
+            level_axis(&key),
             "success rate [%]",
             &[("success rate".to_string(), pts)],
             &[0.0, 100.0],
@@ -361,6 +361,17 @@ fn write_sweep(out: &std::path::Path, rows: &[host_sim::campaign::Row], rep: &ho
         .map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+/// The x-axis label of a level sweep: what the levels set (issue 15 added the load sweeps).
+fn level_axis(key: &str) -> &'static str {
+    match key {
+        "load.mass_kg" => "load mass [kg]",
+        "load.true_mass_kg" => "true load mass [kg] (declared: load.mass_kg)",
+        "disturbances.latency_s" => "sensor latency [s]",
+        "disturbances.intensity" => "disturbance intensity (x nominal)",
+        _ => "level",
+    }
 }
 
 /// `host-sim plan` (issue 16).

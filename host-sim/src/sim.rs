@@ -213,6 +213,7 @@ pub fn velocity_loop(s: &Scenario) -> Result<VelocityLoop, SimError> {
     let gains = PidGains { kp: f(vl.kp), ki: f(vl.ki), kd: f(vl.kd) };
     let thrust_max = s.uavs.thrust_max_n as f32;
     let limits = ThrustLimits::new(0.05 * thrust_max, thrust_max, s.uavs.tilt_max_deg.to_radians() as f32)
+        .and_then(|l| l.with_horizontal_reserve(vl.horizontal_reserve(s.uavs.model) as f32))
         .map_err(|e| SimError(format!("uavs: {e}")))?;
     let (bandwidth, lag) = vl.tuning(s.uavs.model);
     let cfo = CfoParams::new(bandwidth as f32, s.uavs.mass_kg as f32, 1.0 / s.rates.low_level_hz as f32)

@@ -106,7 +106,7 @@ impl VelocityLoopParams {
             return Err(CfoError::InvalidIntegralLimit { axis });
         }
         let hover_n = cfo.mass_kg() * GRAVITY_MPS2;
-        if !(hover_n >= limits.thrust_min_n() && hover_n <= limits.thrust_max_n()) {
+        if !(hover_n >= limits.thrust_min_n() && hover_n <= limits.vertical_max_n()) {
             return Err(CfoError::HoverOutsideThrustLimits { hover_n });
         }
         Ok(Self {
@@ -539,6 +539,41 @@ mod tests {
             Vector3::new(0.0, 0.0, 2.0 * GRAVITY_MPS2),
             epsilon = 1e-5
         );
+    }
+
+    /// Warm start (`preload`): hovering on a cable that pulls with `f`, the preloaded loop holds
+    /// the hover from the first step; a cold one first drops to `-G` and sinks while the observer
+    /// converges. Same plant, same `f`, with and without the actuator lag.
+    #[test]
+    fn preloaded_loop_holds_the_hover_it_starts_in() {
+        for lag in [0.0, 0.05] {
+            let p = VelocityLoopParams::default().with_actuator_lag(lag).unwrap();
+            let m = p.mass_kg();
+            let f = Vector3::new(3.0, -1.0, 18.0); // cable term (the cable pulls with -f)
+            let sink = |preload: bool| {
+                let mut ctl = VelocityLoop::new(p);
+                if preload {
+                    ctl.preload(f);
+                }
+                let mut v = Vector3::zeros();
+                let mut applied = f - gravity_mps2() * m; // the vehicle trimmed in hover
+                let mut worst = 0.0f32;
+                for _ in 0..500 {
+                    let out = ctl.update(Vector3::zeros(), v, DT_S);
+                    applied = if lag > 0.0 { applied + (out.thrust_n - applied) * (DT_S / lag) } else { out.thrust_n };
+                    v = plant_step(v, applied, f, m);
+                    worst = worst.max(v.norm());
+                }
+                worst
+            };
+            let (warm, cold) = (sink(true), sink(false));
+            assert!(warm < 1e-3, "lag {lag}: preloaded loop moved at {warm} m/s");
+            assert!(cold > 0.1, "lag {lag}: cold start moved only at {cold} m/s");
+        }
+        // A non-finite preload changes nothing.
+        let mut a = VelocityLoop::new(VelocityLoopParams::default());
+        a.preload(Vector3::new(f32::NAN, 0.0, 1.0));
+        assert_eq!(a, VelocityLoop::new(VelocityLoopParams::default()));
     }
 
     #[test]

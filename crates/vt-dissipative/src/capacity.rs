@@ -411,10 +411,12 @@ impl FormationScale {
         if !(params.load_mass_kg > 0.0) {
             return Self::NEUTRAL;
         }
-        let lo = plan.scale_min.max(SCALE_FLOOR).min(1.0);
+        // A plan with non-finite scales (not one of this module's) keeps the formation.
+        let lo = if plan.scale_min.is_finite() { vt_tube::limit(plan.scale_min, SCALE_FLOOR, 1.0) } else { 1.0 };
+        let target = if plan.scale.is_finite() { vt_tube::limit(plan.scale, lo, 1.0) } else { 1.0 };
         Self {
             scale_min: lo,
-            scale_target: plan.scale.max(lo).min(1.0),
+            scale_target: target,
             scale: 1.0,
             rate_per_s: params.rate_per_s,
             sag_start_m: params.sag_start_m,

@@ -581,6 +581,67 @@ mod tests {
         assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
     }
 
+    /// Overload (issue 15): with the load far below its reference a UAV flies higher than `H`
+    /// above it and lies beyond its node; the tube term then acts at the UAV's own position.
+    #[test]
+    fn uav_above_the_tray_is_kept_by_its_own_position() {
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 3.0, 3.0), Waypoint::new(40.0, 0.0, 3.0, 3.0)]).unwrap();
+        let (uavs, load) = takeoff(4, 10.0);
+        let mut ctl = team(4, &uavs, &load);
+        let low_load = Vec3::new(10.0, 0.0, LOAD_Z_M - 6.0);
+        let own = Vec3::new(10.0, 2.8, low_load.z + 15.0); // 0.2 m from the boundary, node at y = 1.87
+        let mut nb = neighbours(&uavs);
+        nb[0] = Some(own);
+        let m = Measurements { own_pos_m: own, load_pos_m: low_load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        let c = ctl[0].update(&t, &m, DT_S);
+        assert_relative_eq!(c.boundary_distance_m, 0.2, epsilon = 1e-3);
+        assert!(c.vel_mps.y < -0.5, "UAV 0.2 m from the boundary must be pushed inwards: {:?}", c.vel_mps);
+        // Below the tray plane the node's distance is the one kept (the paper's law).
+        let own = Vec3::new(10.0, 2.0, load.z + 8.0);
+        nb[0] = Some(own);
+        let m = Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        assert_relative_eq!(ctl[0].update(&t, &m, DT_S).boundary_distance_m, 3.0 - 2.5, epsilon = 1e-3);
+    }
+
+    /// The capacity-aware formation scales every rest length: in the kinematic loop the nodes
+    /// settle on the take-off shape scaled by the plan's `lambda`; without a declared load the
+    /// controller is bit for bit the paper's.
+    #[test]
+    fn formation_settles_at_the_capacity_scale() {
+        use crate::capacity::{CapacityParams, CapacityPlan, FormationScale};
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 8.0, 8.0), Waypoint::new(2000.0, 0.0, 8.0, 8.0)]).unwrap();
+        let (mut uavs, load) = takeoff(6, 10.0);
+        let cap = CapacityParams { load_mass_kg: 10.0, ..CapacityParams::default() };
+        let plan = CapacityPlan { scale_min: 0.4, scale: 0.5, lean_cos_min: 1.0, capacity_n: 0.0, weight_n: 0.0 };
+        let mut ctl: Vec<_> = team(6, &uavs, &load).into_iter().map(|c| c.with_capacity(FormationScale::new(&plan, &cap))).collect();
+        let mut plain = team(6, &uavs, &load);
+        let mut off: Vec<_> = team(6, &uavs, &load)
+            .into_iter()
+            .map(|c| c.with_capacity(FormationScale::new(&plan, &CapacityParams::default())))
+            .collect();
+        let tray = params().tray;
+        let r0 = (tray.project(&uavs[0], &load).0 - tray.project(&uavs[3], &load).0).norm();
+        let mut load = load;
+        for _ in 0..2000 {
+            let nb = neighbours(&uavs);
+            let mut vel = Vec::new();
+            for i in 0..6 {
+                let m = Measurements { own_pos_m: uavs[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+                let a = plain[i].update(&t, &m, DT_S);
+                assert_eq!(a, off[i].update(&t, &m, DT_S), "the law without a declared load must be the paper's");
+                vel.push(ctl[i].update(&t, &m, DT_S).vel_mps);
+            }
+            for (u, v) in uavs.iter_mut().zip(&vel) {
+                *u += v * DT_S;
+            }
+            let c: Vec2 = uavs.iter().map(|u| u.xy()).sum::<Vec2>() / 6.0;
+            load = Vec3::new(c.x, c.y, LOAD_Z_M);
+        }
+        assert_relative_eq!(ctl[0].formation_scale(), 0.5, epsilon = 1e-6);
+        let r = (tray.project(&uavs[0], &load).0 - tray.project(&uavs[3], &load).0).norm();
+        assert_relative_eq!(r / r0, 0.5, epsilon = 0.02);
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         #[test]

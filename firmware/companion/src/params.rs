@@ -118,6 +118,7 @@ params! {
     CapRate => real("VT_CAP_RATE", 0.2, 0.0, 100.0), "Largest closing rate of the formation scale, 1/s (opens at a quarter of it).";
     SagLo => real("VT_SAG_LO", 0.3, 0.0, LENGTH_MAX_M), "Load sag where the overload response begins, m.";
     SagHi => real("VT_SAG_HI", 0.8, 0.0, LENGTH_MAX_M), "Load sag where the overload response is complete, m.";
+    HReserve => real("VL_H_RES", 0.0, 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority).";
 }
 
 /// Number of parameters.
@@ -278,7 +279,7 @@ impl Params {
         let g = |p| self.get(p);
         let v = |x, y, z| Vector3::new(g(x), g(y), g(z));
         let gains = PidGains { kp: v(Param::KpX, Param::KpY, Param::KpZ), ki: v(Param::KiX, Param::KiY, Param::KiZ), kd: v(Param::KdX, Param::KdY, Param::KdZ) };
-        let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?;
+        let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?.with_horizontal_reserve(g(Param::HReserve))?;
         let cfo = CfoParams::new(g(Param::CfoMu), g(Param::Mass), self.low_level_dt_s())?;
         VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)?.with_actuator_lag(g(Param::ActLag))
     }

@@ -410,6 +410,11 @@ pub struct VelocityLoopSpec {
     /// models it, s (default 0: the paper's thrust = command).
     #[serde(default)]
     pub actuator_lag_s: f64,
+    /// Fraction of the thrust limit kept for the horizontal part: the vertical component is
+    /// capped at `thrust_max sqrt(1 - r^2)` (issue 15, "Overload in flight"; default 0, the
+    /// paper's vertical priority; the rigid-body tuning has its own default).
+    #[serde(default)]
+    pub horizontal_reserve: f64,
     /// Tuning used instead when the UAVs are `rigid_body` (flying behind an attitude
     /// autopilot); fields left out take the project's rigid-body tuning
     /// ([`crate::models::RIGID_BODY_CFO_BANDWIDTH_RAD_S`], [`crate::models::RIGID_BODY_ACTUATOR_LAG_S`]).
@@ -425,6 +430,8 @@ pub struct VelocityLoopTuning {
     pub cfo_bandwidth_rad_s: Option<f64>,
     /// Actuator lag the CFO models, s.
     pub actuator_lag_s: Option<f64>,
+    /// Horizontal thrust reserve (issue 15).
+    pub horizontal_reserve: Option<f64>,
 }
 
 impl VelocityLoopSpec {
@@ -442,6 +449,21 @@ impl VelocityLoopSpec {
                 )
             }
             UavModel::PointMass => (self.cfo_bandwidth_rad_s, self.actuator_lag_s),
+        }
+    }
+
+    /// Horizontal thrust reserve flown on UAV model `model`: `horizontal_reserve` for
+    /// `point_mass`; `[velocity_loop.rigid_body] horizontal_reserve`, else
+    /// [`crate::models::RIGID_BODY_HORIZONTAL_RESERVE`], for `rigid_body` (docs/design.md,
+    /// "Overload in flight").
+    #[must_use]
+    pub fn horizontal_reserve(&self, model: UavModel) -> f64 {
+        match model {
+            UavModel::RigidBody => self
+                .rigid_body
+                .and_then(|t| t.horizontal_reserve)
+                .unwrap_or(crate::models::RIGID_BODY_HORIZONTAL_RESERVE),
+            UavModel::PointMass => self.horizontal_reserve,
         }
     }
 }

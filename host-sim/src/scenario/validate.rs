@@ -161,6 +161,18 @@ impl Validator<'_> {
         }
         self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
         self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
+        // issue 15: the vertical cap thrust_max sqrt(1 - r^2) must still lift the UAV (as
+        // vt_cfo::ThrustLimits::with_horizontal_reserve and VelocityLoopParams::new check it).
+        for (table, r) in [("velocity_loop", vl.horizontal_reserve), ("velocity_loop.rigid_body", vl.horizontal_reserve(UavModel::RigidBody))] {
+            if !(r.is_finite() && (0.0..1.0).contains(&r)) {
+                return Err(self.err(table, "horizontal_reserve", format!("must be in [0, 1) (got {r})")));
+            }
+            let vertical_max = s.uavs.thrust_max_n * (1.0 - r * r).sqrt();
+            if s.uavs.mass_kg * f64::from(vt_cfo::GRAVITY_MPS2) > vertical_max {
+                return Err(self.err(table, "horizontal_reserve", format!(
+                    "leaves {vertical_max:.1} N of vertical thrust, less than the UAV's weight {:.1} N", s.uavs.mass_kg * f64::from(vt_cfo::GRAVITY_MPS2))));
+            }
+        }
         if let Some(t) = vl.rigid_body {
             if let Some(bw) = t.cfo_bandwidth_rad_s {
                 self.positive("velocity_loop.rigid_body", "cfo_bandwidth_rad_s", bw)?;
