@@ -143,7 +143,7 @@ pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64
 /// off or rejects the scenario (validation reports the scenario's errors).
 pub fn takeoff_scale(s: &Scenario) -> f64 {
     let cap = capacity_params(s);
-    if !(cap.load_mass_kg > 0.0) {
+    if cap.load_mass_kg.is_nan() || cap.load_mass_kg <= 0.0 {
         return 1.0;
     }
     let lengths: Vec<f32> = s.cables.lengths_m.iter().map(|&l| l as f32).collect();

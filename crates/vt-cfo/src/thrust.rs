@@ -111,7 +111,7 @@ impl ThrustLimits {
     /// [`CfoError::InvalidHorizontalReserve`] when `fraction` is NaN, outside `[0, 1)`, or leaves
     /// the vertical cap at or below `thrust_min_n`.
     pub fn with_horizontal_reserve(self, fraction: f32) -> Result<Self, CfoError> {
-        if !(fraction >= 0.0 && fraction < 1.0) {
+        if !(0.0..1.0).contains(&fraction) {
             return Err(CfoError::InvalidHorizontalReserve);
         }
         let vertical_max_n = if fraction == 0.0 {

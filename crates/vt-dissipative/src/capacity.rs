@@ -438,6 +438,11 @@ impl FormationScale {
     /// `load_ref_z_m`, m. A non-finite altitude or step holds the state.
     pub fn update(&mut self, load_z_m: f32, load_ref_z_m: f32, dt_s: f32) -> ScaleOutput {
         let sag = load_ref_z_m - load_z_m;
+        if sag <= self.sag_start_m && self.scale == self.scale_target {
+            // Nominal: no sag, formation at its target (the common case; nothing to integrate).
+            self.overload = 0.0;
+            return ScaleOutput { scale: self.scale, progress: 1.0, overload: 0.0 };
+        }
         if sag.is_finite() && dt_s.is_finite() && dt_s > 0.0 && self.rate_per_s > 0.0 {
             // w = 1 - sigma(sag, sag_start, sag_full) (REFERENCE §2's sigma: 1 below, 0 above).
             self.overload = 1.0 - vt_tube::sigma(sag, self.sag_start_m, self.sag_full_m);

@@ -132,6 +132,32 @@ pub struct Command {
     pub status: Status,
 }
 
+/// One UAV's rest lengths (eq:2-7), m: to every UAV node (own slot unused), to the load node,
+/// to the tray centre, and the tray centre's to every UAV node.
+#[derive(Debug, Clone, Copy)]
+struct RestLengths<const N: usize> {
+    own_m: [f32; N],
+    own_load_m: f32,
+    own_center_m: f32,
+    center_m: [f32; N],
+}
+
+impl<const N: usize> RestLengths<N> {
+    /// Every length times `scale` (the capacity-aware formation, capacity.rs); the first `n`.
+    fn scaled(&self, scale: f32, n: usize) -> Self {
+        let mut out = *self;
+        for (o, r) in out.own_m.iter_mut().zip(self.own_m.iter()).take(n) {
+            *o = r * scale;
+        }
+        for (o, r) in out.center_m.iter_mut().zip(self.center_m.iter()).take(n) {
+            *o = r * scale;
+        }
+        out.own_load_m = self.own_load_m * scale;
+        out.own_center_m = self.own_center_m * scale;
+        out
+    }
+}
+
 /// The distributed dissipative controller of UAV `id` in a team of up to `N`.
 #[derive(Debug, Clone)]
 pub struct DissipativeController<const N: usize> {
@@ -139,12 +165,12 @@ pub struct DissipativeController<const N: usize> {
     n: usize,
     params: DissipativeParams,
     barrier: BarrierParams,
-    /// Rest lengths from the own node to each UAV node (own slot unused), m.
-    rest_own_m: [f32; N],
-    rest_own_load_m: f32,
-    rest_own_center_m: f32,
-    /// Rest lengths from the tray centre to each UAV node, m.
-    rest_center_m: [f32; N],
+    /// Rest lengths now: the take-off ones (`rest0`) times the formation scale `rest_scale`.
+    rest: RestLengths<N>,
+    /// Take-off rest lengths (eq:2-7).
+    rest0: RestLengths<N>,
+    /// The formation scale `rest` was computed for (rescaled only when it changes).
+    rest_scale: f32,
     center_m: Vec2,
     own_hint: usize,
     center_hint: usize,
@@ -170,15 +196,20 @@ impl<const N: usize> DissipativeController<N> {
             *ro = formation.rest_length_m(NodeId::Uav(id), NodeId::Uav(j));
             *rc = formation.rest_length_m(NodeId::Center, NodeId::Uav(j));
         }
+        let rest = RestLengths {
+            own_m: rest_own_m,
+            own_load_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Load),
+            own_center_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Center),
+            center_m: rest_center_m,
+        };
         Ok(Self {
             id,
             n,
             params,
             barrier: params.tube_barrier(),
-            rest_own_m,
-            rest_own_load_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Load),
-            rest_own_center_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Center),
-            rest_center_m,
+            rest,
+            rest0: rest,
+            rest_scale: 1.0,
             center_m: formation.node_m(NodeId::Center),
             own_hint: 0,
             center_hint: 0,
@@ -187,12 +218,17 @@ impl<const N: usize> DissipativeController<N> {
         })
     }
 
-    /// The same controller with the capacity-aware formation law (docs/design.md,
-    /// "Capacity-aware formation"): rest lengths scaled by `scale`'s `lambda`, the passing
-    /// term by its progress factor. Without it the controller is the paper's, bit for bit.
+    /// Turns on the capacity-aware formation law (docs/design.md, "Capacity-aware formation"):
+    /// rest lengths scaled by `scale`'s `lambda`, the passing term by its progress factor.
+    /// Without it the controller is the paper's, bit for bit.
+    pub fn set_capacity(&mut self, scale: FormationScale) {
+        self.scale = scale;
+    }
+
+    /// [`Self::set_capacity`] as a builder.
     #[must_use]
     pub fn with_capacity(mut self, scale: FormationScale) -> Self {
-        self.scale = scale;
+        self.set_capacity(scale);
         self
     }
 
@@ -236,7 +272,10 @@ impl<const N: usize> DissipativeController<N> {
         // Capacity-aware formation: rest lengths x lambda, passing x progress (capacity.rs).
         let so = self.scale.update(m.load_pos_m.z, p.vertical.load_altitude_ref_m, dt_s);
         status.overload = so.overload > 0.0;
-        let lam = so.scale;
+        if so.scale != self.rest_scale {
+            self.rest = self.rest0.scaled(so.scale, self.n);
+            self.rest_scale = so.scale;
+        }
 
         // Neighbour nodes (eq:2-4), dropped when missing or non-finite.
         let mut nodes: [Option<Vec2>; N] = [None; N];
@@ -258,15 +297,15 @@ impl<const N: usize> DissipativeController<N> {
         };
         self.own_hint = sec.segment;
         let mut vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) * so.progress;
-        for (j, (q_j, rest)) in nodes.iter().zip(self.rest_own_m.iter()).enumerate().take(self.n) {
+        for (j, (q_j, rest)) in nodes.iter().zip(self.rest.own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
-                let (v, c) = spring_velocity(&q_i, q_j, *rest * lam, p.k2, self.id < j);
+                let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
                 vbar += v;
                 status.coincident_nodes |= c;
             }
         }
-        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest_own_load_m * lam, p.k2, true);
-        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest_own_center_m * lam, p.k2, true);
+        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest.own_load_m, p.k2, true);
+        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest.own_center_m, p.k2, true);
         status.coincident_nodes |= c_l | c_u;
         let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         status.outside_tube = d_t <= 0.0;
@@ -274,7 +313,7 @@ impl<const N: usize> DissipativeController<N> {
 
         // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler.
         if dt_s.is_finite() && dt_s > 0.0 {
-            self.step_center(tube, &nodes, lam, so.progress, dt_s, &mut status);
+            self.step_center(tube, &nodes, so.progress, dt_s, &mut status);
         }
 
         // Map back to the UAV (eq:2-20) and saturate (eq:2-21).
@@ -316,7 +355,7 @@ impl<const N: usize> DissipativeController<N> {
         keeping_velocity(sec, q_i, &self.barrier)
     }
 
-    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], lam: f32, progress: f32, dt_s: f32, status: &mut Status) {
+    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, dt_s: f32, status: &mut Status) {
         let p = &self.params;
         let q_u = self.center_m;
         let Some(sec) = tube.locate(q_u, self.center_hint) else {
@@ -324,9 +363,9 @@ impl<const N: usize> DissipativeController<N> {
         };
         self.center_hint = sec.segment;
         let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps) * progress;
-        for (q_j, rest) in nodes.iter().zip(self.rest_center_m.iter()).take(self.n) {
+        for (q_j, rest) in nodes.iter().zip(self.rest.center_m.iter()).take(self.n) {
             if let Some(q_j) = q_j {
-                let (vs, c) = spring_velocity(&q_u, q_j, *rest * lam, p.k2, false);
+                let (vs, c) = spring_velocity(&q_u, q_j, *rest, p.k2, false);
                 v += vs;
                 status.coincident_nodes |= c;
             }

@@ -188,9 +188,8 @@ impl Flight {
         let cap = params.capacity().map_err(StartError::Controller)?;
         let plan = capacity::plan_from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray, &cap)
             .map_err(StartError::Controller)?;
-        let high = DissipativeController::new(id, dissipative, &formation)
-            .map_err(StartError::Controller)?
-            .with_capacity(FormationScale::new(&plan, &cap));
+        let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+        high.set_capacity(FormationScale::new(&plan, &cap));
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
         let mut low = VelocityLoop::new(vl);
         // Warm start with the declared load's share (bumpless transfer; capacity.rs).
