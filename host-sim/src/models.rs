@@ -58,9 +58,11 @@ pub const RIGID_BODY_CFO_BANDWIDTH_RAD_S: f64 = 8.0;
 /// `[velocity_loop.rigid_body]` says otherwise, s (same source).
 pub const RIGID_BODY_ACTUATOR_LAG_S: f64 = 0.05;
 
-/// Fraction of the thrust limit the velocity loop keeps for the horizontal part on the
-/// `rigid_body` plant unless `[velocity_loop.rigid_body]` says otherwise (docs/design.md,
-/// "Overload in flight": measured against 0 .. 0.5 on the nominal and overload campaigns).
+/// Largest fraction of the thrust limit the velocity loop keeps for the horizontal part on the
+/// `rigid_body` plant unless `[velocity_loop.rigid_body]` says otherwise; less where the
+/// airframe needs more to hold its weight plus its rated cable pull (`sim::horizontal_reserve`;
+/// docs/design.md, "Overload in flight": measured against 0 .. 0.5 on the nominal and overload
+/// campaigns).
 pub const RIGID_BODY_HORIZONTAL_RESERVE: f64 = 0.5;
 
 /// Default breaking strength over rated capacity of the elastic cable: a deliberately modest

@@ -205,6 +205,19 @@ pub fn capacity_params(s: &Scenario) -> CapacityParams {
     }
 }
 
+/// The horizontal thrust reserve flown (issue 15, docs/design.md "Overload in flight"): the
+/// scenario's value for its UAV model, else, on the rigid body,
+/// `min(RIGID_BODY_HORIZONTAL_RESERVE, sqrt(1 - ((m g + rated) / T_max)^2))`: as much as the
+/// default allows while the vertical cap still holds the UAV's weight plus its rated cable pull
+/// (0 for an airframe that cannot).
+pub fn horizontal_reserve(s: &Scenario) -> f64 {
+    s.velocity_loop.horizontal_reserve(s.uavs.model).unwrap_or_else(|| {
+        let need = (s.uavs.mass_kg * GRAVITY_MPS2 + s.cables.rated_n) / s.uavs.thrust_max_n;
+        let room = if need < 1.0 { (1.0 - need * need).sqrt() } else { 0.0 };
+        crate::models::RIGID_BODY_HORIZONTAL_RESERVE.min(room)
+    })
+}
+
 /// Builds the velocity loop of one UAV from the scenario, with the observer tuning of its UAV
 /// model (`[velocity_loop.rigid_body]` for `rigid_body`).
 pub fn velocity_loop(s: &Scenario) -> Result<VelocityLoop, SimError> {
@@ -213,7 +226,7 @@ pub fn velocity_loop(s: &Scenario) -> Result<VelocityLoop, SimError> {
     let gains = PidGains { kp: f(vl.kp), ki: f(vl.ki), kd: f(vl.kd) };
     let thrust_max = s.uavs.thrust_max_n as f32;
     let limits = ThrustLimits::new(0.05 * thrust_max, thrust_max, s.uavs.tilt_max_deg.to_radians() as f32)
-        .and_then(|l| l.with_horizontal_reserve(vl.horizontal_reserve(s.uavs.model) as f32))
+        .and_then(|l| l.with_horizontal_reserve(horizontal_reserve(s) as f32))
         .map_err(|e| SimError(format!("uavs: {e}")))?;
     let (bandwidth, lag) = vl.tuning(s.uavs.model);
     let cfo = CfoParams::new(bandwidth as f32, s.uavs.mass_kg as f32, 1.0 / s.rates.low_level_hz as f32)

@@ -154,7 +154,7 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
                 (Param::CapRate, cap.rate_per_s),
                 (Param::SagLo, cap.sag_start_m),
                 (Param::SagHi, cap.sag_full_m),
-                (Param::HReserve, s.velocity_loop.horizontal_reserve(s.uavs.model) as f32),
+                (Param::HReserve, sim::horizontal_reserve(s) as f32),
             ];
             UavConfig { system_id: SYSID_BASE + i as u8, params, waypoints: waypoints.clone() }
         })

@@ -452,18 +452,15 @@ impl VelocityLoopSpec {
         }
     }
 
-    /// Horizontal thrust reserve flown on UAV model `model`: `horizontal_reserve` for
-    /// `point_mass`; `[velocity_loop.rigid_body] horizontal_reserve`, else
-    /// [`crate::models::RIGID_BODY_HORIZONTAL_RESERVE`], for `rigid_body` (docs/design.md,
-    /// "Overload in flight").
+    /// Horizontal thrust reserve the scenario sets for UAV model `model`:
+    /// `horizontal_reserve` for `point_mass`; `[velocity_loop.rigid_body] horizontal_reserve`
+    /// for `rigid_body`, `None` when left to the airframe's default
+    /// ([`crate::sim::horizontal_reserve`]; docs/design.md, "Overload in flight").
     #[must_use]
-    pub fn horizontal_reserve(&self, model: UavModel) -> f64 {
+    pub fn horizontal_reserve(&self, model: UavModel) -> Option<f64> {
         match model {
-            UavModel::RigidBody => self
-                .rigid_body
-                .and_then(|t| t.horizontal_reserve)
-                .unwrap_or(crate::models::RIGID_BODY_HORIZONTAL_RESERVE),
-            UavModel::PointMass => self.horizontal_reserve,
+            UavModel::RigidBody => self.rigid_body.and_then(|t| t.horizontal_reserve),
+            UavModel::PointMass => Some(self.horizontal_reserve),
         }
     }
 }

@@ -163,7 +163,8 @@ impl Validator<'_> {
         self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
         // issue 15: the vertical cap thrust_max sqrt(1 - r^2) must still lift the UAV (as
         // vt_cfo::ThrustLimits::with_horizontal_reserve and VelocityLoopParams::new check it).
-        for (table, r) in [("velocity_loop", vl.horizontal_reserve), ("velocity_loop.rigid_body", vl.horizontal_reserve(UavModel::RigidBody))] {
+        let explicit = [("velocity_loop", Some(vl.horizontal_reserve)), ("velocity_loop.rigid_body", vl.horizontal_reserve(UavModel::RigidBody))];
+        for (table, r) in explicit.iter().filter_map(|(t, r)| r.map(|r| (*t, r))) {
             if !(r.is_finite() && (0.0..1.0).contains(&r)) {
                 return Err(self.err(table, "horizontal_reserve", format!("must be in [0, 1) (got {r})")));
             }
