@@ -76,7 +76,7 @@ fn configure_and_start<P: Port>(port: &mut P, cfg: &UavConfig, setup: &pil::Team
     pil::configure(port, cfg, &mut enc.gcs).unwrap();
     let (all, load) = takeoff_state(setup);
     let own = (all[0].unwrap(), V3f::zeros());
-    let tick = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some(load), neighbours: &all, own, id: 0 };
+    let tick = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some(load), neighbours: &all, own, sample_ms: (0, 0), id: 0 };
     port.send(&tick.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
     assert_eq!(pil::start_mission(port, cfg.system_id, &mut enc.gcs).unwrap(), ACCEPTED);
 }
@@ -101,6 +101,7 @@ fn tick<P: Port>(port: &mut P, enc: &mut Encoders, setup: &pil::TeamSetup, time_
         load: send_team.then_some(load),
         neighbours: if send_team { &all } else { &[] },
         own,
+        sample_ms: (time_ms, time_ms),
         id: 0,
     };
     port.send(&t.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
@@ -481,7 +482,7 @@ proptest::proptest! {
         let t = 3_600_000u32;
         let (all, _) = takeoff_state(&setup);
         let own = (all[0].unwrap(), V3f::zeros());
-        let tick = TickFrames { time_ms: t, system_id: cfg.system_id, load: None, neighbours: &[], own, id: 0 };
+        let tick = TickFrames { time_ms: t, system_id: cfg.system_id, load: None, neighbours: &[], own, sample_ms: (t, t), id: 0 };
         twin.send(&tick.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
         let mut answered = false;
         while let Ok(rx) = twin.recv() {

@@ -211,6 +211,27 @@ impl Cfo {
         &self.params
     }
 
+    /// Runs the observer at bandwidth `min(mu, bandwidth_rad_s)` from now on (`l1 = 2 mu'`,
+    /// `l2 = mu'^2`, REFERENCE §4): never above the configured `mu`, so the forward-Euler bound
+    /// still holds; a non-finite or non-positive value restores the configured `mu`. The state
+    /// is kept.
+    pub fn set_bandwidth(&mut self, bandwidth_rad_s: f32) {
+        let configured = self.params.bandwidth_rad_s;
+        let mu = if bandwidth_rad_s.is_finite() && bandwidth_rad_s > 0.0 {
+            bandwidth_rad_s.min(configured)
+        } else {
+            configured
+        };
+        self.l1_per_s = L1_PER_BANDWIDTH * mu; // REFERENCE §4: l1 = 2 mu
+        self.l2_per_s2 = mu * mu; // REFERENCE §4: l2 = mu^2
+    }
+
+    /// The bandwidth the observer runs at, rad/s (`l1 / 2`).
+    #[must_use]
+    pub fn bandwidth_rad_s(&self) -> f32 {
+        self.l1_per_s / L1_PER_BANDWIDTH
+    }
+
     /// One observer step; returns the estimated cable term `f_hat`, N (ENU).
     ///
     /// `v_meas_mps`: measured velocity now; `thrust_applied_n`: the thrust applied since the

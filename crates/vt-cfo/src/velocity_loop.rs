@@ -3,6 +3,7 @@
 
 use nalgebra::Vector3;
 
+use crate::prediction::{delay_steps, scheduled_bandwidth_rad_s, Prediction, ThrustHistory};
 use crate::{Cfo, CfoError, CfoParams, Status, ThrustLimits, GRAVITY_MPS2};
 
 /// Paper gain `Kp`, 1/s, every axis (REFERENCE §4).
@@ -263,6 +264,11 @@ pub struct VelocityLoop {
     thrust_applied_n: Vector3<f32>,
     /// `(dt, 1 - exp(-dt / actuator_lag_s))` of the last step (`exp` is costly on the MCU).
     lag_gain: (f32, f32),
+    /// The applied thrust of the last steps (newest = `thrust_applied_n`), for the delay
+    /// compensation ([`crate::prediction`]).
+    history: ThrustHistory,
+    /// What the last step predicted.
+    prediction: Prediction,
     status: Status,
 }
 
@@ -276,6 +282,8 @@ impl VelocityLoop {
             integral_mps2: Vector3::zeros(),
             thrust_applied_n: hover_vector_n(&params),
             lag_gain: (0.0, 1.0),
+            history: ThrustHistory::new(hover_vector_n(&params)),
+            prediction: Prediction::undelayed(Vector3::zeros()),
             status: Status::Ok,
         }
     }
@@ -316,6 +324,15 @@ impl VelocityLoop {
         }
         self.cfo.preload(f_hat_n, thrust_n);
         self.thrust_applied_n = thrust_n;
+        // The vehicle has been hovering with this thrust (the delay compensation's history).
+        self.history = ThrustHistory::new(thrust_n);
+    }
+
+    /// What the last step predicted from its measurement (delay, velocity now, displacement
+    /// since the sample).
+    #[must_use]
+    pub fn prediction(&self) -> &Prediction {
+        &self.prediction
     }
 
     /// Back to the state of [`new`](Self::new).
@@ -323,11 +340,27 @@ impl VelocityLoop {
         *self = Self::new(self.params);
     }
 
-    /// One control step (eq:2-3); see the type's docs for inputs, units and failsafes.
+    /// One control step (eq:2-3) on a measurement taken now; see the type's docs for inputs,
+    /// units and failsafes.
     pub fn update(
         &mut self,
         v_cmd_mps: Vector3<f32>,
         v_meas_mps: Vector3<f32>,
+        dt_s: f32,
+    ) -> ThrustOutput {
+        self.update_delayed(v_cmd_mps, v_meas_mps, 0.0, dt_s)
+    }
+
+    /// One control step (eq:2-3) on a velocity measured `age_s` seconds ago
+    /// ([`crate::prediction`]): the observer is paired with the thrust applied at the sample
+    /// time, and the PID acts on the velocity predicted to now. `age_s = 0` (or below half a
+    /// step, or not finite) is [`update`](Self::update); ages beyond
+    /// [`crate::prediction::DELAY_CAPACITY_STEPS`] steps are capped there.
+    pub fn update_delayed(
+        &mut self,
+        v_cmd_mps: Vector3<f32>,
+        v_meas_mps: Vector3<f32>,
+        age_s: f32,
         dt_s: f32,
     ) -> ThrustOutput {
         let p = self.params;
@@ -339,11 +372,19 @@ impl VelocityLoop {
         let cmd_ok = is_finite(&v_cmd_mps);
 
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
-            let f_hat_n = self.cfo.update(v_meas_mps, self.thrust_applied_n, dt_s);
+            let k = delay_steps(age_s, dt_s);
+            if k != self.prediction.delay_steps {
+                // Observer bandwidth scheduled from the delay (crate::prediction).
+                self.cfo.set_bandwidth(scheduled_bandwidth_rad_s(p.cfo.bandwidth_rad_s(), k, dt_s));
+            }
+            // The thrust applied over the step that ended at the sample time (k = 0: the last
+            // step's, `thrust_applied_n`).
+            let f_hat_n = self.cfo.update(v_meas_mps, self.history.at(k), dt_s);
+            self.prediction = self.predict(v_meas_mps, f_hat_n, k, dt_s);
             // Failsafe for a bad command: brake to zero velocity.
             let v_d = if cmd_ok { v_cmd_mps } else { Vector3::zeros() };
-            // e_v = v_d - v (eq:2-2).
-            let e_v = v_d - v_meas_mps;
+            // e_v = v_d - v (eq:2-2), v predicted to now.
+            let e_v = v_d - self.prediction.velocity_mps;
             // e_v' = v_d' - v' ~ -v_hat' (v_d' = 0, as assumed under eq:2-3).
             let e_v_dot = -self.cfo.acceleration_estimate_mps2();
             let accel_mps2 = p.gains.kp.component_mul(&e_v)
@@ -358,6 +399,7 @@ impl VelocityLoop {
             (demand_n, f_hat_n, e_v, status)
         } else {
             // No usable measurement: hold the observer, fly the compensated hover.
+            self.prediction = Prediction::undelayed(Vector3::zeros());
             let f_hat_n = self.cfo.estimate_n();
             (
                 f_hat_n - weight_n,
@@ -386,11 +428,32 @@ impl VelocityLoop {
             status
         };
         self.thrust_applied_n = self.applied_after(thrust_n, dt_s);
+        self.history.push(self.thrust_applied_n);
         self.status = status;
         ThrustOutput {
             thrust_n,
             f_hat_n,
             status,
+        }
+    }
+
+    /// The measurement `k` steps old carried forward to now (crate::prediction): eq:1-1
+    /// integrated over the applied thrusts with the estimate `f_hat`, and the trapezoid for the
+    /// displacement. A non-finite prediction falls back to the measurement.
+    fn predict(&mut self, v_meas_mps: Vector3<f32>, f_hat_n: Vector3<f32>, k: usize, dt_s: f32) -> Prediction {
+        if k == 0 {
+            return Prediction::undelayed(v_meas_mps);
+        }
+        let p = self.params;
+        let steps = k as f32;
+        // v(t) = v(t - k h) + (h / m)(sum T_a + k (G - f_hat))   (eq:1-1)
+        let impulse_n = self.history.sum_newest(k) + (p.cfo.weight_n() - f_hat_n) * steps;
+        let velocity_mps = v_meas_mps + impulse_n * (dt_s / p.mass_kg());
+        let displacement_m = (v_meas_mps + velocity_mps) * (0.5 * steps * dt_s);
+        if is_finite(&velocity_mps) && is_finite(&displacement_m) {
+            Prediction { delay_steps: k, velocity_mps, displacement_m }
+        } else {
+            Prediction::undelayed(v_meas_mps)
         }
     }
 

@@ -11,7 +11,7 @@
 use mavlink::dialects::common::{
     AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavState,
     MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
-    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
+    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, SYSTEM_TIME_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
     SYS_STATUS_DATA,
@@ -117,6 +117,13 @@ struct Core<'t> {
     values: ValueCounters,
     tx_seq: u8,
     clock_ms: u32,
+    /// Companion clock minus the own autopilot's `time_boot_ms`, ms (wrapping), from its last
+    /// `SYSTEM_TIME`; 0 in lockstep (one simulated clock); `None`: unknown, measurements are
+    /// taken as sampled on receipt (no delay compensation).
+    autopilot_offset_ms: Option<u32>,
+    /// Lockstep: the simulated time of the period a `SYSTEM_TIME` opened (until the own state
+    /// closes it).
+    lockstep_now_ms: Option<u32>,
     hl_steps: u32,
     hl_cycles: u32,
     ll_cycles: u32,
@@ -142,6 +149,8 @@ impl<'t> Companion<'t> {
                 values: ValueCounters { bad_values: 0, ignored: 0 },
                 tx_seq: 0,
                 clock_ms: 0,
+                autopilot_offset_ms: None,
+                lockstep_now_ms: None,
                 hl_steps: 0,
                 hl_cycles: 0,
                 ll_cycles: 0,
@@ -285,6 +294,10 @@ impl Core<'_> {
                 let d = decode!(LOCAL_POSITION_NED_DATA);
                 self.on_local_position(f, &d, io);
             }
+            SYSTEM_TIME_DATA::ID => {
+                let d = decode!(SYSTEM_TIME_DATA);
+                self.on_system_time(f, &d, io);
+            }
             PARAM_SET_DATA::ID => {
                 let d = decode!(PARAM_SET_DATA);
                 self.on_param_set(f, &d, io);
@@ -375,11 +388,22 @@ impl Core<'_> {
             return self.bad_value();
         }
         let lockstep = self.params.get_u32(Param::Lockstep) == 1;
-        // Lockstep: the host's simulated time is the clock; else the board's at receipt.
-        let stamp_ms = if lockstep { d.time_boot_ms } else { io.now_ms() };
+        // Receipt stamp (freshness): lockstep, the host's simulated time (the SYSTEM_TIME that
+        // opened this period, else the message's own time); else the board's clock at receipt.
+        let stamp_ms = match (lockstep, self.lockstep_now_ms) {
+            (true, Some(now)) => now,
+            (true, None) => d.time_boot_ms,
+            (false, _) => io.now_ms(),
+        };
+        // Sample time on the companion's clock (delay compensation, vt_cfo::prediction): the
+        // autopilot's `time_boot_ms` shifted by the SYSTEM_TIME offset; unknown offset: receipt.
+        let offset = if lockstep { Some(0) } else { self.autopilot_offset_ms };
+        let sample_ms = offset.map_or(stamp_ms, |o| d.time_boot_ms.wrapping_add(o));
         let own_sys = self.own_system_id();
-        let state = Stamped { value: State { pos_m: pos, vel_mps: vel }, stamp_ms };
+        let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
         if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
+            // The own state closes the period.
+            self.lockstep_now_ms = None;
             if lockstep && self.flight.is_some() {
                 self.clock_ms = stamp_ms;
                 self.lockstep_tick(state, io);
@@ -401,6 +425,20 @@ impl Core<'_> {
             }
         } else {
             self.ignored();
+        }
+    }
+
+    /// `SYSTEM_TIME` from the own autopilot: lockstep, the simulated clock (measurements may
+    /// be older: sensor latency); else the offset between the board's clock and the autopilot's
+    /// `time_boot_ms` (the message's own transport delay is taken as negligible; docs/protocol.md).
+    fn on_system_time(&mut self, f: &Frame<'_>, d: &SYSTEM_TIME_DATA, io: &mut impl Io) {
+        if !(f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
+            return self.ignored();
+        }
+        if self.params.get_u32(Param::Lockstep) == 1 {
+            self.lockstep_now_ms = Some(d.time_boot_ms);
+        } else {
+            self.autopilot_offset_ms = Some(io.now_ms().wrapping_sub(d.time_boot_ms));
         }
     }
 

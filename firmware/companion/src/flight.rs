@@ -22,7 +22,7 @@
 //! again. The reasons are reported in `HEARTBEAT.custom_mode` ([`HoldReasons`]).
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
-use vt_cfo::{thrust_to_attitude, VelocityLoop};
+use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{capacity, Command, DissipativeController, Formation, FormationScale, Measurements};
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -76,6 +76,9 @@ pub struct State {
     pub pos_m: Vec3,
     /// Velocity, m/s.
     pub vel_mps: Vec3,
+    /// When it was sampled, on the companion's clock, ms (the autopilot's `time_boot_ms`
+    /// mapped by the `SYSTEM_TIME` offset; the receipt time when unknown).
+    pub sample_ms: u32,
 }
 
 /// The latest data from every source.
@@ -251,9 +254,15 @@ impl Flight {
         }
         self.vel_cmd_mps = Vec3::zeros();
         if let (0, Some(own), Some(load)) = (reasons, own, load) {
+            // Measurements carried forward to now (vt_cfo::prediction): own position by the
+            // velocity loop's last prediction (made from this same sample), the load at constant
+            // velocity.
+            let pred = self.low.prediction();
+            let own_pos_m = if pred.delay_steps > 0 { own.pos_m + pred.displacement_m } else { own.pos_m };
+            let load_age_s = age_s(now_ms, load.sample_ms);
             let m = Measurements {
-                own_pos_m: own.pos_m,
-                load_pos_m: load.pos_m,
+                own_pos_m,
+                load_pos_m: extrapolate_constant_velocity(load.pos_m, load.vel_mps, load_age_s),
                 load_vel_mps: load.vel_mps,
                 neighbours_m: view.get(..self.n).unwrap_or(&[]),
                 own_cable_force_n: Some(self.f_hat_n),
@@ -275,15 +284,15 @@ impl Flight {
     /// One low-level step at `now_ms`: the attitude setpoint.
     pub fn low_level(&mut self, src: &Sources, now_ms: u32) -> Setpoint {
         let mut reasons = 0u8;
-        let v_meas = match src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms)) {
-            Some(own) => own.vel_mps,
+        let (v_meas, own_age_s) = match src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms)) {
+            Some(own) => (own.vel_mps, age_s(now_ms, own.sample_ms)),
             None => {
                 reasons |= HoldReasons::OWN_STALE;
-                Vec3::repeat(f32::NAN) // the velocity loop's no-measurement failsafe
+                (Vec3::repeat(f32::NAN), 0.0) // the velocity loop's no-measurement failsafe
             }
         };
         let v_cmd = if self.hl_reasons.is_clear() { self.vel_cmd_mps } else { Vec3::zeros() };
-        let out = self.low.update(v_cmd, v_meas, self.ll_dt_s);
+        let out = self.low.update_delayed(v_cmd, v_meas, own_age_s, self.ll_dt_s);
         self.f_hat_n = out.f_hat_n;
         let att = thrust_to_attitude(out.thrust_n, self.heading, self.thrust_max_n);
         let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };

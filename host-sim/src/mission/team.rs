@@ -10,7 +10,7 @@
 use crate::scenario::{LoadedScenario, SimTube, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, SimError, Takeoff};
 use nalgebra::{UnitVector2, Vector2, Vector3};
-use vt_cfo::{thrust_to_attitude, VelocityLoop};
+use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_companion::frames::ned_frd_quaternion;
 use vt_dissipative::{capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements};
 
@@ -18,13 +18,17 @@ pub use vt_companion::flight::Setpoint;
 
 type V3f = Vector3<f32>;
 
-/// One measured state: position (m) and velocity (m/s), world ENU, `f32` as on the wire.
+/// One measured state: position (m) and velocity (m/s), world ENU, `f32` as on the wire, and
+/// when it was sampled.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Meas {
     /// Position, m.
     pub pos_m: V3f,
     /// Velocity, m/s.
     pub vel_mps: V3f,
+    /// Simulated time of the sample, ms (`LOCAL_POSITION_NED.time_boot_ms`; older than the
+    /// tick's `time_ms` by the sensor latency).
+    pub sample_ms: u32,
 }
 
 /// What the team's computers receive at one low-level period.
@@ -209,9 +213,16 @@ impl Team for CrateTeam {
         }
         for i in 0..n {
             if tick.high_level {
+                // Measurements carried forward to now (vt_cfo::prediction): own position by the
+                // velocity loop's last prediction (made from this same sample), the load at
+                // constant velocity.
+                let own_m = self.own_prev.get(i).copied().unwrap_or(tick.own[i].pos_m);
+                let pred = self.low[i].prediction();
+                let own_pos_m = if pred.delay_steps > 0 { own_m + pred.displacement_m } else { own_m };
+                let load_age_s = age_s(tick.time_ms, tick.load.sample_ms);
                 let m = Measurements {
-                    own_pos_m: self.own_prev.get(i).copied().unwrap_or(tick.own[i].pos_m),
-                    load_pos_m: tick.load.pos_m,
+                    own_pos_m,
+                    load_pos_m: extrapolate_constant_velocity(tick.load.pos_m, tick.load.vel_mps, load_age_s),
                     load_vel_mps: tick.load.vel_mps,
                     neighbours_m: &tick.views[i],
                     own_cable_force_n: Some(self.f_hat[i]),
@@ -225,7 +236,8 @@ impl Team for CrateTeam {
                 self.holding[i] = bad;
                 self.vel_cmd[i] = if bad { V3f::zeros() } else { cmd.vel_mps };
             }
-            let o = self.low[i].update(self.vel_cmd[i], tick.own[i].vel_mps, self.ll_dt);
+            let own_age_s = age_s(tick.time_ms, tick.own[i].sample_ms);
+            let o = self.low[i].update_delayed(self.vel_cmd[i], tick.own[i].vel_mps, own_age_s, self.ll_dt);
             self.f_hat[i] = o.f_hat_n;
             let att = thrust_to_attitude(o.thrust_n, self.heading, self.thrust_max_n);
             let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };

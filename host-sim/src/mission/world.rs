@@ -95,15 +95,16 @@ impl<'a> World<'a> {
         let r = &s.rates;
         let latency_steps = (dist.latency_s * dist.intensity * f64::from(r.low_level_hz)).round() as usize;
         let mut sensors = Sensors::new(dist, latency_steps, seed);
-        sensors.sample(&plant);
+        sensors.sample(&plant, 0);
         let start_load = Meas {
             pos_m: v3f(&sensors.position(&plant.load.pos_m)),
             vel_mps: v3f(&sensors.velocity(&plant.load.vel_mps)),
+            sample_ms: 0,
         };
         let start_own: Vec<Meas> = plant
             .uavs
             .iter()
-            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)) })
+            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: 0 })
             .collect();
         // Cable length calibrated at take-off from the taut geometry (docs/design.md): measured
         // UAV-load distance less the nominal stretch.
@@ -236,6 +237,7 @@ impl<'a> World<'a> {
             self.load = Meas {
                 pos_m: v3f(&self.sensors.position(&snap.load_pos_m)),
                 vel_mps: v3f(&self.sensors.velocity(&snap.load_vel_mps)),
+                sample_ms: snap.time_ms,
             };
             self.link.exchange(hl_step, &self.link_pos);
             for (i, view) in self.views.iter_mut().enumerate() {
@@ -243,14 +245,15 @@ impl<'a> World<'a> {
                 self.link.view(i, hl_step, own, view);
             }
         }
-        self.sensors.sample(&self.plant);
+        let time_ms = (self.step as f64 * self.dt * 1000.0).round() as u32;
+        self.sensors.sample(&self.plant, time_ms);
         let snap = self.sensors.delayed().clone();
         for (m, (p, v)) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)) {
-            *m = Meas { pos_m: v3f(&self.sensors.position(p)), vel_mps: v3f(&self.sensors.velocity(v)) };
+            *m = Meas { pos_m: v3f(&self.sensors.position(p)), vel_mps: v3f(&self.sensors.velocity(v)), sample_ms: snap.time_ms };
         }
         Tick {
             step: self.step,
-            time_ms: (self.step as f64 * self.dt * 1000.0).round() as u32,
+            time_ms,
             high_level,
             own: &self.own,
             load: self.load,

@@ -112,6 +112,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
             load: tick.high_level.then_some((tick.load.pos_m, tick.load.vel_mps)),
             neighbours: if tick.high_level { tick.views.get(i).map_or(&[], Vec::as_slice) } else { &[] },
             own: (own.pos_m, own.vel_mps),
+            sample_ms: (own.sample_ms, tick.load.sample_ms),
             id: i,
         };
         let e = &mut self.enc[i];

@@ -3,7 +3,7 @@
 
 use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
 use mavlink::dialects::common::{
-    COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA,
+    COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, SYSTEM_TIME_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA,
     NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
@@ -132,6 +132,9 @@ pub struct TickFrames<'a> {
     pub neighbours: &'a [Option<V3f>],
     /// Own position and velocity, ENU.
     pub own: (V3f, V3f),
+    /// Sample times of the own and the load state, ms (`time_boot_ms`; older than `time_ms`
+    /// by the sensor latency).
+    pub sample_ms: (u32, u32),
     /// This UAV's index (skipped among the neighbours).
     pub id: usize,
 }
@@ -139,9 +142,16 @@ pub struct TickFrames<'a> {
 impl TickFrames<'_> {
     /// Encodes the tick.
     pub fn encode(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
-        let mut out = Vec::with_capacity(64 * (2 + self.neighbours.len()));
+        let mut out = Vec::with_capacity(64 * (3 + self.neighbours.len()));
+        let (own_sample_ms, load_sample_ms) = self.sample_ms;
+        if own_sample_ms != self.time_ms {
+            // Lockstep clock: the autopilot's SYSTEM_TIME carries "now" when its own sample is
+            // older (docs/protocol.md).
+            let now = SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: self.time_ms };
+            out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &now));
+        }
         if let Some((p, v)) = &self.load {
-            out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(self.time_ms, p, v)));
+            out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(load_sample_ms, p, v)));
             for (j, nb) in self.neighbours.iter().enumerate() {
                 if let (Some(p), true) = (nb, j != self.id) {
                     let sys = SYSID_BASE + j as u8;
@@ -149,7 +159,7 @@ impl TickFrames<'_> {
                 }
             }
         }
-        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, &self.own.0, &self.own.1)));
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(own_sample_ms, &self.own.0, &self.own.1)));
         out
     }
 }
