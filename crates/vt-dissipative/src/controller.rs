@@ -143,7 +143,9 @@ struct RestLengths<const N: usize> {
 }
 
 impl<const N: usize> RestLengths<N> {
-    /// Every length times `scale` (the capacity-aware formation, capacity.rs); the first `n`.
+    /// Every length times `scale` (the capacity-aware formation, capacity.rs: the ratio of the
+    /// new formation scale to the old; one rounding per change, the same on every backend); the
+    /// first `n`.
     fn scaled(&self, scale: f32, n: usize) -> Self {
         let mut out = *self;
         for (o, r) in out.own_m.iter_mut().zip(self.own_m.iter()).take(n) {
@@ -165,11 +167,10 @@ pub struct DissipativeController<const N: usize> {
     n: usize,
     params: DissipativeParams,
     barrier: BarrierParams,
-    /// Rest lengths now: the take-off ones (`rest0`) times the formation scale `rest_scale`.
+    /// Rest lengths now: the take-off ones (eq:2-7) times the formation scale `rest_scale`
+    /// (recomputed from `rest_scale` relative to the last scale when it changes).
     rest: RestLengths<N>,
-    /// Take-off rest lengths (eq:2-7).
-    rest0: RestLengths<N>,
-    /// The formation scale `rest` was computed for (rescaled only when it changes).
+    /// The formation scale `rest` was computed for.
     rest_scale: f32,
     center_m: Vec2,
     own_hint: usize,
@@ -208,7 +209,6 @@ impl<const N: usize> DissipativeController<N> {
             params,
             barrier: params.tube_barrier(),
             rest,
-            rest0: rest,
             rest_scale: 1.0,
             center_m: formation.node_m(NodeId::Center),
             own_hint: 0,
@@ -273,7 +273,7 @@ impl<const N: usize> DissipativeController<N> {
         let so = self.scale.update(m.load_pos_m.z, p.vertical.load_altitude_ref_m, dt_s);
         status.overload = so.overload > 0.0;
         if so.scale != self.rest_scale {
-            self.rest = self.rest0.scaled(so.scale, self.n);
+            self.rest = self.rest.scaled(so.scale / self.rest_scale, self.n);
             self.rest_scale = so.scale;
         }
 
