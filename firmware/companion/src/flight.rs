@@ -116,6 +116,10 @@ pub enum StartError {
     Controller(vt_dissipative::ControlError),
     /// The velocity loop rejected its parameters.
     VelocityLoop(vt_cfo::CfoError),
+    /// The take-off calibration refused the measured geometry (`vt_dissipative::calibrate`).
+    Calibration(vt_dissipative::CalibrationError),
+    /// The pre-flight check: the team cannot carry the declared load with the required margin.
+    Infeasible(vt_dissipative::FeasibilityError),
 }
 
 /// What one low-level step produced.
@@ -153,8 +157,11 @@ pub struct Flight {
 }
 
 impl Flight {
-    /// Arms: the take-off formation from the current positions of every UAV and the load
-    /// (eq:2-7), then the controllers from the parameters.
+    /// Arms: the cable calibration from the current positions of every UAV and the load
+    /// (`vt_dissipative::calibrate`), the pre-flight check at the measured lean
+    /// (`vt_dissipative::feasibility::check`), the take-off formation (eq:2-7), then the
+    /// controllers from the parameters and the calibration. host-sim's `CrateTeam::start` makes
+    /// the same calls with the same `f32` inputs.
     ///
     /// # Errors
     /// [`StartError`].
@@ -180,9 +187,12 @@ impl Flight {
                 src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, nbr_tmo_ms)).ok_or(StartError::StaleData)?
             };
         }
-        let dissipative = params.dissipative().map_err(StartError::Controller)?;
+        let takeoff = takeoff.get(..n).unwrap_or(&[]);
+        let cal = vt_dissipative::calibrate(id, takeoff, &load.pos_m, &params.calibration()).map_err(StartError::Calibration)?;
+        vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
+        let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
         let tray = params.tray();
-        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray)
+        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load.pos_m, &tray)
             .map_err(StartError::Controller)?;
         let high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
