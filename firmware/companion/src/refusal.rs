@@ -29,7 +29,9 @@ impl Line {
         Self { buf: [0; STATUS_TEXT_LEN], len: 0 }
     }
 
-    /// Appends `s` (what does not fit is dropped).
+    /// Appends `s` (what does not fit is dropped). Never inlined: it is called from many
+    /// places that run once, and flash matters more than speed there.
+    #[inline(never)]
     pub fn push(&mut self, s: &str) -> &mut Self {
         for &b in s.as_bytes() {
             if let Some(slot) = self.buf.get_mut(self.len) {
@@ -40,9 +42,10 @@ impl Line {
         self
     }
 
-    /// Appends an unsigned integer.
-    pub fn push_u64(&mut self, mut v: u64) -> &mut Self {
-        let mut digits = [0u8; 20];
+    /// Appends an unsigned integer (32-bit: the MCU divides those in hardware).
+    #[inline(never)]
+    pub fn push_u32(&mut self, mut v: u32) -> &mut Self {
+        let mut digits = [0u8; 10];
         let mut k = digits.len();
         loop {
             k -= 1;
@@ -63,29 +66,34 @@ impl Line {
         self
     }
 
+    /// Appends an index or count (saturated at `u32::MAX`).
+    pub fn push_usize(&mut self, v: usize) -> &mut Self {
+        self.push_u32(u32::try_from(v).unwrap_or(u32::MAX))
+    }
+
     /// Appends `x` rounded to `decimals` (at most 3) decimals; `nan`/`inf` for non-finite,
-    /// `>1e9` beyond.
+    /// `>1e6` beyond a million.
     pub fn push_fixed(&mut self, x: f32, decimals: u32) -> &mut Self {
         if !x.is_finite() {
             return self.push(if x.is_nan() { "nan" } else if x > 0.0 { "inf" } else { "-inf" });
         }
-        if x.abs() >= 1.0e9 {
-            return self.push(if x > 0.0 { ">1e9" } else { "<-1e9" });
+        if x.abs() >= 1.0e6 {
+            return self.push(if x > 0.0 { ">1e6" } else { "<-1e6" });
         }
         let d = decimals.min(3);
-        let scale = 10u64.pow(d);
-        // f32 keeps 7 significant digits: plenty for telemetry.
-        let scaled = libm::roundf(x.abs() * scale as f32) as u64;
+        let scale = 10u32.pow(d);
+        // f32 keeps 7 significant digits: plenty for telemetry; |x| scale < 1e9 fits a u32.
+        let scaled = libm::roundf(x.abs() * scale as f32) as u32;
         if x < 0.0 && scaled > 0 {
             self.push("-");
         }
-        self.push_u64(scaled / scale);
+        self.push_u32(scaled / scale);
         if d > 0 {
             self.push(".");
             let frac = scaled % scale;
             let mut p = scale / 10;
             while p > 0 {
-                self.push_u64((frac / p) % 10);
+                self.push_u32((frac / p) % 10);
                 p /= 10;
             }
         }
@@ -118,6 +126,7 @@ impl StartError {
     }
 
     /// The `STATUSTEXT` lines: a headline, and the numbers when there are any.
+    #[inline(never)]
     pub fn lines(&self) -> (Line, Option<Line>) {
         let mut head = Line::new();
         head.push("start refused: ");
@@ -165,7 +174,7 @@ fn control_detail(e: &ControlError, l: &mut Line) -> bool {
             true
         }
         ControlError::BadTakeoff { index } => {
-            l.push("take-off of UAV ").push_u64(*index as u64);
+            l.push("take-off of UAV ").push_usize(*index);
             true
         }
         _ => false,
@@ -178,19 +187,19 @@ fn calibration_detail(e: &CalibrationError, l: &mut Line) {
             l.push(name);
         }
         CalibrationError::IdOutOfRange { id, n_uavs } => {
-            l.push("VT_ID ").push_u64(id as u64).push(" >= team ").push_u64(n_uavs as u64);
+            l.push("VT_ID ").push_usize(id).push(" >= team ").push_usize(n_uavs);
         }
         CalibrationError::NonFiniteLoad => {
             l.push("load position non-finite");
         }
         CalibrationError::NonFiniteUav { index } => {
-            l.push("UAV ").push_u64(index as u64).push(" position non-finite");
+            l.push("UAV ").push_usize(index).push(" position non-finite");
         }
         CalibrationError::NotAboveLoad { index } => {
-            l.push("UAV ").push_u64(index as u64).push(" not above the load");
+            l.push("UAV ").push_usize(index).push(" not above the load");
         }
         CalibrationError::TooFlat { index, cos_lean } => {
-            l.push("UAV ").push_u64(index as u64).push(" lean cos ").push_fixed(cos_lean, 3).push(" too flat");
+            l.push("UAV ").push_usize(index).push(" lean cos ").push_fixed(cos_lean, 3).push(" too flat");
         }
         CalibrationError::StretchExceedsDistance { stretch_m, distance_m } => {
             l.push("stretch ").push_fixed(stretch_m, 3).push("m >= distance ").push_fixed(distance_m, 3).push("m");
@@ -239,7 +248,7 @@ mod tests {
         assert_eq!(f(1765.8, 0), "1766");
         assert_eq!(f(f32::NAN, 1), "nan");
         assert_eq!(f(-f32::INFINITY, 1), "-inf");
-        assert_eq!(f(3e9, 1), ">1e9");
+        assert_eq!(f(3e6, 1), ">1e6");
     }
 
     #[test]
