@@ -199,7 +199,7 @@ mod tests {
 
     #[test]
     fn the_physical_limit_near_vertical_passes_below_2_percent_and_fails_above() {
-        // 10 x 20 N, cables as vertical as a 0.65 m node circle under 7 m cables allows
+        // 10 x 20 N, UAVs 0.4 m apart on a 0.65 m circle 7 m above the load
         // (cos 0.9957): 19.8 kg has 2.5 % margin, 20.0 kg 1.5 %.
         let near = FeasibilityParams { load_mass_kg: 19.8, cos_lean: 0.9957, ..paper() };
         let f = check(&near).unwrap();
