@@ -195,6 +195,11 @@ fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, 
             eprintln!("error: --f-max must be a finite number > 0 (got {f})");
             return Err(ExitCode::from(EXIT_BAD_INPUT));
         }
+        // The scenario passed the pre-flight check at its own rating; this one is the run's.
+        if let Err(e) = sim::preflight(&ls.scenario, f) {
+            eprintln!("error: {}: with --f-max {f}: {e}", ls.source_name);
+            return Err(ExitCode::from(EXIT_BAD_INPUT));
+        }
     }
     eprintln!("flying {} with the {} controller ...", ls.source_name, kind.name());
     let opts = RunOptions { controller: kind, f_max_n: f_max, seed, progress: true, record: true, uav_model: plant.uav_model, cable_model: plant.cable_model, duration_s: None };

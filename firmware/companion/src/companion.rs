@@ -9,12 +9,12 @@
 //! dropped; nothing on the wire reaches the controllers unchecked.
 
 use mavlink::dialects::common::{
-    AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavState,
-    MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
-    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, SYSTEM_TIME_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
+    AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavSeverity,
+    MavState, MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
+    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, SYSTEM_TIME_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
-    SYS_STATUS_DATA,
+    STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 
@@ -130,6 +130,8 @@ struct Core<'t> {
     ll_cycles_max: u32,
     request: Option<Request>,
     link: LinkCounters,
+    /// Code of the last refused `MISSION_START` ([`StartError::code`]; 0 after a start).
+    refusal: u8,
 }
 
 impl<'t> Companion<'t> {
@@ -157,6 +159,7 @@ impl<'t> Companion<'t> {
                 ll_cycles_max: 0,
                 request: None,
                 link: LinkCounters::ZERO,
+                refusal: 0,
             },
         }
     }
@@ -545,7 +548,7 @@ impl Core<'_> {
         self.send(
             io,
             &HEARTBEAT_DATA {
-                custom_mode: u32::from(self.mode as u8) | (u32::from(reasons) << 8),
+                custom_mode: u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16),
                 mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
                 autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
                 base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
@@ -575,6 +578,18 @@ impl Core<'_> {
         );
         let stack = io.stack_used_bytes();
         self.send(io, &NAMED_VALUE_INT_DATA { time_boot_ms: self.clock_ms, value: stack as i32, name: NAME_STACK.into() });
+    }
+
+    /// A refused `MISSION_START`: the reason as `STATUSTEXT` (headline, then the numbers) and
+    /// at once in a `HEARTBEAT` (refusal code in `custom_mode` bits 16..23), before the
+    /// `COMMAND_ACK`.
+    fn refused(&mut self, e: &StartError, io: &mut impl Io) {
+        self.refusal = e.code();
+        let (head, detail) = e.lines();
+        for line in core::iter::once(head).chain(detail) {
+            self.send(io, &STATUSTEXT_DATA { severity: MavSeverity::MAV_SEVERITY_ERROR, text: line.bytes().into() });
+        }
+        self.send_status(io);
     }
 
     fn send_param(&mut self, io: &mut impl Io, p: Param) {
@@ -662,14 +677,17 @@ impl Core<'_> {
                     match Flight::start(&self.params, self.tube(), &self.sources, now) {
                         Ok(fl) => {
                             self.flight = Some(fl);
+                            self.refusal = 0;
                             self.hl_steps = 0;
                             log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
                             MavResult::MAV_RESULT_ACCEPTED
                         }
                         Err(e) => {
                             log!(warn, "mission start refused: {}", e);
+                            self.refused(&e, io);
                             match e {
                                 StartError::StaleData => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                                StartError::Infeasible(_) => MavResult::MAV_RESULT_DENIED,
                                 _ => MavResult::MAV_RESULT_FAILED,
                             }
                         }

@@ -119,6 +119,10 @@ pub enum StartError {
     Controller(vt_dissipative::ControlError),
     /// The velocity loop rejected its parameters.
     VelocityLoop(vt_cfo::CfoError),
+    /// The take-off calibration refused the measured geometry (`vt_dissipative::calibrate`).
+    Calibration(vt_dissipative::CalibrationError),
+    /// The pre-flight check: the team cannot carry the declared load with the required margin.
+    Infeasible(vt_dissipative::FeasibilityError),
 }
 
 /// What one low-level step produced.
@@ -156,8 +160,11 @@ pub struct Flight {
 }
 
 impl Flight {
-    /// Arms: the take-off formation from the current positions of every UAV and the load
-    /// (eq:2-7), then the controllers from the parameters.
+    /// Arms: the cable calibration from the current positions of every UAV and the load
+    /// (`vt_dissipative::calibrate`), the pre-flight check at the measured lean
+    /// (`vt_dissipative::feasibility::check`), the take-off formation (eq:2-7), then the
+    /// controllers from the parameters and the calibration. host-sim's `CrateTeam::start` makes
+    /// the same calls with the same `f32` inputs.
     ///
     /// # Errors
     /// [`StartError`].
@@ -183,9 +190,12 @@ impl Flight {
                 src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, nbr_tmo_ms)).ok_or(StartError::StaleData)?
             };
         }
-        let dissipative = params.dissipative().map_err(StartError::Controller)?;
+        let takeoff = takeoff.get(..n).unwrap_or(&[]);
+        let cal = vt_dissipative::calibrate(id, takeoff, &load.pos_m, &params.calibration()).map_err(StartError::Calibration)?;
+        vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
+        let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
         let tray = params.tray();
-        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray)
+        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load.pos_m, &tray)
             .map_err(StartError::Controller)?;
         // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
         let cap = params.capacity().map_err(StartError::Controller)?;
@@ -341,5 +351,83 @@ impl Flight {
     /// Low-level steps so far.
     pub fn low_level_ticks(&self) -> u32 {
         self.ll_ticks
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vt_dissipative::{CalibrationError, FeasibilityError};
+
+    /// The default parameters (the experiment: 3 UAVs, 3.06 kg) with every source fresh at
+    /// t = 0: UAVs on a 1.125 m circle 3 m above the load (3.2 m cables, lean cos 0.936).
+    fn setup(load_kg: f32, uav1_z: f32) -> (Params, Box<CompanionTube>, Sources) {
+        let mut p = Params::new();
+        p.set(Param::LoadKg, load_kg).unwrap();
+        let mut tube = Box::new(CompanionTube::placeholder());
+        tube.rebuild(&[vt_tube::Waypoint::new(0.0, 0.0, 3.5, 3.5), vt_tube::Waypoint::new(20.0, 0.0, 3.5, 3.5)]).unwrap();
+        let load = Vec3::new(2.0, 0.0, 3.0);
+        let at = |i: usize| {
+            let a = i as f32 * 2.0944;
+            load + Vec3::new(1.125 * libm::cosf(a), 1.125 * libm::sinf(a), if i == 1 { uav1_z } else { 3.0 })
+        };
+        let stamped = |pos_m| Stamped { value: State { pos_m, vel_mps: Vec3::zeros(), sample_ms: 0 }, stamp_ms: 0 };
+        let mut src = Sources::new();
+        src.own = Some(stamped(at(0)));
+        src.load = Some(stamped(load));
+        for j in 1..3 {
+            src.neighbours[j] = Some(Stamped { value: at(j), stamp_ms: 0 });
+        }
+        (p, tube, src)
+    }
+
+    #[test]
+    fn a_plausible_take_off_calibrates_and_starts() {
+        let (p, tube, src) = setup(3.06, 3.0);
+        let fl = Flight::start(&p, Some(&tube), &src, 0).unwrap();
+        assert!(fl.hold_reasons().is_clear());
+    }
+
+    #[test]
+    fn an_overweight_declared_load_is_refused_with_the_numbers() {
+        // Three 1.47 kg / 30 N UAVs at 30 deg tilt hold about 16 N each along a cable leaning
+        // 20.6 deg: 45 N of vertical force for 58.9 N (6 kg).
+        let (p, tube, src) = setup(6.0, 3.0);
+        match Flight::start(&p, Some(&tube), &src, 0) {
+            Err(StartError::Infeasible(FeasibilityError::Infeasible { needed_n, available_n, margin, min_margin })) => {
+                assert!((needed_n - 58.86).abs() < 1e-3, "{needed_n}");
+                assert!((available_n - 45.1).abs() < 0.1, "{available_n}");
+                assert!((margin - (available_n / needed_n - 1.0)).abs() < 1e-7);
+                assert_eq!(min_margin, 0.01);
+            }
+            other => panic!("{other:?}"),
+        }
+        // 4.58 kg (44.9 N) is within the capacity, but not with 1 % to spare: still refused.
+        let (p, tube, src) = setup(4.58, 3.0);
+        assert!(matches!(Flight::start(&p, Some(&tube), &src, 0), Err(StartError::Infeasible(_))));
+        // With the requirement lowered to 0 %, it starts.
+        let (mut p, tube, src) = setup(4.58, 3.0);
+        p.set(Param::MarginMin, 0.0).unwrap();
+        assert!(Flight::start(&p, Some(&tube), &src, 0).is_ok());
+    }
+
+    #[test]
+    fn an_implausible_take_off_is_refused_by_the_calibration() {
+        // UAV 1 below the load.
+        let (p, tube, src) = setup(3.06, -0.5);
+        assert_eq!(Flight::start(&p, Some(&tube), &src, 0).err(), Some(StartError::Calibration(CalibrationError::NotAboveLoad { index: 1 })));
+        // A cable longer than VT_CABLE_LMAX.
+        let (mut p, tube, src) = setup(3.06, 3.0);
+        p.set(Param::CableLMax, 2.0).unwrap();
+        assert!(matches!(
+            Flight::start(&p, Some(&tube), &src, 0),
+            Err(StartError::Calibration(CalibrationError::LengthOutOfRange { max_m, .. })) if max_m == 2.0
+        ));
+        // A cable too soft for the load: the stretch exceeds the distance.
+        let (mut p, tube, src) = setup(3.06, 3.0);
+        p.set(Param::CableK, 1.0).unwrap();
+        assert!(matches!(Flight::start(&p, Some(&tube), &src, 0), Err(StartError::Calibration(CalibrationError::StretchExceedsDistance { .. }))));
+        // The refusal codes are distinct (HEARTBEAT.custom_mode bits 16..23).
+        assert_eq!(StartError::Calibration(CalibrationError::NonFiniteLoad).code(), 6);
     }
 }

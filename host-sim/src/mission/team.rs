@@ -54,10 +54,12 @@ pub struct Tick<'a> {
 pub struct TeamStart<'a> {
     /// The take-off measurement (every view complete), stamped at time 0.
     pub tick: Tick<'a>,
-    /// Cable lengths calibrated at take-off from `tick` (docs/design.md), m.
-    pub calibrated_len_m: &'a [f64],
-    /// The nominal take-off geometry (stretch and share the controllers assume).
+    /// The nominal take-off geometry the plant starts in (the team calibrates its cables from
+    /// `tick`, not from this).
     pub takeoff: &'a Takeoff,
+    /// Rated tension of each cable for the pre-flight check (the scenario's, or the run's
+    /// `--f-max`), N.
+    pub cable_rated_n: f64,
 }
 
 /// A team controller: one computer per UAV, however they are built.
@@ -147,19 +149,33 @@ impl Team for CrateTeam {
         let n = start.tick.own.len();
         let tray = sim::tray(s);
         let own: Vec<V3f> = start.tick.own.iter().map(|m| m.pos_m).collect();
+        // As the companion's Flight::start: each UAV calibrates its cable from the take-off
+        // positions it holds (its own, the load's, its view of the team), then runs the
+        // pre-flight check at the measured lean.
+        let cals = (0..n)
+            .map(|i| {
+                let seen: Vec<V3f> = (0..n)
+                    .map(|j| if j == i { own[i] } else { start.tick.views.get(i).and_then(|v| v.get(j).copied().flatten()).unwrap_or(V3f::repeat(f32::NAN)) })
+                    .collect();
+                let cal = vt_dissipative::calibrate(i, &seen, &start.tick.load.pos_m, &sim::calibration_params(s, i))
+                    .map_err(|e| SimError(format!("UAV {i}: take-off calibration: {e}")))?;
+                vt_dissipative::feasibility::check(&sim::feasibility_params(s, start.cable_rated_n, cal.cos_lean))
+                    .map_err(|e| SimError(format!("UAV {i}: pre-flight check: {e}")))?;
+                Ok(cal)
+            })
+            .collect::<Result<Vec<_>, SimError>>()?;
         let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own, &start.tick.load.pos_m, &tray)
             .map_err(|e| SimError(format!("formation: {e}")))?;
-        let cal = |i: usize| start.calibrated_len_m.get(i).copied().unwrap_or(0.0);
         // Capacity-aware formation (issue 15): one plan from the take-off measurement, as in the
         // companion's Flight::start.
-        let cap = sim::capacity_params(s);
+        let cap = sim::capacity_params(s, start.cable_rated_n);
         let plan = capacity::plan_from_takeoff(&own, &start.tick.load.pos_m, &tray, &cap).map_err(|e| SimError(format!("capacity: {e}")))?;
         let scale = FormationScale::new(&plan, &cap);
         self.high = Some(match self.kind {
             ControllerKind::Dissipative => HighLevel::Dissipative(
                 (0..n)
                     .map(|i| {
-                        DissipativeController::new(i, sim::dissipative_params(s, cal(i), start.takeoff), &formation)
+                        DissipativeController::new(i, sim::dissipative_params(s, i, &cals[i]), &formation)
                             .map(|c| c.with_capacity(scale))
                             .map_err(|e| SimError(format!("controller: {e}")))
                     })
@@ -176,7 +192,7 @@ impl Team for CrateTeam {
                             v_max_mps: b.v_max_mps as f32,
                             r_safe_m: b.r_safe_m as f32,
                             r_active_m: b.r_active_m as f32,
-                            vertical: sim::vertical_params(s, cal(i), start.takeoff),
+                            vertical: sim::vertical_params(s, i, &cals[i]),
                         };
                         BaselineController::new(i, n, p).map_err(|e| SimError(format!("baseline: {e}")))
                     })
@@ -186,7 +202,7 @@ impl Team for CrateTeam {
         self.tube = Some(ls.tube.clone());
         self.low = (0..n).map(|_| sim::velocity_loop(s)).collect::<Result<_, _>>()?;
         // Warm start with the declared load's share (capacity.rs; the companion's Flight::start).
-        let cap = sim::capacity_params(s);
+        let cap = sim::capacity_params(s, start.cable_rated_n);
         for (l, m) in self.low.iter_mut().zip(start.tick.own) {
             if let Some(f) = capacity::takeoff_cable_force_n(&m.pos_m, &start.tick.load.pos_m, cap.load_mass_kg, n) {
                 l.preload(f);

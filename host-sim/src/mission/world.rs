@@ -39,7 +39,7 @@ pub struct World<'a> {
     pub record: RunRecord,
     record_on: bool,
     takeoff: Takeoff,
-    calibrated_len_m: Vec<f64>,
+    rated_n: f64,
     formation: Formation<SIM_MAX_UAVS>,
     start_own: Vec<Meas>,
     start_load: Meas,
@@ -71,8 +71,8 @@ pub struct World<'a> {
 }
 
 impl<'a> World<'a> {
-    /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled,
-    /// cable lengths calibrated from the first measurement).
+    /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled:
+    /// the take-off measurement the team calibrates from).
     ///
     /// # Errors
     /// The plant rejects its parameters, or the take-off formation is degenerate.
@@ -105,12 +105,6 @@ impl<'a> World<'a> {
             .uavs
             .iter()
             .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: 0 })
-            .collect();
-        // Cable length calibrated at take-off from the taut geometry (docs/design.md): measured
-        // UAV-load distance less the nominal stretch.
-        let calibrated_len_m: Vec<f64> = start_own
-            .iter()
-            .map(|m| f64::from((m.pos_m - start_load.pos_m).norm()) - takeoff.stretch_m)
             .collect();
         let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
         let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own_pos, &start_load.pos_m, &sim::tray(s))
@@ -153,7 +147,7 @@ impl<'a> World<'a> {
             record,
             record_on: opts.record,
             takeoff,
-            calibrated_len_m,
+            rated_n: f_max,
             formation,
             own: start_own.clone(),
             load: start_load,
@@ -188,8 +182,8 @@ impl<'a> World<'a> {
     pub fn start(&self) -> TeamStart<'_> {
         TeamStart {
             tick: Tick { step: 0, time_ms: 0, high_level: true, own: &self.start_own, load: self.start_load, views: &self.start_views },
-            calibrated_len_m: &self.calibrated_len_m,
             takeoff: &self.takeoff,
+            cable_rated_n: self.rated_n,
         }
     }
 

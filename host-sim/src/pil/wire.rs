@@ -3,8 +3,9 @@
 
 use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
 use mavlink::dialects::common::{
-    COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, SYSTEM_TIME_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA,
-    NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, SYS_STATUS_DATA,
+    COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA,
+    NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, STATUSTEXT_DATA,
+    SYSTEM_TIME_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use nalgebra::Vector3;
@@ -73,6 +74,8 @@ pub enum Rx {
     CommandAck(u32, u32),
     /// `NAMED_VALUE_INT`.
     NamedInt(String, i32),
+    /// `STATUSTEXT`: severity (`MAV_SEVERITY`) and text.
+    StatusText(u32, String),
     /// Anything else (message id).
     Other(u32),
 }
@@ -114,6 +117,11 @@ pub(crate) fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
         NAMED_VALUE_INT_DATA::ID => {
             let d = NAMED_VALUE_INT_DATA::deser(v2, payload).ok()?;
             Rx::NamedInt(d.name.to_str().unwrap_or("").to_string(), d.value)
+        }
+        STATUSTEXT_DATA::ID => {
+            let d = STATUSTEXT_DATA::deser(v2, payload).ok()?;
+            let text: Vec<u8> = d.text.iter().copied().take_while(|&b| b != 0).collect();
+            Rx::StatusText(d.severity as u32, String::from_utf8_lossy(&text).into_owned())
         }
         other => Rx::Other(other),
     })

@@ -93,6 +93,29 @@ pub struct Scenario {
     /// Faults injected at given times.
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
+    /// The pre-flight feasibility check (docs/design.md, "Pre-flight feasibility check").
+    #[serde(default)]
+    pub preflight: PreflightSpec,
+}
+
+/// The pre-flight feasibility check's requirement.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PreflightSpec {
+    /// Required vertical-force margin `F_avail / F_need - 1`, fraction (default 0.01 = 1 %;
+    /// in (-1, 10]). A negative margin flies a load past the team's capacity on purpose.
+    #[serde(default = "default_min_margin")]
+    pub min_margin: f64,
+}
+
+impl Default for PreflightSpec {
+    fn default() -> Self {
+        Self { min_margin: default_min_margin() }
+    }
+}
+
+fn default_min_margin() -> f64 {
+    f64::from(vt_dissipative::feasibility::DEFAULT_MIN_MARGIN)
 }
 
 /// Sensor noise, latency, wind and model uncertainty. Zero means off.

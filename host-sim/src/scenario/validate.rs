@@ -271,7 +271,30 @@ impl Validator<'_> {
         let tube = self.check_tube(s)?;
         self.check_obstacles(s, &tube)?;
         self.check_formation(s, &tube)?;
+        self.check_preflight(s)?;
         Ok(tube)
+    }
+
+    /// The pre-flight feasibility check (docs/design.md, "Pre-flight feasibility check"): the
+    /// team carries the declared load with `preflight.min_margin` at the take-off lean, or the
+    /// scenario is refused before anything flies.
+    fn check_preflight(&self, s: &Scenario) -> Result<(), ScenarioError> {
+        let m = s.preflight.min_margin;
+        if !(m.is_finite() && m > -1.0 && m <= 10.0) {
+            return Err(self.err("preflight", "min_margin", format!("must be a fraction in (-1, 10] (got {m})")));
+        }
+        match crate::sim::preflight(s, s.cables.rated_n) {
+            Ok(_) => Ok(()),
+            Err(e @ vt_dissipative::FeasibilityError::Infeasible { .. }) => {
+                let p = crate::sim::feasibility_params(s, s.cables.rated_n, crate::sim::takeoff_cos_lean(s, s.cables.rated_n) as f32);
+                let rotor = vt_dissipative::feasibility::rotor_capacity_n(p.uav_mass_kg * vt_dissipative::calibration::GRAVITY_MPS2, p.thrust_max_n, p.tilt_max_rad, p.cos_lean);
+                Err(self.err("load", "mass_kg", format!(
+                    "{e}; {} UAVs x min(cable rated {:.1} N, rotors {rotor:.1} N) at the take-off lean cos {:.4}: lower the load, add UAVs, \
+                     stand the cables more vertical, or set [preflight] min_margin",
+                    p.n_uavs, p.cable_rated_n, p.cos_lean)))
+            }
+            Err(e) => Err(self.err("preflight", "min_margin", e.to_string())),
+        }
     }
 
     fn check_tube(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
