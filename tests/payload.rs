@@ -53,8 +53,13 @@ fn carries_19_8_kg_with_the_20_n_cap_as_a_hard_limit() {
     assert!(on.min_uav_boundary_m >= floor && on.min_uav_uav_m >= floor, "{}", describe(&on));
     assert!(on.capacity_margin > 1.0, "the adapted take-off formation must lift the load: {}", describe(&on));
 
+    // Without the law the paper's formation is refused before take-off, and flown anyway (the
+    // pre-flight requirement lowered on purpose) it drops the load.
     let mut off = paper(mass);
     off.scenario.controller.capacity.enabled = false;
+    let refused = sim::run(&off, &hard_cap()).expect_err("the pre-flight check refuses the 3 m formation");
+    assert!(refused.0.contains("pre-flight") && refused.0.contains("available 191.6 N"), "{}", refused.0);
+    off.scenario.preflight.min_margin = -0.5;
     let off = sim::run(&off, &hard_cap()).expect("run starts").summary;
     println!("{mass} kg, rigid_body + paper_clamp, law off: {}", describe(&off));
     assert!(!off.success && off.capacity_margin < 1.0, "without the law the paper formation cannot lift {mass} kg: {}", describe(&off));
