@@ -295,7 +295,7 @@ fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut En
     assert!((needed_n - 58.86).abs() < 1e-3 && (available_n - 45.1).abs() < 0.1 && margin < -0.2, "{err:?}");
     let (head, detail) = vt_companion::flight::StartError::Infeasible(err).lines();
     let expected = [head.as_str().to_string(), detail.unwrap().as_str().to_string()];
-    assert_eq!(expected[1], "need 58.9N have 45.1N margin -23.3% min 2.0%");
+    assert_eq!(expected[1], "need 58.9N have 45.1N margin -23.3% min 1.0%");
 
     pil::configure(q, &cfg, &mut enc.gcs).unwrap();
     let own = (uavs[0], V3f::zeros());
