@@ -55,7 +55,11 @@ fn comparable(s: &Summary) -> serde_json::Value {
 }
 
 fn assert_same(file: &str, uav: UavModel, cable: CableModel) {
-    let ls = load(file);
+    assert_same_scenario(&load(file), file, uav, cable);
+}
+
+fn assert_same_scenario(ls: &LoadedScenario, file: &str, uav: UavModel, cable: CableModel) {
+    let ls = ls.clone();
     let opts = RunOptions { record: false, uav_model: Some(uav), cable_model: Some(cable), ..RunOptions::default() };
     let mut crates = Recording { team: CrateTeam::new(ControllerKind::Dissipative), commands: Vec::new() };
     let a = mission::fly(&ls, &opts, &mut crates).expect("crates backend flies").summary;
@@ -100,4 +104,15 @@ fn crates_and_twin_fly_the_experiment_identically_on_the_rigid_body_plant() {
 #[test]
 fn crates_and_twin_fly_the_paper_mission_identically_on_the_rigid_body_plant() {
     assert_same("paper-10uav.toml", UavModel::RigidBody, CableModel::Elastic);
+}
+
+/// With 100 ms of sensor latency the own and load states carry their sample times
+/// (`time_boot_ms`) and the host sends `SYSTEM_TIME` (docs/protocol.md): the twin's clock, its
+/// delay compensation and the crates' must still agree bit for bit.
+#[test]
+fn crates_and_twin_compensate_latency_identically_on_the_rigid_body_plant() {
+    let mut ls = load("paper-10uav.toml");
+    ls.scenario.disturbances.latency_s = 0.1;
+    ls.scenario.disturbances.velocity_noise_mps = 0.02;
+    assert_same_scenario(&ls, "paper-10uav.toml + 100 ms latency", UavModel::RigidBody, CableModel::Elastic);
 }

@@ -77,7 +77,7 @@ fn configure_and_start<P: Port>(port: &mut P, cfg: &UavConfig, setup: &pil::Team
     pil::configure(port, cfg, &mut enc.gcs).unwrap();
     let (all, load) = takeoff_state(setup);
     let own = (all[0].unwrap(), V3f::zeros());
-    let tick = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some(load), neighbours: &all, own, id: 0 };
+    let tick = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some(load), neighbours: &all, own, sample_ms: (0, 0), id: 0 };
     port.send(&tick.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
     assert_eq!(pil::start_mission(port, cfg.system_id, &mut enc.gcs).unwrap(), ACCEPTED);
 }
@@ -102,6 +102,7 @@ fn tick<P: Port>(port: &mut P, enc: &mut Encoders, setup: &pil::TeamSetup, time_
         load: send_team.then_some(load),
         neighbours: if send_team { &all } else { &[] },
         own,
+        sample_ms: (time_ms, time_ms),
         id: 0,
     };
     port.send(&t.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
@@ -313,6 +314,121 @@ fn ticker_mode_holds_with_the_cfo_when_the_autopilot_goes_silent() {
     assert!(last > 0.3 * hover && last < 1.0, "hold collective {last} (hover alone {hover})");
     let (code, _) = q.shutdown(&mut enc.gcs, cfg.system_id).unwrap();
     assert_eq!(code, Some(0));
+}
+
+/// Sends `MAV_CMD_MISSION_START` and collects what the companion says until its
+/// `COMMAND_ACK`: (result, `STATUSTEXT`s, last `HEARTBEAT.custom_mode`).
+fn start_and_listen<P: Port>(port: &mut P, cfg: &UavConfig, enc: &mut Encoders) -> (u32, Vec<String>, Option<u32>) {
+    use mavlink::dialects::common::{MavCmd, COMMAND_LONG_DATA};
+    let cmd = COMMAND_LONG_DATA { command: MavCmd::MAV_CMD_MISSION_START, target_system: cfg.system_id, target_component: 191, ..Default::default() };
+    port.send(&enc.gcs.frame(255, 190, &cmd)).unwrap();
+    let (mut texts, mut heartbeat) = (Vec::new(), None);
+    loop {
+        match port.recv().unwrap() {
+            Rx::CommandAck(c, r) if c == MavCmd::MAV_CMD_MISSION_START as u32 => return (r, texts, heartbeat),
+            Rx::StatusText(_, t) => texts.push(t),
+            Rx::Heartbeat(m) => heartbeat = Some(m),
+            _ => {}
+        }
+    }
+}
+
+/// Issue 15: the companion runs the pre-flight check itself at `MISSION_START`, from its own
+/// parameters and its take-off calibration. An overweight declared load (6 kg for the
+/// experiment's three 30 N UAVs, which hold about 4.6 kg) is refused: `COMMAND_ACK` DENIED, a
+/// `STATUSTEXT` with the needed and available force and the margin (the numbers the crate
+/// computes on the host from the same f32 inputs, so bit-identical), the refusal code in the
+/// `HEARTBEAT`, no flight. With the load declared right it then starts.
+fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut Encoders) {
+    let ls = experiment();
+    let (mut cfg, setup) = uav0_config(&ls, true);
+    for p in cfg.params.iter_mut().filter(|p| p.0 == Param::LoadKg) {
+        p.1 = 6.0;
+    }
+    // What the companion must compute: its calibration from the take-off state, then the check.
+    let param = |k: Param| cfg.params.iter().find(|p| p.0 == k).unwrap().1;
+    let (all, (load, _)) = takeoff_state(&setup);
+    let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap()).collect();
+    let cal_params = vt_dissipative::CalibrationParams {
+        load_mass_kg: 6.0,
+        stiffness_n_per_m: param(Param::CableK),
+        min_length_m: param(Param::ZMin),
+        max_length_m: param(Param::CableLMax),
+        min_cos_lean: vt_dissipative::calibration::MIN_COS_LEAN,
+    };
+    let cal = vt_dissipative::calibrate(0, &uavs, &load, &cal_params).unwrap();
+    let feas = vt_dissipative::FeasibilityParams {
+        n_uavs: 3,
+        load_mass_kg: 6.0,
+        uav_mass_kg: param(Param::Mass),
+        thrust_max_n: param(Param::ThrustMax),
+        tilt_max_rad: param(Param::TiltMax),
+        cable_rated_n: param(Param::CableRated),
+        cos_lean: cal.cos_lean,
+        min_margin: param(Param::MarginMin),
+    };
+    let err = vt_dissipative::feasibility::check(&feas).unwrap_err();
+    let vt_dissipative::FeasibilityError::Infeasible { needed_n, available_n, margin, .. } = err else { panic!("{err:?}") };
+    assert!((needed_n - 58.86).abs() < 1e-3 && (available_n - 45.1).abs() < 0.1 && margin < -0.2, "{err:?}");
+    let (head, detail) = vt_companion::flight::StartError::Infeasible(err).lines();
+    let expected = [head.as_str().to_string(), detail.unwrap().as_str().to_string()];
+    assert_eq!(expected[1], "need 58.9N have 45.1N margin -23.3% min 1.0%");
+
+    pil::configure(q, &cfg, &mut enc.gcs).unwrap();
+    let own = (uavs[0], V3f::zeros());
+    let frames = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some((load, V3f::zeros())), neighbours: &all, own, sample_ms: (0, 0), id: 0 };
+    q.send(&frames.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
+    let (result, texts, heartbeat) = start_and_listen(q, &cfg, enc);
+    assert_eq!(result, 2, "MAV_RESULT_DENIED; texts {texts:?}");
+    assert_eq!(texts, expected);
+    let hb = heartbeat.expect("a HEARTBEAT with the refusal before the ACK");
+    assert_eq!(hb & 0xFF, Mode::Ready as u32, "not flying");
+    assert_eq!((hb >> 16) & 0xFF, 7, "refusal code: infeasible");
+    // The host's own reading of the reason: start_mission_with_reason (what PortTeam reports).
+    let (r, t) = pil::start_mission_with_reason(q, cfg.system_id, &mut enc.gcs).unwrap();
+    assert_eq!((r, t), (2, expected.to_vec()), "refused again, same reason");
+    // Declared right (the experiment's 3.06 kg), the same companion starts.
+    let set = mavlink::dialects::common::PARAM_SET_DATA {
+        param_value: 3.06,
+        target_system: 0,
+        target_component: 191,
+        param_id: "VT_LOAD_KG".into(),
+        param_type: mavlink::dialects::common::MavParamType::MAV_PARAM_TYPE_REAL32,
+    };
+    q.send(&enc.gcs.frame(255, 190, &set)).unwrap();
+    let echoed = pil::recv_until(q, 64, |rx| match rx {
+        Rx::ParamValue(n, v) if n == "VT_LOAD_KG" => Some(*v),
+        _ => None,
+    })
+    .unwrap();
+    assert_eq!(echoed, 3.06);
+    let (result, texts, _) = start_and_listen(q, &cfg, enc);
+    assert_eq!((result, texts), (ACCEPTED, Vec::new()));
+    // Flying now: the next tick is answered with a setpoint and the refusal code is cleared.
+    let mut hb = None;
+    for k in 0..600u32 {
+        let r = tick(q, enc, &setup, 2 + 2 * k, k % 10 == 0, true);
+        assert!(r.setpoint.is_some());
+        hb = r.heartbeat.or(hb);
+    }
+    let hb = hb.expect("heartbeat");
+    assert_eq!((hb & 0xFF, hb >> 16), (Mode::Transport as u32, 0));
+}
+
+#[test]
+fn firmware_refuses_mission_start_for_an_overweight_declared_load() {
+    let Some(elf) = firmware() else { return };
+    let mut q = spawn(&elf, "overweight", false);
+    let mut enc = Encoders::default();
+    overweight_is_refused_then_right_load_starts(&mut q, &mut enc);
+    let (code, _) = q.shutdown(&mut enc.gcs, pil::SYSID_BASE).unwrap();
+    assert_eq!(code, Some(0));
+}
+
+/// The same on the host twin (no QEMU needed).
+#[test]
+fn twin_refuses_mission_start_for_an_overweight_declared_load() {
+    overweight_is_refused_then_right_load_starts(&mut SilPort::new(), &mut Encoders::default());
 }
 
 /// Garbage for the link: random bytes, a truncated frame, a frame with a bad checksum, an
@@ -558,7 +674,7 @@ proptest::proptest! {
         let t = 3_600_000u32;
         let (all, _) = takeoff_state(&setup);
         let own = (all[0].unwrap(), V3f::zeros());
-        let tick = TickFrames { time_ms: t, system_id: cfg.system_id, load: None, neighbours: &[], own, id: 0 };
+        let tick = TickFrames { time_ms: t, system_id: cfg.system_id, load: None, neighbours: &[], own, sample_ms: (t, t), id: 0 };
         twin.send(&tick.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
         let mut answered = false;
         while let Ok(rx) = twin.recv() {

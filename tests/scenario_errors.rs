@@ -130,8 +130,9 @@ fn uav_heavier_than_its_thrust_names_the_field_and_line() {
     // 2 kg UAV (19.6 N) with 15 N of thrust.
     let text = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 15.0", 1);
     expect_error(&text, "heavy.toml", &["heavy.toml", &format!(":{}:", line_of("thrust_max_n = 50.0")), "uavs.thrust_max_n", "cannot lift"]);
-    // The boundary: 20 N lifts it (the paper value range stays valid).
-    let ok = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 20.0", 1);
+    // The boundary: 20 N lifts it (the paper value range stays valid). With 0.4 N to spare per
+    // UAV the team lifts a 0.3 kg load, not the paper's 18 kg (the pre-flight check, issue 15).
+    let ok = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 20.0", 1).replacen("mass_kg = 18.0", "mass_kg = 0.3", 1);
     let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("20 N lifts a 2 kg UAV");
     assert!(host_sim::sim::velocity_loop(&ls.scenario).is_ok(), "validation and the velocity loop disagree");
 }
@@ -189,4 +190,52 @@ fn parse_errors_name_the_field() {
     expect_error(&text, "type-field.toml", &["load.mass_kg", &format!(":{}:", line_of("mass_kg = 18.0"))]);
     let (text, line) = appended("[[faults]]\nkind = \"link_dead\"\nuav = 3\ntime_s = 18.0\n\n[[faults]]\nkind = \"snap\"\nuav = 3\ntime_s = 18.0\n");
     expect_error(&text, "kind.toml", &["faults[1].kind", &line(6)]);
+}
+
+/// Issue 15: a team that cannot carry its load with the required margin is refused before
+/// take-off by every command that flies (run, compare, sweep, pil), exit 2, with the numbers:
+/// needed vertical force, available force, margin.
+#[test]
+fn a_load_too_heavy_for_the_team_is_refused_with_the_numbers() {
+    // 20.0 kg: even at the capacity-aware formation's most vertical lean (UAVs 0.9 m apart,
+    // cos 0.9852) 10 x 20 N give 197.0 N for 196.2 N, +0.4 % (issue 15; 19.5 kg at the paper's
+    // 3 m lean, +0.1 %, now flies with the cables stood up).
+    let text = paper().replacen("mass_kg = 18.0", "mass_kg = 20.0", 1);
+    let line = format!(":{}:", line_of("mass_kg = 18.0"));
+    let numbers = ["load.mass_kg", "needed vertical force 196.2 N", "available 197.0 N", "margin 0.4 %", "required 1.0 %", "[preflight] min_margin"];
+    let dir = std::env::temp_dir().join(format!("vt-preflight-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("overweight.toml");
+    std::fs::write(&path, &text).expect("write scenario");
+    for cmd in ["run", "compare", "sweep", "pil"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args([cmd, path.to_str().expect("utf-8 path"), "--out"])
+            .arg(dir.join(cmd))
+            .output()
+            .expect("host-sim runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
+        assert!(!err.contains("panicked") && !err.contains("flying"), "{cmd}: refused before take-off: {err}");
+        for m in numbers.iter().copied().chain(["overweight.toml", line.as_str()]) {
+            assert!(err.contains(m), "{cmd}: `{m}` not in: {err}");
+        }
+    }
+    // Lighter, it flies past the check; and a scenario may lower the requirement.
+    let ok = paper().replacen("mass_kg = 18.0", "mass_kg = 19.0", 1);
+    // 19 kg: the capacity-aware formation stands the cables up to its own 5 % margin.
+    let f = host_sim::sim::preflight(&host_sim::scenario::parse(&ok, "ok.toml").expect("19 kg: +5.0 %").scenario, 20.0).expect("feasible");
+    assert!((f.margin - 0.05).abs() < 5e-4, "{f:?}");
+    let lowered = format!("{text}\n[preflight]\nmin_margin = 0.0\n");
+    host_sim::scenario::parse(&lowered, "lowered.toml").expect("0 % required: 20.0 kg passes");
+    // `--f-max` overrides the rating: the check runs again, naming the file and the flag.
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim")).args(["run", "--f-max", "10", "--out"]).arg(dir.join("fmax")).output().expect("host-sim runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    // (10 N cables: the formation stands as vertical as it may, cos 0.9852: 98.5 N.)
+    for m in ["paper-10uav.toml", "--f-max 10", "needed vertical force 176.6 N", "available 98.5 N", "margin -44.2 %"] {
+        assert!(err.contains(m), "`{m}` not in: {err}");
+    }
+    // A required margin outside (-1, 10] names its field.
+    let bad = format!("{text}\n[preflight]\nmin_margin = -1.0\n");
+    expect_error(&bad, "bad-margin.toml", &["preflight.min_margin"]);
 }

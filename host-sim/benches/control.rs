@@ -116,7 +116,8 @@ impl<const N: usize> Team<N> {
         let uav_f: Vec<Vector3<f32>> = to.uav_pos_m.iter().map(v3f).collect();
         let load_f = v3f(&to.load_pos_m);
         let formation = Formation::<N>::from_takeoff(&uav_f, &load_f, &tray).expect("formation");
-        let params = sim::dissipative_params(&s, s.cables.lengths_m[0], &to);
+        let cal = vt_dissipative::calibrate(0, &uav_f, &load_f, &sim::calibration_params(&s, 0)).expect("calibration");
+        let params = sim::dissipative_params(&s, 0, &cal);
         let mut controller = DissipativeController::<N>::new(0, params, &formation).expect("controller");
         let own_m = uav_f[0];
         // The cable pulls UAV 0 towards the load with its share (what the CFO estimates).

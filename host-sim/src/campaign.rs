@@ -302,7 +302,7 @@ pub struct SweepReport {
 
 fn metric_table(rows: &[&Row]) -> std::collections::BTreeMap<&'static str, Percentiles> {
     type Get = fn(&Summary) -> f64;
-    let metrics: [(&'static str, Get); 9] = [
+    let metrics: [(&'static str, Get); 10] = [
         ("min_uav_boundary_m", |s| s.min_uav_boundary_m),
         ("min_load_boundary_m", |s| s.min_load_boundary_m),
         ("min_uav_uav_m", |s| s.min_uav_uav_m),
@@ -312,6 +312,7 @@ fn metric_table(rows: &[&Row]) -> std::collections::BTreeMap<&'static str, Perce
         ("max_thrust_fraction", |s| s.max_thrust_fraction),
         ("formation_error_end_m", |s| s.formation_error_end_m),
         ("completion_time_s", |s| s.completion_time_s.unwrap_or(f64::NAN)),
+        ("time_above_rated_fraction", |s| s.time_above_rated_fraction),
     ];
     metrics.iter().filter_map(|(k, f)| percentiles(rows.iter().map(|r| f(&r.summary)).collect()).map(|p| (*k, p))).collect()
 }
@@ -367,12 +368,12 @@ pub fn report(c: &Campaign, first_seed: u64, rows: &[Row]) -> SweepReport {
 /// `sweep.csv`: one row per run.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures\n",
+        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg\n",
     );
     for r in rows {
         let m = &r.summary;
         s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{}\n",
             r.level.map_or(String::new(), |l| l.to_string()),
             m.seed,
             m.success,
@@ -388,6 +389,8 @@ pub fn csv(rows: &[Row]) -> String {
             m.max_thrust_fraction,
             m.formation_error_end_m,
             m.failures.join("; ").replace('"', "'"),
+            m.time_above_rated_fraction,
+            m.true_load_mass_kg,
         );
     }
     s

@@ -114,10 +114,13 @@ pub struct Snapshot {
     pub load_pos_m: V3,
     /// Load velocity, m/s.
     pub load_vel_mps: V3,
+    /// Simulated time of the sample, ms (`time_boot_ms` of the measurements made from it).
+    pub time_ms: u32,
 }
 
 impl Snapshot {
-    fn fill(&mut self, p: &Plant) {
+    fn fill(&mut self, p: &Plant, time_ms: u32) {
+        self.time_ms = time_ms;
         self.uav_pos_m.clear();
         self.uav_vel_mps.clear();
         self.uav_pos_m.extend(p.uavs.iter().map(|u| u.pos_m));
@@ -151,11 +154,11 @@ impl Sensors {
         }
     }
 
-    /// Stores the current true state (call once per low-level period).
-    pub fn sample(&mut self, p: &Plant) {
+    /// Stores the current true state, sampled at `time_ms` (call once per low-level period).
+    pub fn sample(&mut self, p: &Plant, time_ms: u32) {
         self.head = (self.head + 1) % self.ring.len();
         if let Some(s) = self.ring.get_mut(self.head) {
-            s.fill(p);
+            s.fill(p, time_ms);
         }
         self.filled = (self.filled + 1).min(self.ring.len());
     }

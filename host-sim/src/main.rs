@@ -195,6 +195,11 @@ fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, 
             eprintln!("error: --f-max must be a finite number > 0 (got {f})");
             return Err(ExitCode::from(EXIT_BAD_INPUT));
         }
+        // The scenario passed the pre-flight check at its own rating; this one is the run's.
+        if let Err(e) = sim::preflight(&ls.scenario, f) {
+            eprintln!("error: {}: with --f-max {f}: {e}", ls.source_name);
+            return Err(ExitCode::from(EXIT_BAD_INPUT));
+        }
     }
     eprintln!("flying {} with the {} controller ...", ls.source_name, kind.name());
     let opts = RunOptions { controller: kind, f_max_n: f_max, seed, progress: true, record: true, uav_model: plant.uav_model, cable_model: plant.cable_model, duration_s: None };
@@ -353,7 +358,7 @@ fn write_sweep(out: &std::path::Path, rows: &[host_sim::campaign::Row], rep: &ho
         host_sim::plots::write_xy_plot(
             &out.join("success_rate_vs_level.png"),
             &format!("Success rate - {} (level: {key})", rep.scenario),
-            "disturbance level",
+            level_axis(&key),
             "success rate [%]",
             &[("success rate".to_string(), pts)],
             &[0.0, 100.0],
@@ -361,6 +366,17 @@ fn write_sweep(out: &std::path::Path, rows: &[host_sim::campaign::Row], rep: &ho
         .map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+/// The x-axis label of a level sweep: what the levels set (issue 15 added the load sweeps).
+fn level_axis(key: &str) -> &'static str {
+    match key {
+        "load.mass_kg" => "load mass [kg]",
+        "load.true_mass_kg" => "true load mass [kg] (declared: load.mass_kg)",
+        "disturbances.latency_s" => "sensor latency [s]",
+        "disturbances.intensity" => "disturbance intensity (x nominal)",
+        _ => "level",
+    }
 }
 
 /// `host-sim plan` (issue 16).

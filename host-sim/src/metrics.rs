@@ -242,6 +242,7 @@ impl Metrics {
             n_uavs: self.n,
             f_max_n: self.f_max,
             load_mass_kg: s.load.mass_kg,
+            true_load_mass_kg: s.load.plant_mass_kg(),
             nonfinite: self.nonfinite,
             invalid_commands: self.invalid_commands,
             uav_model: uav_model.into(),

@@ -51,8 +51,11 @@ pub struct Summary {
     pub n_uavs: usize,
     /// Cable capacity, N.
     pub f_max_n: f64,
-    /// Load mass, kg.
+    /// Load mass, kg (as declared to the controllers: the scenario's `load.mass_kg`).
     pub load_mass_kg: f64,
+    /// Load mass the plant flew, kg, before disturbance draws (`load.true_mass_kg`, else the
+    /// declared mass; issue 15).
+    pub true_load_mass_kg: f64,
     /// A non-finite value appeared in the plant state.
     pub nonfinite: bool,
     /// High-level commands that fell back to hold (invalid input or non-finite synthesis).

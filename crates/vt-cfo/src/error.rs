@@ -45,6 +45,8 @@ pub enum CfoError {
     },
     /// `actuator_lag_s` is NaN, infinite or < 0.
     InvalidActuatorLag,
+    /// The horizontal reserve is NaN, outside `[0, 1)`, or leaves no vertical range.
+    InvalidHorizontalReserve,
     /// The hover thrust `mass_kg * g` lies outside `[thrust_min_n, thrust_max_n]`.
     HoverOutsideThrustLimits {
         /// The hover thrust, N.
@@ -68,6 +70,9 @@ impl fmt::Display for CfoError {
                 write!(f, "thrust_max_n must be finite and > thrust_min_n")
             }
             Self::InvalidTiltMax => write!(f, "tilt_max_rad must lie in (0, pi/2)"),
+            Self::InvalidHorizontalReserve => {
+                write!(f, "horizontal reserve must lie in [0, 1) and leave the vertical cap above thrust_min_n")
+            }
             Self::InvalidKp { axis } => write!(f, "kp[{axis}] must be finite and >= 0"),
             Self::InvalidKi { axis } => write!(f, "ki[{axis}] must be finite and >= 0"),
             Self::InvalidKd { axis } => write!(f, "kd[{axis}] must lie in [0, 1)"),

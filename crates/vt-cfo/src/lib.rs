@@ -6,6 +6,8 @@
 //!   `f_hat` (REFERENCE §4, Qi et al. 2022).
 //! - [`velocity_loop`]: [`VelocityLoop`], `T_d = m (Kp e_v + Ki int e_v + Kd e_v') + f_hat - G`
 //!   (eq:2-3) with anti-windup and a failsafe.
+//! - [`prediction`]: measurement-delay compensation (the observer on the sample's timeline,
+//!   the state predicted to now).
 //! - [`thrust`]: [`ThrustLimits`] (magnitude and tilt clamp, vertical priority) and the
 //!   conversion between a thrust vector and an attitude setpoint ([`thrust_to_attitude`],
 //!   [`attitude_to_thrust`]).
@@ -36,12 +38,14 @@
 
 mod error;
 pub mod observer;
+pub mod prediction;
 mod status;
 pub mod thrust;
 pub mod velocity_loop;
 
 pub use error::CfoError;
 pub use observer::{Cfo, CfoParams, MAX_BANDWIDTH_PERIOD};
+pub use prediction::{age_s, extrapolate_constant_velocity, Prediction, DELAY_CAPACITY_STEPS};
 pub use status::Status;
 pub use thrust::{attitude_to_thrust, thrust_to_attitude, AttitudeSetpoint, ThrustLimits};
 pub use velocity_loop::{PidGains, ThrustOutput, VelocityLoop, VelocityLoopParams};

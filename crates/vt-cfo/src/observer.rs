@@ -211,6 +211,27 @@ impl Cfo {
         &self.params
     }
 
+    /// Runs the observer at bandwidth `min(mu, bandwidth_rad_s)` from now on (`l1 = 2 mu'`,
+    /// `l2 = mu'^2`, REFERENCE §4): never above the configured `mu`, so the forward-Euler bound
+    /// still holds; a non-finite or non-positive value restores the configured `mu`. The state
+    /// is kept.
+    pub fn set_bandwidth(&mut self, bandwidth_rad_s: f32) {
+        let configured = self.params.bandwidth_rad_s;
+        let mu = if bandwidth_rad_s.is_finite() && bandwidth_rad_s > 0.0 {
+            bandwidth_rad_s.min(configured)
+        } else {
+            configured
+        };
+        self.l1_per_s = L1_PER_BANDWIDTH * mu; // REFERENCE §4: l1 = 2 mu
+        self.l2_per_s2 = mu * mu; // REFERENCE §4: l2 = mu^2
+    }
+
+    /// The bandwidth the observer runs at, rad/s (`l1 / 2`).
+    #[must_use]
+    pub fn bandwidth_rad_s(&self) -> f32 {
+        self.l1_per_s / L1_PER_BANDWIDTH
+    }
+
     /// One observer step; returns the estimated cable term `f_hat`, N (ENU).
     ///
     /// `v_meas_mps`: measured velocity now; `thrust_applied_n`: the thrust applied since the
@@ -322,6 +343,23 @@ impl Cfo {
     #[must_use]
     pub fn status(&self) -> Status {
         self.status
+    }
+
+    /// Presets the disturbance estimate to `f_hat_n` (N, ENU; non-finite: ignored) with
+    /// `thrust_applied_n` as the last thrust, keeping the prediction unseeded: a warm start at
+    /// mission start when the cable force is already known from the declared load
+    /// (docs/design.md, "Capacity-aware formation": bumpless transfer). `f_hat = -m a_hat`
+    /// (REFERENCE §4), so `z = a_hat = -f_hat / m`.
+    pub fn preload(&mut self, f_hat_n: Vector3<f32>, thrust_applied_n: Vector3<f32>) {
+        let a = -f_hat_n / self.params.mass_kg;
+        if !(is_finite(&a) && is_finite(&thrust_applied_n)) {
+            return;
+        }
+        self.z_mps2 = a;
+        self.a_hat_mps2 = a;
+        self.innovation_mps = Vector3::zeros();
+        self.thrust_last_n = thrust_applied_n;
+        self.seeded = false;
     }
 
     /// Starts the prediction at the measurement, keeping the disturbance state `z`.

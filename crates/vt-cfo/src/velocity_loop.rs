@@ -3,6 +3,7 @@
 
 use nalgebra::Vector3;
 
+use crate::prediction::{delay_steps, scheduled_bandwidth_rad_s, Prediction, ThrustHistory};
 use crate::{Cfo, CfoError, CfoParams, Status, ThrustLimits, GRAVITY_MPS2};
 
 /// Paper gain `Kp`, 1/s, every axis (REFERENCE §4).
@@ -110,7 +111,7 @@ impl VelocityLoopParams {
             return Err(CfoError::InvalidIntegralLimit { axis });
         }
         let hover_n = cfo.mass_kg() * GRAVITY_MPS2;
-        if !(hover_n >= limits.thrust_min_n() && hover_n <= limits.thrust_max_n()) {
+        if !(hover_n >= limits.thrust_min_n() && hover_n <= limits.vertical_max_n()) {
             return Err(CfoError::HoverOutsideThrustLimits { hover_n });
         }
         Ok(Self {
@@ -279,6 +280,11 @@ pub struct VelocityLoop {
     /// Without measurements: the velocity, dead-reckoned from the observer's last estimate
     /// under the failsafe's braking, m/s.
     v_blind_mps: Vector3<f32>,
+    /// The applied thrust of the last steps (newest = `thrust_applied_n`), for the delay
+    /// compensation ([`crate::prediction`]).
+    history: ThrustHistory,
+    /// What the last step predicted.
+    prediction: Prediction,
     status: Status,
 }
 
@@ -295,6 +301,8 @@ impl VelocityLoop {
             thrust_mean_n: hover_vector_n(&params),
             mean_gain: (0.0, 0.0),
             v_blind_mps: Vector3::zeros(),
+            history: ThrustHistory::new(hover_vector_n(&params)),
+            prediction: Prediction::undelayed(Vector3::zeros()),
             status: Status::Ok,
         }
     }
@@ -323,16 +331,57 @@ impl VelocityLoop {
         self.status
     }
 
+    /// Warm start at mission start: the observer's cable-force estimate preset to `f_hat_n`
+    /// (N, ENU) and the last thrust to the one that balances it, `f_hat - G` (eq:2-3 with zero
+    /// velocity error), so that the first steps hold the hover the vehicle is in instead of
+    /// dropping to `-G` while the observer converges from zero (docs/design.md, "Capacity-aware
+    /// formation"). A non-finite `f_hat_n` leaves the loop unchanged.
+    pub fn preload(&mut self, f_hat_n: Vector3<f32>) {
+        let thrust_n = f_hat_n - self.params.cfo.weight_n();
+        if !is_finite(&thrust_n) {
+            return;
+        }
+        self.cfo.preload(f_hat_n, thrust_n);
+        self.thrust_applied_n = thrust_n;
+        // The vehicle has been hovering with this thrust (the delay compensation's history and
+        // the blind hold's mean thrust).
+        self.history = ThrustHistory::new(thrust_n);
+        self.thrust_mean_n = thrust_n;
+    }
+
+    /// What the last step predicted from its measurement (delay, velocity now, displacement
+    /// since the sample).
+    #[must_use]
+    pub fn prediction(&self) -> &Prediction {
+        &self.prediction
+    }
+
     /// Back to the state of [`new`](Self::new).
     pub fn reset(&mut self) {
         *self = Self::new(self.params);
     }
 
-    /// One control step (eq:2-3); see the type's docs for inputs, units and failsafes.
+    /// One control step (eq:2-3) on a measurement taken now; see the type's docs for inputs,
+    /// units and failsafes.
     pub fn update(
         &mut self,
         v_cmd_mps: Vector3<f32>,
         v_meas_mps: Vector3<f32>,
+        dt_s: f32,
+    ) -> ThrustOutput {
+        self.update_delayed(v_cmd_mps, v_meas_mps, 0.0, dt_s)
+    }
+
+    /// One control step (eq:2-3) on a velocity measured `age_s` seconds ago
+    /// ([`crate::prediction`]): the observer is paired with the thrust applied at the sample
+    /// time, and the PID acts on the velocity predicted to now. `age_s = 0` (or below half a
+    /// step, or not finite) is [`update`](Self::update); ages beyond
+    /// [`crate::prediction::DELAY_CAPACITY_STEPS`] steps are capped there.
+    pub fn update_delayed(
+        &mut self,
+        v_cmd_mps: Vector3<f32>,
+        v_meas_mps: Vector3<f32>,
+        age_s: f32,
         dt_s: f32,
     ) -> ThrustOutput {
         let p = self.params;
@@ -344,11 +393,19 @@ impl VelocityLoop {
         let cmd_ok = is_finite(&v_cmd_mps);
 
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
-            let f_hat_n = self.cfo.update(v_meas_mps, self.thrust_applied_n, dt_s);
+            let k = delay_steps(age_s, dt_s);
+            if k != self.prediction.delay_steps {
+                // Observer bandwidth scheduled from the delay (crate::prediction).
+                self.cfo.set_bandwidth(scheduled_bandwidth_rad_s(p.cfo.bandwidth_rad_s(), k, dt_s));
+            }
+            // The thrust applied over the step that ended at the sample time (k = 0: the last
+            // step's, `thrust_applied_n`).
+            let f_hat_n = self.cfo.update(v_meas_mps, self.history.at(k), dt_s);
+            self.prediction = self.predict(v_meas_mps, f_hat_n, k, dt_s);
             // Failsafe for a bad command: brake to zero velocity.
             let v_d = if cmd_ok { v_cmd_mps } else { Vector3::zeros() };
-            // e_v = v_d - v (eq:2-2).
-            let e_v = v_d - v_meas_mps;
+            // e_v = v_d - v (eq:2-2), v predicted to now.
+            let e_v = v_d - self.prediction.velocity_mps;
             // e_v' = v_d' - v' ~ -v_hat' (v_d' = 0, as assumed under eq:2-3).
             let e_v_dot = -self.cfo.acceleration_estimate_mps2();
             let accel_mps2 = p.gains.kp.component_mul(&e_v)
@@ -374,6 +431,7 @@ impl VelocityLoop {
                 self.v_blind_mps = self.cfo.velocity_estimate_mps();
             }
             let f_hat_n = self.cfo.skip();
+            self.prediction = Prediction::undelayed(Vector3::zeros());
             let brake_mps2 = p.gains.kp.component_mul(&self.v_blind_mps);
             if dt_s.is_finite() && dt_s > 0.0 {
                 let decay = Vector3::repeat(1.0) - (p.gains.kp * dt_s).map(|g| g.min(1.0));
@@ -415,11 +473,32 @@ impl VelocityLoop {
             status
         };
         self.thrust_applied_n = self.applied_after(thrust_n, dt_s);
+        self.history.push(self.thrust_applied_n);
         self.status = status;
         ThrustOutput {
             thrust_n,
             f_hat_n,
             status,
+        }
+    }
+
+    /// The measurement `k` steps old carried forward to now (crate::prediction): eq:1-1
+    /// integrated over the applied thrusts with the estimate `f_hat`, and the trapezoid for the
+    /// displacement. A non-finite prediction falls back to the measurement.
+    fn predict(&mut self, v_meas_mps: Vector3<f32>, f_hat_n: Vector3<f32>, k: usize, dt_s: f32) -> Prediction {
+        if k == 0 {
+            return Prediction::undelayed(v_meas_mps);
+        }
+        let p = self.params;
+        let steps = k as f32;
+        // v(t) = v(t - k h) + (h / m)(sum T_a + k (G - f_hat))   (eq:1-1)
+        let impulse_n = self.history.sum_newest(k) + (p.cfo.weight_n() - f_hat_n) * steps;
+        let velocity_mps = v_meas_mps + impulse_n * (dt_s / p.mass_kg());
+        let displacement_m = (v_meas_mps + velocity_mps) * (0.5 * steps * dt_s);
+        if is_finite(&velocity_mps) && is_finite(&displacement_m) {
+            Prediction { delay_steps: k, velocity_mps, displacement_m }
+        } else {
+            Prediction::undelayed(v_meas_mps)
         }
     }
 
@@ -568,6 +647,41 @@ mod tests {
             Vector3::new(0.0, 0.0, 2.0 * GRAVITY_MPS2),
             epsilon = 1e-5
         );
+    }
+
+    /// Warm start (`preload`): hovering on a cable that pulls with `f`, the preloaded loop holds
+    /// the hover from the first step; a cold one first drops to `-G` and sinks while the observer
+    /// converges. Same plant, same `f`, with and without the actuator lag.
+    #[test]
+    fn preloaded_loop_holds_the_hover_it_starts_in() {
+        for lag in [0.0, 0.05] {
+            let p = VelocityLoopParams::default().with_actuator_lag(lag).unwrap();
+            let m = p.mass_kg();
+            let f = Vector3::new(3.0, -1.0, 18.0); // cable term (the cable pulls with -f)
+            let sink = |preload: bool| {
+                let mut ctl = VelocityLoop::new(p);
+                if preload {
+                    ctl.preload(f);
+                }
+                let mut v = Vector3::zeros();
+                let mut applied = f - gravity_mps2() * m; // the vehicle trimmed in hover
+                let mut worst = 0.0f32;
+                for _ in 0..500 {
+                    let out = ctl.update(Vector3::zeros(), v, DT_S);
+                    applied = if lag > 0.0 { applied + (out.thrust_n - applied) * (DT_S / lag) } else { out.thrust_n };
+                    v = plant_step(v, applied, f, m);
+                    worst = worst.max(v.norm());
+                }
+                worst
+            };
+            let (warm, cold) = (sink(true), sink(false));
+            assert!(warm < 1e-3, "lag {lag}: preloaded loop moved at {warm} m/s");
+            assert!(cold > 0.1, "lag {lag}: cold start moved only at {cold} m/s");
+        }
+        // A non-finite preload changes nothing.
+        let mut a = VelocityLoop::new(VelocityLoopParams::default());
+        a.preload(Vector3::new(f32::NAN, 0.0, 1.0));
+        assert_eq!(a, VelocityLoop::new(VelocityLoopParams::default()));
     }
 
     #[test]

@@ -12,6 +12,7 @@
 //! With the same inputs all replicas coincide; with delayed or dropped data they differ
 //! slightly, which the springs tolerate (the centre only sets a weak shape reference).
 
+use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, Formation, NodeId};
@@ -19,6 +20,10 @@ use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
+
+/// Gain of the anchored team hold's position hold, 1/s: PX4's horizontal position gain
+/// (`MPC_XY_P`, default 0.95 1/s), rounded; docs/design.md, "Team failsafe".
+pub const HOLD_POSITION_GAIN_PER_S: f32 = 1.0;
 
 /// Gains and limits of the dissipative controller.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -131,6 +136,34 @@ pub struct Command {
     pub status: Status,
 }
 
+/// One UAV's rest lengths (eq:2-7), m: to every UAV node (own slot unused), to the load node,
+/// to the tray centre, and the tray centre's to every UAV node.
+#[derive(Debug, Clone, Copy)]
+struct RestLengths<const N: usize> {
+    own_m: [f32; N],
+    own_load_m: f32,
+    own_center_m: f32,
+    center_m: [f32; N],
+}
+
+impl<const N: usize> RestLengths<N> {
+    /// Every length times `scale` (the capacity-aware formation, capacity.rs: the ratio of the
+    /// new formation scale to the old; one rounding per change, the same on every backend); the
+    /// first `n`.
+    fn scaled(&self, scale: f32, n: usize) -> Self {
+        let mut out = *self;
+        for (o, r) in out.own_m.iter_mut().zip(self.own_m.iter()).take(n) {
+            *o = r * scale;
+        }
+        for (o, r) in out.center_m.iter_mut().zip(self.center_m.iter()).take(n) {
+            *o = r * scale;
+        }
+        out.own_load_m = self.own_load_m * scale;
+        out.own_center_m = self.own_center_m * scale;
+        out
+    }
+}
+
 /// The distributed dissipative controller of UAV `id` in a team of up to `N`.
 #[derive(Debug, Clone)]
 pub struct DissipativeController<const N: usize> {
@@ -138,20 +171,22 @@ pub struct DissipativeController<const N: usize> {
     n: usize,
     params: DissipativeParams,
     barrier: BarrierParams,
-    /// Rest lengths from the own node to each UAV node (own slot unused), m.
-    rest_own_m: [f32; N],
-    rest_own_load_m: f32,
-    rest_own_center_m: f32,
-    /// Rest lengths from the tray centre to each UAV node, m.
-    rest_center_m: [f32; N],
+    /// Rest lengths now: the take-off ones (eq:2-7) times the formation scale `rest_scale`
+    /// (recomputed from `rest_scale` relative to the last scale when it changes).
+    rest: RestLengths<N>,
+    /// The formation scale `rest` was computed for.
+    rest_scale: f32,
     center_m: Vec2,
     own_hint: usize,
     center_hint: usize,
     vertical: VerticalLoop,
     /// Team hold (docs/design.md, "Team failsafe"): the passing term is off.
     team_hold: bool,
-    /// The own node where the team hold began (its anchor), m.
+    /// Where the UAV holds its horizontal position in team hold once a neighbour is missing
+    /// (the anchor), world ENU, m.
     anchor_m: Option<Vec2>,
+    /// Capacity-aware formation scale (`FormationScale::NEUTRAL` unless configured).
+    scale: FormationScale,
 }
 
 impl<const N: usize> DissipativeController<N> {
@@ -171,21 +206,26 @@ impl<const N: usize> DissipativeController<N> {
             *ro = formation.rest_length_m(NodeId::Uav(id), NodeId::Uav(j));
             *rc = formation.rest_length_m(NodeId::Center, NodeId::Uav(j));
         }
+        let rest = RestLengths {
+            own_m: rest_own_m,
+            own_load_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Load),
+            own_center_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Center),
+            center_m: rest_center_m,
+        };
         Ok(Self {
             id,
             n,
             params,
             barrier: params.tube_barrier(),
-            rest_own_m,
-            rest_own_load_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Load),
-            rest_own_center_m: formation.rest_length_m(NodeId::Uav(id), NodeId::Center),
-            rest_center_m,
+            rest,
+            rest_scale: 1.0,
             center_m: formation.node_m(NodeId::Center),
             own_hint: 0,
             center_hint: 0,
             vertical: VerticalLoop::new(params.vertical),
             team_hold: false,
             anchor_m: None,
+            scale: FormationScale::NEUTRAL,
         })
     }
 
@@ -208,6 +248,25 @@ impl<const N: usize> DissipativeController<N> {
     /// True while the team hold is on.
     pub fn team_hold(&self) -> bool {
         self.team_hold
+    }
+
+    /// Turns on the capacity-aware formation law (docs/design.md, "Capacity-aware formation"):
+    /// rest lengths scaled by `scale`'s `lambda`, the passing term by its progress factor.
+    /// Without it the controller is the paper's, bit for bit.
+    pub fn set_capacity(&mut self, scale: FormationScale) {
+        self.scale = scale;
+    }
+
+    /// [`Self::set_capacity`] as a builder.
+    #[must_use]
+    pub fn with_capacity(mut self, scale: FormationScale) -> Self {
+        self.set_capacity(scale);
+        self
+    }
+
+    /// The formation scale `lambda` now (1 = the take-off formation).
+    pub fn formation_scale(&self) -> f32 {
+        self.scale.scale()
     }
 
     /// This controller's UAV id.
@@ -242,6 +301,13 @@ impl<const N: usize> DissipativeController<N> {
         let load_xy = m.load_pos_m.xy();
         let (q_i, floored) = p.tray.project(&m.own_pos_m, &m.load_pos_m);
         status.projection_floored = floored;
+        // Capacity-aware formation: rest lengths x lambda, passing x progress (capacity.rs).
+        let so = self.scale.update(m.load_pos_m.z, p.vertical.load_altitude_ref_m, dt_s);
+        status.overload = so.overload > 0.0;
+        if so.scale != self.rest_scale {
+            self.rest = self.rest.scaled(so.scale / self.rest_scale, self.n);
+            self.rest_scale = so.scale;
+        }
 
         // Neighbour nodes (eq:2-4), dropped when missing or non-finite.
         let mut nodes: [Option<Vec2>; N] = [None; N];
@@ -263,37 +329,45 @@ impl<const N: usize> DissipativeController<N> {
         };
         self.own_hint = sec.segment;
         // Team hold (docs/design.md, "Team failsafe"): no passing term. Once a neighbour is
-        // missing during the hold, a spring of rest length 0 holds the own node where it was
-        // then: the missing springs no longer fix its place on the formation's ring.
+        // missing during the hold, the UAV holds its own horizontal position where it was then
+        // (the anchor; see below): the missing springs no longer fix its place in the formation.
         let mut vbar = Vec2::zeros();
         if !self.team_hold {
-            vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps);
-        } else if status.neighbours_dropped > 0 || self.anchor_m.is_some() {
-            let anchor = *self.anchor_m.get_or_insert(q_i);
-            vbar = spring_velocity(&q_i, &anchor, 0.0, p.k2, true).0;
+            vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) * so.progress;
+        } else if status.neighbours_dropped > 0 && self.anchor_m.is_none() {
+            self.anchor_m = Some(m.own_pos_m.xy());
         }
-        for (j, (q_j, rest)) in nodes.iter().zip(self.rest_own_m.iter()).enumerate().take(self.n) {
+        for (j, (q_j, rest)) in nodes.iter().zip(self.rest.own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
                 let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
                 vbar += v;
                 status.coincident_nodes |= c;
             }
         }
-        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest_own_load_m, p.k2, true);
-        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest_own_center_m, p.k2, true);
+        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest.own_load_m, p.k2, true);
+        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest.own_center_m, p.k2, true);
         status.coincident_nodes |= c_l | c_u;
-        let (v_t, d_t) = keeping_velocity(&sec, &q_i, &self.barrier);
+        let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         status.outside_tube = d_t <= 0.0;
         vbar += v_l + v_u + v_t;
 
         // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler; in
         // team hold it stands still (zero tray velocity: the anchor of the held formation).
         if dt_s.is_finite() && dt_s > 0.0 && !self.team_hold {
-            self.step_center(tube, &nodes, dt_s, &mut status);
+            self.step_center(tube, &nodes, so.progress, dt_s, &mut status);
         }
 
         // Map back to the UAV (eq:2-20) and saturate (eq:2-21).
-        let v_xy = p.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps);
+        let v_xy = match self.anchor_m {
+            // Anchored team hold: position hold at the anchor plus the tube keeping, without
+            // the springs and the load's velocity (a neighbour the UAV cannot see is safe only
+            // if every UAV stays where it was when the link went quiet; docs/design.md).
+            Some(anchor) => {
+                (anchor - m.own_pos_m.xy()) * HOLD_POSITION_GAIN_PER_S
+                    + p.tray.node_velocity_to_uav(&v_t, m.own_pos_m.z, &m.load_pos_m, &Vec3::zeros())
+            }
+            None => p.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps),
+        };
         let v_xy = sat(v_xy, p.v_max_mps);
         let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(v_xy.x, v_xy.y, v_z);
@@ -311,15 +385,35 @@ impl<const N: usize> DissipativeController<N> {
         }
     }
 
-    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], dt_s: f32, status: &mut Status) {
+    /// Tube-keeping term (eq:2-14/15) in node velocity, and the boundary distance it keeps.
+    /// Normally at the own node: below the tray plane the UAV lies between the load and its
+    /// node, so a node inside the tube keeps the UAV inside. A UAV higher than `H` above the
+    /// load (the load sank far below its reference: overload) lies *beyond* its node; the term
+    /// is then evaluated at the UAV's own horizontal position and scaled by `H / (z_i - z_l)`,
+    /// so that eq:2-20 hands the UAV exactly the barrier velocity of its own position
+    /// (docs/design.md, "Overload in flight").
+    fn keeping<const S: usize>(&mut self, tube: &Tube<S>, sec: &vt_tube::Section, q_i: &Vec2, m: &Measurements<'_>) -> (Vec2, f32) {
+        let h = self.params.tray.height_above_load_m;
+        let dz = m.own_pos_m.z - m.load_pos_m.z;
+        if dz > h {
+            let p_i = m.own_pos_m.xy();
+            if let Some(s_uav) = tube.locate(p_i, sec.segment) {
+                let (v, d) = keeping_velocity(&s_uav, &p_i, &self.barrier);
+                return (v * (h / dz), d);
+            }
+        }
+        keeping_velocity(sec, q_i, &self.barrier)
+    }
+
+    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, dt_s: f32, status: &mut Status) {
         let p = &self.params;
         let q_u = self.center_m;
         let Some(sec) = tube.locate(q_u, self.center_hint) else {
             return;
         };
         self.center_hint = sec.segment;
-        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps);
-        for (q_j, rest) in nodes.iter().zip(self.rest_center_m.iter()).take(self.n) {
+        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps) * progress;
+        for (q_j, rest) in nodes.iter().zip(self.rest.center_m.iter()).take(self.n) {
             if let Some(q_j) = q_j {
                 let (vs, c) = spring_velocity(&q_u, q_j, *rest, p.k2, false);
                 v += vs;
@@ -609,35 +703,38 @@ mod tests {
     }
 
     #[test]
-    fn in_team_hold_a_missing_neighbour_anchors_the_own_node_where_the_hold_began() {
-        // UAV 0 of four in team hold loses UAV 2: from then on a zero-length spring pulls its
-        // node back to where it was (k2 times the offset, the load at rest); with every
-        // neighbour present no anchor acts.
+    fn in_team_hold_a_missing_neighbour_anchors_the_uav_where_it_was() {
+        // UAV 0 of four in team hold loses UAV 2: from then on it holds its horizontal
+        // position where it was (gain HOLD_POSITION_GAIN_PER_S), the tube keeping on, the
+        // springs and the load's velocity off; with every neighbour present no anchor acts.
         let (uavs, load) = takeoff(4, 8.0);
         let t = tube();
         let mut c = team(4, &uavs, &load).swap_remove(0);
         c.set_team_hold(true);
         let all = neighbours(&uavs);
-        let m = |own: Vec3, nb| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: None };
-        let at_rest = c.update(&t, &m(uavs[0], &all), DT_S).vel_mps;
+        let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, own_cable_force_n: None };
+        let at_rest = c.update(&t, &m(uavs[0], &all, Vec3::zeros()), DT_S).vel_mps;
         assert!(at_rest.xy().norm() < 1e-4, "formation at rest, all neighbours: {at_rest:?}");
         let partial = [Some(uavs[0]), Some(uavs[1]), None, Some(uavs[3])];
-        c.update(&t, &m(uavs[0], &partial), DT_S); // anchored here
+        c.update(&t, &m(uavs[0], &partial, Vec3::zeros()), DT_S); // anchored here
         let moved = uavs[0] + Vec3::new(0.3, 0.0, 0.0);
-        let with_anchor = c.update(&t, &m(moved, &partial), DT_S).vel_mps;
-        let mut free = team(4, &uavs, &load).swap_remove(0);
-        free.set_team_hold(true);
-        let without = free.update(&t, &m(moved, &partial), DT_S).vel_mps;
-        let ratio = (uavs[0].z - load.z) / params().tray.height_above_load_m;
-        let node_offset = params().tray.project(&moved, &load).0 - params().tray.project(&uavs[0], &load).0;
-        assert_relative_eq!(with_anchor.xy() - without.xy(), -node_offset * params().k2 * ratio, epsilon = 1e-4);
-        // The hold ends: the anchor is forgotten.
+        let swing = Vec3::new(0.0, 0.5, 0.0); // the load swinging does not move the anchored UAV
+        let with_anchor = c.update(&t, &m(moved, &partial, swing), DT_S).vel_mps;
+        // The same controller anchored at `moved`: only the tube keeping (the UAV is where it holds).
+        let mut there = team(4, &uavs, &load).swap_remove(0);
+        there.set_team_hold(true);
+        let keeping = there.update(&t, &m(moved, &partial, swing), DT_S).vel_mps;
+        assert!(keeping.xy().norm() < 0.05, "mid-tube the keeping term is small: {keeping:?}");
+        assert_relative_eq!(with_anchor.xy() - keeping.xy(), Vec2::new(-0.3, 0.0) * HOLD_POSITION_GAIN_PER_S, epsilon = 1e-5);
+        assert_eq!(keeping, there.update(&t, &m(moved, &partial, Vec3::zeros()), DT_S).vel_mps);
+        // The hold ends: the anchor is forgotten; with every neighbour back, no anchor is set.
         c.set_team_hold(false);
         c.set_team_hold(true);
-        let fresh = c.update(&t, &m(moved, &all), DT_S).vel_mps;
-        free.set_team_hold(false);
+        let fresh = c.update(&t, &m(moved, &all, Vec3::zeros()), DT_S).vel_mps;
+        let mut free = team(4, &uavs, &load).swap_remove(0);
         free.set_team_hold(true);
-        assert_eq!(fresh, free.update(&t, &m(moved, &all), DT_S).vel_mps);
+        assert_eq!(fresh, free.update(&t, &m(moved, &all, Vec3::zeros()), DT_S).vel_mps);
+        assert!(fresh.xy().norm() > 0.05, "the springs pull UAV 0 back into the formation: {fresh:?}");
     }
 
     #[test]
@@ -658,6 +755,67 @@ mod tests {
         assert!(min_dt > params().r_safe_m, "node came within {min_dt} m of the boundary");
         assert!(min_sep > 0.5, "nodes came within {min_sep} m");
         assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
+    }
+
+    /// Overload (issue 15): with the load far below its reference a UAV flies higher than `H`
+    /// above it and lies beyond its node; the tube term then acts at the UAV's own position.
+    #[test]
+    fn uav_above_the_tray_is_kept_by_its_own_position() {
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 3.0, 3.0), Waypoint::new(40.0, 0.0, 3.0, 3.0)]).unwrap();
+        let (uavs, load) = takeoff(4, 10.0);
+        let mut ctl = team(4, &uavs, &load);
+        let low_load = Vec3::new(10.0, 0.0, LOAD_Z_M - 6.0);
+        let own = Vec3::new(10.0, 2.8, low_load.z + 15.0); // 0.2 m from the boundary, node at y = 1.87
+        let mut nb = neighbours(&uavs);
+        nb[0] = Some(own);
+        let m = Measurements { own_pos_m: own, load_pos_m: low_load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        let c = ctl[0].update(&t, &m, DT_S);
+        assert_relative_eq!(c.boundary_distance_m, 0.2, epsilon = 1e-3);
+        assert!(c.vel_mps.y < -0.5, "UAV 0.2 m from the boundary must be pushed inwards: {:?}", c.vel_mps);
+        // Below the tray plane the node's distance is the one kept (the paper's law).
+        let own = Vec3::new(10.0, 2.0, load.z + 8.0);
+        nb[0] = Some(own);
+        let m = Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        assert_relative_eq!(ctl[0].update(&t, &m, DT_S).boundary_distance_m, 3.0 - 2.5, epsilon = 1e-3);
+    }
+
+    /// The capacity-aware formation scales every rest length: in the kinematic loop the nodes
+    /// settle on the take-off shape scaled by the plan's `lambda`; without a declared load the
+    /// controller is bit for bit the paper's.
+    #[test]
+    fn formation_settles_at_the_capacity_scale() {
+        use crate::capacity::{CapacityParams, CapacityPlan, FormationScale};
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 8.0, 8.0), Waypoint::new(2000.0, 0.0, 8.0, 8.0)]).unwrap();
+        let (mut uavs, load) = takeoff(6, 10.0);
+        let cap = CapacityParams { load_mass_kg: 10.0, ..CapacityParams::default() };
+        let plan = CapacityPlan { scale_min: 0.4, scale: 0.5, lean_cos_min: 1.0, capacity_n: 0.0, weight_n: 0.0 };
+        let mut ctl: Vec<_> = team(6, &uavs, &load).into_iter().map(|c| c.with_capacity(FormationScale::new(&plan, &cap))).collect();
+        let mut plain = team(6, &uavs, &load);
+        let mut off: Vec<_> = team(6, &uavs, &load)
+            .into_iter()
+            .map(|c| c.with_capacity(FormationScale::new(&plan, &CapacityParams::default())))
+            .collect();
+        let tray = params().tray;
+        let r0 = (tray.project(&uavs[0], &load).0 - tray.project(&uavs[3], &load).0).norm();
+        let mut load = load;
+        for _ in 0..2000 {
+            let nb = neighbours(&uavs);
+            let mut vel = Vec::new();
+            for i in 0..6 {
+                let m = Measurements { own_pos_m: uavs[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+                let a = plain[i].update(&t, &m, DT_S);
+                assert_eq!(a, off[i].update(&t, &m, DT_S), "the law without a declared load must be the paper's");
+                vel.push(ctl[i].update(&t, &m, DT_S).vel_mps);
+            }
+            for (u, v) in uavs.iter_mut().zip(&vel) {
+                *u += v * DT_S;
+            }
+            let c: Vec2 = uavs.iter().map(|u| u.xy()).sum::<Vec2>() / 6.0;
+            load = Vec3::new(c.x, c.y, LOAD_Z_M);
+        }
+        assert_relative_eq!(ctl[0].formation_scale(), 0.5, epsilon = 1e-6);
+        let r = (tray.project(&uavs[0], &load).0 - tray.project(&uavs[3], &load).0).norm();
+        assert_relative_eq!(r / r0, 0.5, epsilon = 0.02);
     }
 
     proptest! {

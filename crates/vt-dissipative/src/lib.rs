@@ -11,6 +11,9 @@
 //! - [`springs`]: virtual springs eq:2-5 .. eq:2-7 and their energy (Prop. 1).
 //! - [`passing`]: passing term eq:2-13. [`keeping`]: tube-keeping term eq:2-14/eq:2-15.
 //! - [`vertical`]: the altitude law (the paper gives none; see `docs/design.md`).
+//! - [`capacity`]: the capacity-aware formation (Remark 1 made automatic; issue 15).
+//! - [`calibration`]: take-off cable calibration and the tension share (run once, at start).
+//! - [`feasibility`]: the pre-flight check that the team can carry the load with margin.
 //! - [`controller`]: one UAV's distributed command, synthesis eq:2-16 and saturation eq:2-21.
 //! - [`baseline`]: traditional virtual-tube control (no springs, robot-robot barrier).
 //! - [`team_hold`]: the team failsafe's mode and resume hysteresis (`docs/design.md`).
@@ -20,8 +23,11 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 
 pub mod baseline;
+pub mod calibration;
+pub mod capacity;
 pub mod controller;
 mod error;
+pub mod feasibility;
 pub mod keeping;
 pub mod passing;
 pub mod springs;
@@ -31,8 +37,11 @@ pub mod tray;
 pub mod vertical;
 
 pub use baseline::{BaselineController, BaselineParams};
+pub use capacity::{CapacityParams, CapacityPlan, FormationScale};
+pub use calibration::{calibrate, Calibration, CalibrationError, CalibrationParams};
 pub use controller::{Command, DissipativeController, DissipativeParams, Measurements};
 pub use error::ControlError;
+pub use feasibility::{Feasibility, FeasibilityError, FeasibilityParams};
 pub use springs::Formation;
 pub use status::Status;
 pub use team_hold::{TeamHoldSupervisor, TeamMode};

@@ -17,6 +17,9 @@ pub struct Status {
     pub outside_tube: bool,
     /// The synthesised command was non-finite and was replaced by hold.
     pub nonfinite_command: bool,
+    /// The load sank below its reference by more than the capacity law's `sag_start_m`: the
+    /// overload response (cables standing up, progress giving way) is active (capacity.rs).
+    pub overload: bool,
 }
 
 impl Status {

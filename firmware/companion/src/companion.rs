@@ -10,12 +10,12 @@
 //! dropped; nothing on the wire reaches the controllers unchecked.
 
 use mavlink::dialects::common::{
-    AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavState,
-    MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
-    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
+    AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavSeverity,
+    MavState, MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
+    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, SYSTEM_TIME_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
-    SYSTEM_TIME_DATA, SYS_STATUS_DATA,
+    STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use vt_dissipative::TeamMode;
@@ -132,6 +132,13 @@ struct Core<'t> {
     values: ValueCounters,
     tx_seq: u8,
     clock_ms: u32,
+    /// Companion clock minus the own autopilot's `time_boot_ms`, ms (wrapping), from its last
+    /// `SYSTEM_TIME`; 0 in lockstep (one simulated clock); `None`: unknown, measurements are
+    /// taken as sampled on receipt (no delay compensation).
+    autopilot_offset_ms: Option<u32>,
+    /// Lockstep: the simulated time of the period a `SYSTEM_TIME` opened (until the own state
+    /// closes it).
+    lockstep_now_ms: Option<u32>,
     hl_steps: u32,
     /// Team mode in the last heartbeat decision (a change sends one at once).
     team_mode_sent: TeamMode,
@@ -140,6 +147,8 @@ struct Core<'t> {
     ll_cycles_max: u32,
     request: Option<Request>,
     link: LinkCounters,
+    /// Code of the last refused `MISSION_START` ([`StartError::code`]; 0 after a start).
+    refusal: u8,
 }
 
 impl<'t> Companion<'t> {
@@ -159,6 +168,8 @@ impl<'t> Companion<'t> {
                 values: ValueCounters { bad_values: 0, ignored: 0 },
                 tx_seq: 0,
                 clock_ms: 0,
+                autopilot_offset_ms: None,
+                lockstep_now_ms: None,
                 hl_steps: 0,
                 team_mode_sent: TeamMode::Transport,
                 hl_cycles: 0,
@@ -166,6 +177,7 @@ impl<'t> Companion<'t> {
                 ll_cycles_max: 0,
                 request: None,
                 link: LinkCounters::ZERO,
+                refusal: 0,
             },
         }
     }
@@ -303,6 +315,10 @@ impl Core<'_> {
                 let d = decode!(LOCAL_POSITION_NED_DATA);
                 self.on_local_position(f, &d, io);
             }
+            SYSTEM_TIME_DATA::ID => {
+                let d = decode!(SYSTEM_TIME_DATA);
+                self.on_system_time(f, &d, io);
+            }
             PARAM_SET_DATA::ID => {
                 let d = decode!(PARAM_SET_DATA);
                 self.on_param_set(f, &d, io);
@@ -384,10 +400,6 @@ impl Core<'_> {
                 let d = decode!(HEARTBEAT_DATA);
                 self.on_heartbeat(f, &d);
             }
-            SYSTEM_TIME_DATA::ID => {
-                let d = decode!(SYSTEM_TIME_DATA);
-                self.on_system_time(f, &d, io);
-            }
             _ => self.ignored(),
         }
     }
@@ -400,11 +412,22 @@ impl Core<'_> {
             return self.bad_value();
         }
         let lockstep = self.params.get_u32(Param::Lockstep) == 1;
-        // Lockstep: the host's simulated time is the clock; else the board's at receipt.
-        let stamp_ms = if lockstep { d.time_boot_ms } else { io.now_ms() };
+        // Receipt stamp (freshness): lockstep, the host's simulated time (the SYSTEM_TIME that
+        // opened this period, else the message's own time); else the board's clock at receipt.
+        let stamp_ms = match (lockstep, self.lockstep_now_ms) {
+            (true, Some(now)) => now,
+            (true, None) => d.time_boot_ms,
+            (false, _) => io.now_ms(),
+        };
+        // Sample time on the companion's clock (delay compensation, vt_cfo::prediction): the
+        // autopilot's `time_boot_ms` shifted by the SYSTEM_TIME offset; unknown offset: receipt.
+        let offset = if lockstep { Some(0) } else { self.autopilot_offset_ms };
+        let sample_ms = offset.map_or(stamp_ms, |o| d.time_boot_ms.wrapping_add(o));
         let own_sys = self.own_system_id();
-        let state = Stamped { value: State { pos_m: pos, vel_mps: vel }, stamp_ms };
+        let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
         if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
+            // The own state closes the period.
+            self.lockstep_now_ms = None;
             if lockstep && self.flight.is_some() {
                 self.clock_ms = stamp_ms;
                 self.lockstep_tick(state, io);
@@ -447,20 +470,30 @@ impl Core<'_> {
         }
     }
 
-    /// Lockstep clock without a new own state (`SYSTEM_TIME` from the own autopilot): one
-    /// low-level period at `time_boot_ms` with the data held (they age; the own state goes
-    /// stale after `FS_OWN_TMO`). Outside lockstep, or before the start, ignored.
+    /// `SYSTEM_TIME` from the own autopilot. Lockstep: it opens a period at the simulated time
+    /// `time_boot_ms` (the period's measurements may be older: sensor latency) and the own state
+    /// closes it; a second `SYSTEM_TIME` at the same time closes it without an own state (the
+    /// own feed is silent this period: one low-level period with the data held, which age and
+    /// go stale after `FS_OWN_TMO`). Else the offset between the board's clock and the
+    /// autopilot's `time_boot_ms` (the message's own transport delay is taken as negligible;
+    /// docs/protocol.md).
     fn on_system_time(&mut self, f: &Frame<'_>, d: &SYSTEM_TIME_DATA, io: &mut impl Io) {
-        let lockstep = self.params.get_u32(Param::Lockstep) == 1;
-        if !(lockstep && f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
+        if !(f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
             return self.ignored();
         }
-        self.clock_ms = d.time_boot_ms;
-        if self.flight.is_some() {
-            if self.flight.as_ref().is_some_and(Flight::high_level_due) {
-                self.high_level(io);
+        if self.params.get_u32(Param::Lockstep) != 1 {
+            self.autopilot_offset_ms = Some(io.now_ms().wrapping_sub(d.time_boot_ms));
+        } else if self.lockstep_now_ms != Some(d.time_boot_ms) {
+            self.lockstep_now_ms = Some(d.time_boot_ms);
+        } else {
+            self.lockstep_now_ms = None;
+            self.clock_ms = d.time_boot_ms;
+            if self.flight.is_some() {
+                if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+                    self.high_level(io);
+                }
+                self.low_level(io);
             }
-            self.low_level(io);
         }
     }
 
@@ -574,7 +607,7 @@ impl Core<'_> {
         self.send(
             io,
             &HEARTBEAT_DATA {
-                custom_mode: u32::from(self.mode as u8) | (u32::from(reasons) << 8),
+                custom_mode: u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16),
                 mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
                 autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
                 base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
@@ -608,6 +641,18 @@ impl Core<'_> {
         );
         let stack = io.stack_used_bytes();
         self.send(io, &NAMED_VALUE_INT_DATA { time_boot_ms: self.clock_ms, value: stack as i32, name: NAME_STACK.into() });
+    }
+
+    /// A refused `MISSION_START`: the reason as `STATUSTEXT` (headline, then the numbers) and
+    /// at once in a `HEARTBEAT` (refusal code in `custom_mode` bits 16..23), before the
+    /// `COMMAND_ACK`.
+    fn refused(&mut self, e: &StartError, io: &mut impl Io) {
+        self.refusal = e.code();
+        let (head, detail) = e.lines();
+        for line in core::iter::once(head).chain(detail) {
+            self.send(io, &STATUSTEXT_DATA { severity: MavSeverity::MAV_SEVERITY_ERROR, text: line.bytes().into() });
+        }
+        self.send_status(io);
     }
 
     fn send_param(&mut self, io: &mut impl Io, p: Param) {
@@ -695,6 +740,7 @@ impl Core<'_> {
                     match Flight::start(&self.params, self.tube(), &self.sources, now) {
                         Ok(fl) => {
                             self.flight = Some(fl);
+                            self.refusal = 0;
                             self.hl_steps = 0;
                             self.team_mode_sent = TeamMode::Transport;
                             log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
@@ -702,8 +748,10 @@ impl Core<'_> {
                         }
                         Err(e) => {
                             log!(warn, "mission start refused: {}", e);
+                            self.refused(&e, io);
                             match e {
                                 StartError::StaleData => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                                StartError::Infeasible(_) => MavResult::MAV_RESULT_DENIED,
                                 _ => MavResult::MAV_RESULT_FAILED,
                             }
                         }

@@ -28,8 +28,10 @@
 //! `HEARTBEAT.custom_mode` ([`HoldReasons`]).
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
-use vt_cfo::{thrust_to_attitude, VelocityLoop};
-use vt_dissipative::{Command, DissipativeController, Formation, Measurements, TeamHoldSupervisor, TeamMode};
+use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
+use vt_dissipative::{
+    capacity, Command, DissipativeController, Formation, FormationScale, Measurements, TeamHoldSupervisor, TeamMode,
+};
 
 use crate::frames::{finite3, ned_frd_quaternion};
 use crate::params::{Param, Params};
@@ -82,6 +84,9 @@ pub struct State {
     pub pos_m: Vec3,
     /// Velocity, m/s.
     pub vel_mps: Vec3,
+    /// When it was sampled, on the companion's clock, ms (the autopilot's `time_boot_ms`
+    /// mapped by the `SYSTEM_TIME` offset; the receipt time when unknown).
+    pub sample_ms: u32,
 }
 
 /// The latest data from every source.
@@ -128,6 +133,10 @@ pub enum StartError {
     Controller(vt_dissipative::ControlError),
     /// The velocity loop rejected its parameters.
     VelocityLoop(vt_cfo::CfoError),
+    /// The take-off calibration refused the measured geometry (`vt_dissipative::calibrate`).
+    Calibration(vt_dissipative::CalibrationError),
+    /// The pre-flight check: the team cannot carry the declared load with the required margin.
+    Infeasible(vt_dissipative::FeasibilityError),
 }
 
 /// What one low-level step produced.
@@ -167,8 +176,11 @@ pub struct Flight {
 }
 
 impl Flight {
-    /// Arms: the take-off formation from the current positions of every UAV and the load
-    /// (eq:2-7), then the controllers from the parameters.
+    /// Arms: the cable calibration from the current positions of every UAV and the load
+    /// (`vt_dissipative::calibrate`), the pre-flight check at the measured lean
+    /// (`vt_dissipative::feasibility::check`), the take-off formation (eq:2-7), then the
+    /// controllers from the parameters and the calibration. host-sim's `CrateTeam::start` makes
+    /// the same calls with the same `f32` inputs.
     ///
     /// # Errors
     /// [`StartError`].
@@ -194,18 +206,31 @@ impl Flight {
                 src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, nbr_tmo_ms)).ok_or(StartError::StaleData)?
             };
         }
-        let dissipative = params.dissipative().map_err(StartError::Controller)?;
+        let takeoff = takeoff.get(..n).unwrap_or(&[]);
+        let cal = vt_dissipative::calibrate(id, takeoff, &load.pos_m, &params.calibration()).map_err(StartError::Calibration)?;
+        vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
+        let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
         let tray = params.tray();
-        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray)
+        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load.pos_m, &tray)
             .map_err(StartError::Controller)?;
-        let high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+        // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
+        let cap = params.capacity().map_err(StartError::Controller)?;
+        let plan = capacity::plan_from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray, &cap)
+            .map_err(StartError::Controller)?;
+        let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+        high.set_capacity(FormationScale::new(&plan, &cap));
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
         let supervisor = TeamHoldSupervisor::new(params.get(Param::FsResume), params.high_level_dt_s()).map_err(StartError::Controller)?;
+        let mut low = VelocityLoop::new(vl);
+        // Warm start with the declared load's share (bumpless transfer; capacity.rs).
+        if let Some(f) = capacity::takeoff_cable_force_n(&own.pos_m, &load.pos_m, cap.load_mass_kg, n) {
+            low.preload(f);
+        }
         Ok(Self {
             id,
             n,
             high,
-            low: VelocityLoop::new(vl),
+            low,
             heading: params.heading(),
             thrust_max_n: vl.limits().thrust_max_n(),
             hover_n: vl.hover_thrust_n(),
@@ -266,9 +291,15 @@ impl Flight {
         if let (Some(own), Some(load)) = (own, load) {
             // Own and load usable: transport, or the team hold while the team holds.
             self.high.set_team_hold(self.team_mode.is_holding());
+            // Measurements carried forward to now (vt_cfo::prediction): own position by the
+            // velocity loop's last prediction (made from this same sample), the load at constant
+            // velocity.
+            let pred = self.low.prediction();
+            let own_pos_m = if pred.delay_steps > 0 { own.pos_m + pred.displacement_m } else { own.pos_m };
+            let load_age_s = age_s(now_ms, load.sample_ms);
             let m = Measurements {
-                own_pos_m: own.pos_m,
-                load_pos_m: load.pos_m,
+                own_pos_m,
+                load_pos_m: extrapolate_constant_velocity(load.pos_m, load.vel_mps, load_age_s),
                 load_vel_mps: load.vel_mps,
                 neighbours_m: view.get(..self.n).unwrap_or(&[]),
                 own_cable_force_n: Some(self.f_hat_n),
@@ -295,15 +326,15 @@ impl Flight {
     /// One low-level step at `now_ms`: the attitude setpoint.
     pub fn low_level(&mut self, src: &Sources, now_ms: u32) -> Setpoint {
         let mut reasons = 0u8;
-        let v_meas = match src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms)) {
-            Some(own) => own.vel_mps,
+        let (v_meas, own_age_s) = match src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms)) {
+            Some(own) => (own.vel_mps, age_s(now_ms, own.sample_ms)),
             None => {
                 reasons |= HoldReasons::OWN_STALE;
-                Vec3::repeat(f32::NAN) // the velocity loop's no-measurement failsafe
+                (Vec3::repeat(f32::NAN), 0.0) // the velocity loop's no-measurement failsafe
             }
         };
         // Zero unless the high level had usable own and load data (then also in team hold).
-        let out = self.low.update(self.vel_cmd_mps, v_meas, self.ll_dt_s);
+        let out = self.low.update_delayed(self.vel_cmd_mps, v_meas, own_age_s, self.ll_dt_s);
         self.f_hat_n = out.f_hat_n;
         let att = thrust_to_attitude(out.thrust_n, self.heading, self.thrust_max_n);
         let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };

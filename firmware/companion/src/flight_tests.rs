@@ -2,6 +2,7 @@
 //! failsafe"), on the paper experiment's defaults (`Params::new`): three UAVs, 50 Hz high level.
 
 use super::*;
+use vt_dissipative::{CalibrationError, FeasibilityError};
 use crate::params::Params;
 use vt_tube::Waypoint;
 
@@ -26,7 +27,7 @@ fn uav_pos(j: usize) -> Vec3 {
 /// Everything fresh at `now_ms` (UAV 0's view).
 fn sources(now_ms: u32) -> Sources {
     let mut s = Sources::new();
-    let st = |p| Stamped { value: State { pos_m: p, vel_mps: Vec3::zeros() }, stamp_ms: now_ms };
+    let st = |p| Stamped { value: State { pos_m: p, vel_mps: Vec3::zeros(), sample_ms: now_ms }, stamp_ms: now_ms };
     s.own = Some(st(uav_pos(0)));
     s.load = Some(st(load_pos()));
     for j in 1..3 {
@@ -45,8 +46,13 @@ fn params(nbr_act: f32) -> Params {
 
 /// UAV 0's controller stepped beside the Flight with the same inputs (the reference).
 fn reference(p: &Params) -> DissipativeController<MAX_UAVS> {
-    let f = Formation::<MAX_UAVS>::from_takeoff(&[uav_pos(0), uav_pos(1), uav_pos(2)], &load_pos(), &p.tray()).unwrap();
-    DissipativeController::new(0, p.dissipative().unwrap(), &f).unwrap()
+    // As `Flight::start`: calibration, formation, capacity-aware scale.
+    let takeoff = [uav_pos(0), uav_pos(1), uav_pos(2)];
+    let cal = vt_dissipative::calibrate(0, &takeoff, &load_pos(), &p.calibration()).unwrap();
+    let f = Formation::<MAX_UAVS>::from_takeoff(&takeoff, &load_pos(), &p.tray()).unwrap();
+    let cap = p.capacity().unwrap();
+    let plan = capacity::plan_from_takeoff(&takeoff, &load_pos(), &p.tray(), &cap).unwrap();
+    DissipativeController::new(0, p.dissipative(&cal).unwrap(), &f).unwrap().with_capacity(FormationScale::new(&plan, &cap))
 }
 
 fn measurements(nb: &[Option<Vec3>]) -> Measurements<'_> {
@@ -207,9 +213,13 @@ mod wire {
     }
 
     /// One lockstep tick of UAV 0 (system 1) at `t`: team data when `hl`, then the own state
-    /// (or, `stalled`, the autopilot's `SYSTEM_TIME`); `extra` frames first.
+    /// (or, `stalled`, the autopilot's `SYSTEM_TIME` at `t` before and after the team data: the
+    /// period opened and closed without an own state); `extra` frames first.
     fn tick(c: &mut Companion<'_>, io: &mut TestIo, t: u32, hl: bool, stalled: bool, extra: &[u8]) {
         let mut b = extra.to_vec();
+        if stalled {
+            b.extend(frame(1, AUTOPILOT_COMPONENT_ID, &SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: t }));
+        }
         if hl {
             b.extend(frame(1, 100, &lpn(t, &super::load_pos())));
             for j in 1..3u8 {
@@ -303,4 +313,78 @@ mod wire {
         }
         modes
     }
+}
+
+// Calibration aboard and the pre-flight check at start (issue 15).
+
+/// The default parameters (the experiment: 3 UAVs, 3.06 kg) with every source fresh at
+/// t = 0: UAVs on a 1.125 m circle 3 m above the load (3.2 m cables, lean cos 0.936).
+fn setup(load_kg: f32, uav1_z: f32) -> (Params, Box<CompanionTube>, Sources) {
+    let mut p = Params::new();
+    p.set(Param::LoadKg, load_kg).unwrap();
+    let mut tube = Box::new(CompanionTube::placeholder());
+    tube.rebuild(&[vt_tube::Waypoint::new(0.0, 0.0, 3.5, 3.5), vt_tube::Waypoint::new(20.0, 0.0, 3.5, 3.5)]).unwrap();
+    let load = Vec3::new(2.0, 0.0, 3.0);
+    let at = |i: usize| {
+        let a = i as f32 * 2.0944;
+        load + Vec3::new(1.125 * libm::cosf(a), 1.125 * libm::sinf(a), if i == 1 { uav1_z } else { 3.0 })
+    };
+    let stamped = |pos_m| Stamped { value: State { pos_m, vel_mps: Vec3::zeros(), sample_ms: 0 }, stamp_ms: 0 };
+    let mut src = Sources::new();
+    src.own = Some(stamped(at(0)));
+    src.load = Some(stamped(load));
+    for j in 1..3 {
+        src.neighbours[j] = Some(Stamped { value: at(j), stamp_ms: 0 });
+    }
+    (p, tube, src)
+}
+
+#[test]
+fn a_plausible_take_off_calibrates_and_starts() {
+    let (p, tube, src) = setup(3.06, 3.0);
+    let fl = Flight::start(&p, Some(&tube), &src, 0).unwrap();
+    assert!(fl.hold_reasons().is_clear());
+}
+
+#[test]
+fn an_overweight_declared_load_is_refused_with_the_numbers() {
+    // Three 1.47 kg / 30 N UAVs at 30 deg tilt hold about 16 N each along a cable leaning
+    // 20.6 deg: 45 N of vertical force for 58.9 N (6 kg).
+    let (p, tube, src) = setup(6.0, 3.0);
+    match Flight::start(&p, Some(&tube), &src, 0) {
+        Err(StartError::Infeasible(FeasibilityError::Infeasible { needed_n, available_n, margin, min_margin })) => {
+            assert!((needed_n - 58.86).abs() < 1e-3, "{needed_n}");
+            assert!((available_n - 45.1).abs() < 0.1, "{available_n}");
+            assert!((margin - (available_n / needed_n - 1.0)).abs() < 1e-7);
+            assert_eq!(min_margin, 0.01);
+        }
+        other => panic!("{other:?}"),
+    }
+    // 4.58 kg (44.9 N) is within the capacity, but not with 1 % to spare: still refused.
+    let (p, tube, src) = setup(4.58, 3.0);
+    assert!(matches!(Flight::start(&p, Some(&tube), &src, 0), Err(StartError::Infeasible(_))));
+    // With the requirement lowered to 0 %, it starts.
+    let (mut p, tube, src) = setup(4.58, 3.0);
+    p.set(Param::MarginMin, 0.0).unwrap();
+    assert!(Flight::start(&p, Some(&tube), &src, 0).is_ok());
+}
+
+#[test]
+fn an_implausible_take_off_is_refused_by_the_calibration() {
+    // UAV 1 below the load.
+    let (p, tube, src) = setup(3.06, -0.5);
+    assert_eq!(Flight::start(&p, Some(&tube), &src, 0).err(), Some(StartError::Calibration(CalibrationError::NotAboveLoad { index: 1 })));
+    // A cable longer than VT_CABLE_LMAX.
+    let (mut p, tube, src) = setup(3.06, 3.0);
+    p.set(Param::CableLMax, 2.0).unwrap();
+    assert!(matches!(
+        Flight::start(&p, Some(&tube), &src, 0),
+        Err(StartError::Calibration(CalibrationError::LengthOutOfRange { max_m, .. })) if max_m == 2.0
+    ));
+    // A cable too soft for the load: the stretch exceeds the distance.
+    let (mut p, tube, src) = setup(3.06, 3.0);
+    p.set(Param::CableK, 1.0).unwrap();
+    assert!(matches!(Flight::start(&p, Some(&tube), &src, 0), Err(StartError::Calibration(CalibrationError::StretchExceedsDistance { .. }))));
+    // The refusal codes are distinct (HEARTBEAT.custom_mode bits 16..23).
+    assert_eq!(StartError::Calibration(CalibrationError::NonFiniteLoad).code(), 6);
 }

@@ -10,7 +10,8 @@
 
 use nalgebra::{Unit, Vector2, Vector3};
 use vt_cfo::{CfoError, CfoParams, PidGains, ThrustLimits, VelocityLoopParams};
-use vt_dissipative::{ControlError, DissipativeParams, TrayParams, VerticalParams};
+use vt_dissipative::calibration::MIN_COS_LEAN;
+use vt_dissipative::{Calibration, CalibrationParams, CapacityParams, ControlError, DissipativeParams, FeasibilityParams, TrayParams, VerticalParams};
 
 /// One parameter's description.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,6 +44,8 @@ const LENGTH_MAX_M: f32 = 1.0e3;
 const ALTITUDE_MAX_M: f32 = 1.0e4;
 /// Largest thrust or force, N.
 const FORCE_MAX_N: f32 = 1.0e4;
+/// Largest mass, kg.
+const MASS_MAX_KG: f32 = 1.0e4;
 
 macro_rules! params {
     ($($variant:ident => $info:expr, $doc:literal;)*) => {
@@ -84,12 +87,14 @@ params! {
     TrayH => real("VT_TRAY_H", 4.0, 0.0, LENGTH_MAX_M), "Tray height above the load `H`, m (eq:2-4).";
     TrayHMin => real("VT_TRAY_HMIN", 0.5, 0.0, LENGTH_MAX_M), "Projection floor of `z_i - z_l`, m.";
     LoadZRef => real("VT_LOAD_ZREF", 3.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Load altitude reference, m (ENU up).";
-    CableL => real("VT_CABLE_L", 3.0, 0.0, LENGTH_MAX_M), "Own cable length, m.";
-    CableStretch => real("VT_CABLE_STR", 0.0, 0.0, LENGTH_MAX_M), "Own cable's static stretch, m.";
+    LoadKg => real("VT_LOAD_KG", 3.06, 0.0, MASS_MAX_KG), "Declared load mass, kg (take-off calibration and pre-flight check).";
+    CableK => real("VT_CABLE_K", 800.0, 0.0, 1.0e7), "Nominal cable stiffness, N/m (static stretch at take-off).";
+    CableLMax => real("VT_CABLE_LMAX", 10.0, 0.0, LENGTH_MAX_M), "Longest plausible cable, m (take-off calibration refuses longer).";
+    CableRated => real("VT_CABLE_RATED", 30.0, 0.0, FORCE_MAX_N), "Rated cable tension, N (pre-flight check).";
+    MarginMin => real("VT_MARGIN_MIN", 0.01, -0.99, 10.0), "Required vertical-force margin of the pre-flight check, fraction.";
     Kz => real("VT_KZ", 1.0, 0.0, GAIN_MAX), "Altitude gain `k_z`, 1/s.";
     VzMax => real("VT_VZ_MAX", 1.0, 0.0, 50.0), "Vertical speed limit, m/s.";
     ZMin => real("VT_Z_MIN", 1.0, 0.0, LENGTH_MAX_M), "Smallest UAV height above the load reference, m.";
-    TShare => real("VT_T_SHARE", 0.0, 0.0, FORCE_MAX_N), "Nominal cable tension share, N (0: no load sharing).";
     KShare => real("VT_K_SHARE", 0.0, 0.0, GAIN_MAX), "Load-sharing gain `k_T`, (m/s)/N.";
     KLoadAlt => real("VT_K_LALT", 0.0, 0.0, GAIN_MAX), "Load-altitude gain `k_L` of the sharing integrator, 1/s.";
     DzMax => real("VT_DZ_MAX", 0.0, 0.0, LENGTH_MAX_M), "Bound on the sharing offset, m.";
@@ -112,6 +117,13 @@ params! {
     ActLag => real("VL_ACT_LAG", 0.0, 0.0, 1.0), "Time constant of the thrust the autopilot realises, as the CFO models it, s (0: thrust = command).";
     Mass => real("VL_MASS", 1.47, 0.0, 1.0e3), "UAV mass, kg.";
     Yaw => real("VL_YAW", 0.0, -3.15, 3.15), "Heading held while transporting, rad (NED yaw: 0 north, pi/2 east).";
+    CapOn => int("VT_CAP_ON", 1.0, 0.0, 1.0), "1: capacity-aware formation (issue 15) from `VT_LOAD_KG` and `VT_CABLE_RATED`; 0: the paper's controller.";
+    CapMargin => real("VT_CAP_MRG", 0.05, 0.0, 10.0), "Capacity margin the formation is chosen for.";
+    SepMin => real("VT_SEP_MIN", 0.9, 0.0, LENGTH_MAX_M), "Smallest UAV-UAV distance the adapted formation keeps, m.";
+    CapRate => real("VT_CAP_RATE", 0.2, 0.0, 100.0), "Largest closing rate of the formation scale, 1/s (opens at a quarter of it).";
+    SagLo => real("VT_SAG_LO", 0.3, 0.0, LENGTH_MAX_M), "Load sag where the overload response begins, m.";
+    SagHi => real("VT_SAG_HI", 0.8, 0.0, LENGTH_MAX_M), "Load sag where the overload response is complete, m.";
+    HReserve => real("VL_H_RES", 0.0, 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority).";
 }
 
 /// Number of parameters.
@@ -209,11 +221,39 @@ impl Params {
         (self.get_u32(Param::SysidBase) as usize).saturating_add(j).min(usize::from(u8::MAX)) as u8
     }
 
-    /// The high-level controller's parameters (validated by `vt-dissipative`).
+    /// What the take-off calibration needs (`vt_dissipative::calibrate`): the declared load,
+    /// the nominal stiffness, the plausible cable range `(VT_Z_MIN, VT_CABLE_LMAX]`.
+    pub fn calibration(&self) -> CalibrationParams {
+        CalibrationParams {
+            load_mass_kg: self.get(Param::LoadKg),
+            stiffness_n_per_m: self.get(Param::CableK),
+            min_length_m: self.get(Param::ZMin),
+            max_length_m: self.get(Param::CableLMax),
+            min_cos_lean: MIN_COS_LEAN,
+        }
+    }
+
+    /// What the pre-flight check needs (`vt_dissipative::feasibility::check`), for the
+    /// formation's lean `cos_lean` (cos of the angle from vertical).
+    pub fn feasibility(&self, cos_lean: f32) -> FeasibilityParams {
+        FeasibilityParams {
+            n_uavs: self.get_u32(Param::NUavs) as usize,
+            load_mass_kg: self.get(Param::LoadKg),
+            uav_mass_kg: self.get(Param::Mass),
+            thrust_max_n: self.get(Param::ThrustMax),
+            tilt_max_rad: self.get(Param::TiltMax),
+            cable_rated_n: self.get(Param::CableRated),
+            cos_lean,
+            min_margin: self.get(Param::MarginMin),
+        }
+    }
+
+    /// The high-level controller's parameters with the take-off calibration `cal` (validated
+    /// by `vt-dissipative`).
     ///
     /// # Errors
     /// The crate's [`ControlError`] naming the field.
-    pub fn dissipative(&self) -> Result<DissipativeParams, ControlError> {
+    pub fn dissipative(&self, cal: &Calibration) -> Result<DissipativeParams, ControlError> {
         let g = |p| self.get(p);
         let params = DissipativeParams {
             k1: g(Param::K1),
@@ -225,16 +265,35 @@ impl Params {
             tray: self.tray(),
             vertical: VerticalParams {
                 load_altitude_ref_m: g(Param::LoadZRef),
-                cable_length_m: g(Param::CableL),
-                cable_stretch_m: g(Param::CableStretch),
+                cable_length_m: cal.cable_length_m,
+                cable_stretch_m: cal.stretch_m,
                 kz_per_s: g(Param::Kz),
                 vz_max_mps: g(Param::VzMax),
                 min_height_m: g(Param::ZMin),
-                tension_share_n: g(Param::TShare),
+                tension_share_n: cal.tension_share_n,
                 share_gain_mps_per_n: g(Param::KShare),
                 load_altitude_gain_per_s: g(Param::KLoadAlt),
                 share_offset_max_m: g(Param::DzMax),
             },
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// The capacity-aware formation's parameters (validated by `vt-dissipative`; issue 15).
+    ///
+    /// # Errors
+    /// The crate's [`ControlError`] naming the field.
+    pub fn capacity(&self) -> Result<CapacityParams, ControlError> {
+        let g = |p| self.get(p);
+        let params = CapacityParams {
+            load_mass_kg: if self.get_u32(Param::CapOn) == 1 { g(Param::LoadKg) } else { 0.0 },
+            uav_capacity_n: g(Param::CableRated),
+            margin: g(Param::CapMargin),
+            separation_m: g(Param::SepMin),
+            rate_per_s: g(Param::CapRate),
+            sag_start_m: g(Param::SagLo),
+            sag_full_m: g(Param::SagHi),
         };
         params.validate()?;
         Ok(params)
@@ -253,7 +312,7 @@ impl Params {
         let g = |p| self.get(p);
         let v = |x, y, z| Vector3::new(g(x), g(y), g(z));
         let gains = PidGains { kp: v(Param::KpX, Param::KpY, Param::KpZ), ki: v(Param::KiX, Param::KiY, Param::KiZ), kd: v(Param::KdX, Param::KdY, Param::KdZ) };
-        let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?;
+        let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?.with_horizontal_reserve(g(Param::HReserve))?;
         let cfo = CfoParams::new(g(Param::CfoMu), g(Param::Mass), self.low_level_dt_s())?;
         VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)?.with_actuator_lag(g(Param::ActLag))
     }
@@ -305,8 +364,21 @@ mod tests {
     #[test]
     fn defaults_build_valid_controllers() {
         let p = Params::new();
-        p.dissipative().unwrap();
+        // The experiment's take-off (3 UAVs, lean atan(1.5/4), 3 m cables) calibrates, passes
+        // the pre-flight check and builds the controllers with the defaults.
+        let load = crate::Vec3::new(0.0, 0.0, 3.0);
+        let uavs: [crate::Vec3; 3] = core::array::from_fn(|i| {
+            let a = i as f32 * 2.0944;
+            load + crate::Vec3::new(1.5 * 0.75 * libm::cosf(a), 1.5 * 0.75 * libm::sinf(a), 3.0)
+        });
+        let cal = vt_dissipative::calibrate(0, &uavs, &load, &p.calibration()).unwrap();
+        vt_dissipative::feasibility::check(&p.feasibility(cal.cos_lean)).unwrap();
+        p.dissipative(&cal).unwrap();
         p.velocity_loop().unwrap();
+        assert_eq!(p.capacity().unwrap().load_mass_kg, p.get(Param::LoadKg), "capacity law on with the declared load");
+        let mut off = p.clone();
+        off.set(Param::CapOn, 0.0).unwrap();
+        assert_eq!(off.capacity().unwrap().load_mass_kg, 0.0, "VT_CAP_ON = 0: the paper's controller");
         assert_eq!(p.low_per_high(), Some(10));
         assert_eq!(p.own_system_id(), 1);
     }

@@ -10,23 +10,28 @@
 use crate::scenario::{LoadedScenario, SimTube, StaleNeighbour, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, SimError, Takeoff};
 use nalgebra::{UnitVector2, Vector2, Vector3};
-use vt_cfo::{thrust_to_attitude, VelocityLoop};
+use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_companion::frames::ned_frd_quaternion;
 use vt_dissipative::{
-    BaselineController, BaselineParams, Command, DissipativeController, Formation, Measurements, TeamHoldSupervisor, TeamMode,
+    capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
+    TeamHoldSupervisor, TeamMode,
 };
 
 pub use vt_companion::flight::Setpoint;
 
 type V3f = Vector3<f32>;
 
-/// One measured state: position (m) and velocity (m/s), world ENU, `f32` as on the wire.
+/// One measured state: position (m) and velocity (m/s), world ENU, `f32` as on the wire, and
+/// when it was sampled.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Meas {
     /// Position, m.
     pub pos_m: V3f,
     /// Velocity, m/s.
     pub vel_mps: V3f,
+    /// Simulated time of the sample, ms (`LOCAL_POSITION_NED.time_boot_ms`; older than the
+    /// tick's `time_ms` by the sensor latency).
+    pub sample_ms: u32,
 }
 
 /// What the team's computers receive at one low-level period.
@@ -58,10 +63,12 @@ pub struct Tick<'a> {
 pub struct TeamStart<'a> {
     /// The take-off measurement (every view complete), stamped at time 0.
     pub tick: Tick<'a>,
-    /// Cable lengths calibrated at take-off from `tick` (docs/design.md), m.
-    pub calibrated_len_m: &'a [f64],
-    /// The nominal take-off geometry (stretch and share the controllers assume).
+    /// The nominal take-off geometry the plant starts in (the team calibrates its cables from
+    /// `tick`, not from this).
     pub takeoff: &'a Takeoff,
+    /// Rated tension of each cable for the pre-flight check (the scenario's, or the run's
+    /// `--f-max`), N.
+    pub cable_rated_n: f64,
 }
 
 /// A team controller: one computer per UAV, however they are built.
@@ -166,14 +173,34 @@ impl Team for CrateTeam {
         let n = start.tick.own.len();
         let tray = sim::tray(s);
         let own: Vec<V3f> = start.tick.own.iter().map(|m| m.pos_m).collect();
+        // As the companion's Flight::start: each UAV calibrates its cable from the take-off
+        // positions it holds (its own, the load's, its view of the team), then runs the
+        // pre-flight check at the measured lean.
+        let cals = (0..n)
+            .map(|i| {
+                let seen: Vec<V3f> = (0..n)
+                    .map(|j| if j == i { own[i] } else { start.tick.views.get(i).and_then(|v| v.get(j).copied().flatten()).unwrap_or(V3f::repeat(f32::NAN)) })
+                    .collect();
+                let cal = vt_dissipative::calibrate(i, &seen, &start.tick.load.pos_m, &sim::calibration_params(s, i))
+                    .map_err(|e| SimError(format!("UAV {i}: take-off calibration: {e}")))?;
+                vt_dissipative::feasibility::check(&sim::feasibility_params(s, start.cable_rated_n, cal.cos_lean))
+                    .map_err(|e| SimError(format!("UAV {i}: pre-flight check: {e}")))?;
+                Ok(cal)
+            })
+            .collect::<Result<Vec<_>, SimError>>()?;
         let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own, &start.tick.load.pos_m, &tray)
             .map_err(|e| SimError(format!("formation: {e}")))?;
-        let cal = |i: usize| start.calibrated_len_m.get(i).copied().unwrap_or(0.0);
+        // Capacity-aware formation (issue 15): one plan from the take-off measurement, as in the
+        // companion's Flight::start.
+        let cap = sim::capacity_params(s, start.cable_rated_n);
+        let plan = capacity::plan_from_takeoff(&own, &start.tick.load.pos_m, &tray, &cap).map_err(|e| SimError(format!("capacity: {e}")))?;
+        let scale = FormationScale::new(&plan, &cap);
         self.high = Some(match self.kind {
             ControllerKind::Dissipative => HighLevel::Dissipative(
                 (0..n)
                     .map(|i| {
-                        DissipativeController::new(i, sim::dissipative_params(s, cal(i), start.takeoff), &formation)
+                        DissipativeController::new(i, sim::dissipative_params(s, i, &cals[i]), &formation)
+                            .map(|c| c.with_capacity(scale))
                             .map_err(|e| SimError(format!("controller: {e}")))
                     })
                     .collect::<Result<_, _>>()?,
@@ -189,7 +216,7 @@ impl Team for CrateTeam {
                             v_max_mps: b.v_max_mps as f32,
                             r_safe_m: b.r_safe_m as f32,
                             r_active_m: b.r_active_m as f32,
-                            vertical: sim::vertical_params(s, cal(i), start.takeoff),
+                            vertical: sim::vertical_params(s, i, &cals[i]),
                         };
                         BaselineController::new(i, n, p).map_err(|e| SimError(format!("baseline: {e}")))
                     })
@@ -198,6 +225,13 @@ impl Team for CrateTeam {
         });
         self.tube = Some(ls.tube.clone());
         self.low = (0..n).map(|_| sim::velocity_loop(s)).collect::<Result<_, _>>()?;
+        // Warm start with the declared load's share (capacity.rs; the companion's Flight::start).
+        let cap = sim::capacity_params(s, start.cable_rated_n);
+        for (l, m) in self.low.iter_mut().zip(start.tick.own) {
+            if let Some(f) = capacity::takeoff_cable_force_n(&m.pos_m, &start.tick.load.pos_m, cap.load_mass_kg, n) {
+                l.preload(f);
+            }
+        }
         self.thrust_max_n = self.low.first().map_or(0.0, |l| l.params().limits().thrust_max_n());
         self.hover_n = self.low.iter().map(|l| l.params().hover_thrust_n()).collect();
         self.vel_cmd = vec![V3f::zeros(); n];
@@ -241,9 +275,15 @@ impl Team for CrateTeam {
                 let mut mode = self.supervisors[i].step(detected, follow);
                 self.vel_cmd[i] = V3f::zeros();
                 if own_fresh {
+                    // Measurements carried forward to now (vt_cfo::prediction): own position by
+                    // the velocity loop's last prediction (made from this same sample), the load
+                    // at constant velocity.
+                    let pred = self.low[i].prediction();
+                    let own_pos_m = if pred.delay_steps > 0 { own.pos_m + pred.displacement_m } else { own.pos_m };
+                    let load_age_s = age_s(now, tick.load.sample_ms);
                     let m = Measurements {
-                        own_pos_m: own.pos_m,
-                        load_pos_m: tick.load.pos_m,
+                        own_pos_m,
+                        load_pos_m: extrapolate_constant_velocity(tick.load.pos_m, tick.load.vel_mps, load_age_s),
                         load_vel_mps: tick.load.vel_mps,
                         neighbours_m: &tick.views[i],
                         own_cable_force_n: Some(self.f_hat[i]),
@@ -275,8 +315,13 @@ impl Team for CrateTeam {
                 self.own_last[i] = (tick.own[i], now);
             }
             let (own, own_ms) = self.own_last[i];
-            let v_meas = if now.wrapping_sub(own_ms) <= self.own_tmo_ms { own.vel_mps } else { V3f::repeat(f32::NAN) };
-            let o = self.low[i].update(self.vel_cmd[i], v_meas, self.ll_dt);
+            // As the companion's `Flight::low_level`: a stale own state is no measurement (age 0).
+            let (v_meas, own_age_s) = if now.wrapping_sub(own_ms) <= self.own_tmo_ms {
+                (own.vel_mps, age_s(now, own.sample_ms))
+            } else {
+                (V3f::repeat(f32::NAN), 0.0)
+            };
+            let o = self.low[i].update_delayed(self.vel_cmd[i], v_meas, own_age_s, self.ll_dt);
             self.f_hat[i] = o.f_hat_n;
             let att = thrust_to_attitude(o.thrust_n, self.heading, self.thrust_max_n);
             let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };

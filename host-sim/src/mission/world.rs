@@ -47,7 +47,7 @@ pub struct World<'a> {
     pub record: RunRecord,
     record_on: bool,
     takeoff: Takeoff,
-    calibrated_len_m: Vec<f64>,
+    rated_n: f64,
     formation: Formation<SIM_MAX_UAVS>,
     start_own: Vec<Meas>,
     start_load: Meas,
@@ -90,8 +90,8 @@ pub struct World<'a> {
 }
 
 impl<'a> World<'a> {
-    /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled,
-    /// cable lengths calibrated from the first measurement).
+    /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled:
+    /// the take-off measurement the team calibrates from).
     ///
     /// # Errors
     /// The plant rejects its parameters, or the take-off formation is degenerate.
@@ -114,21 +114,16 @@ impl<'a> World<'a> {
         let r = &s.rates;
         let latency_steps = (dist.latency_s * dist.intensity * f64::from(r.low_level_hz)).round() as usize;
         let mut sensors = Sensors::new(dist, latency_steps, seed);
-        sensors.sample(&plant);
+        sensors.sample(&plant, 0);
         let start_load = Meas {
             pos_m: v3f(&sensors.position(&plant.load.pos_m)),
             vel_mps: v3f(&sensors.velocity(&plant.load.vel_mps)),
+            sample_ms: 0,
         };
         let start_own: Vec<Meas> = plant
             .uavs
             .iter()
-            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)) })
-            .collect();
-        // Cable length calibrated at take-off from the taut geometry (docs/design.md): measured
-        // UAV-load distance less the nominal stretch.
-        let calibrated_len_m: Vec<f64> = start_own
-            .iter()
-            .map(|m| f64::from((m.pos_m - start_load.pos_m).norm()) - takeoff.stretch_m)
+            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: 0 })
             .collect();
         let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
         let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own_pos, &start_load.pos_m, &sim::tray(s))
@@ -172,7 +167,7 @@ impl<'a> World<'a> {
             record,
             record_on: opts.record,
             takeoff,
-            calibrated_len_m,
+            rated_n: f_max,
             formation,
             own: start_own.clone(),
             load: start_load,
@@ -223,8 +218,8 @@ impl<'a> World<'a> {
                 views: &self.start_views,
                 modes: &self.start_modes,
             },
-            calibrated_len_m: &self.calibrated_len_m,
             takeoff: &self.takeoff,
+            cable_rated_n: self.rated_n,
         }
     }
 
@@ -272,6 +267,7 @@ impl<'a> World<'a> {
             self.load = Meas {
                 pos_m: v3f(&self.sensors.position(&snap.load_pos_m)),
                 vel_mps: v3f(&self.sensors.velocity(&snap.load_vel_mps)),
+                sample_ms: snap.time_ms,
             };
             self.link.exchange(hl_step, &self.link_msg);
             for (i, (view, modes)) in self.views.iter_mut().zip(self.modes.iter_mut()).enumerate() {
@@ -286,14 +282,15 @@ impl<'a> World<'a> {
         for (stalled, until) in self.own_stalled.iter_mut().zip(&self.stall_until) {
             *stalled = until.is_some_and(|e| self.step < e);
         }
-        self.sensors.sample(&self.plant);
+        let time_ms = (self.step as f64 * self.dt * 1000.0).round() as u32;
+        self.sensors.sample(&self.plant, time_ms);
         let snap = self.sensors.delayed().clone();
         for (m, (p, v)) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)) {
-            *m = Meas { pos_m: v3f(&self.sensors.position(p)), vel_mps: v3f(&self.sensors.velocity(v)) };
+            *m = Meas { pos_m: v3f(&self.sensors.position(p)), vel_mps: v3f(&self.sensors.velocity(v)), sample_ms: snap.time_ms };
         }
         Tick {
             step: self.step,
-            time_ms: (self.step as f64 * self.dt * 1000.0).round() as u32,
+            time_ms,
             high_level,
             own: &self.own,
             own_stalled: &self.own_stalled,

@@ -37,40 +37,32 @@ pub struct UavConfig {
     pub waypoints: Vec<WireWaypoint>,
 }
 
-/// The team's configuration and take-off state for a scenario, computed as `sim::run` computes
-/// its controllers (nominal case: no disturbances).
+/// The team's configuration and take-off state for a scenario (nominal case: no
+/// disturbances). Each companion calibrates its cable itself at `MISSION_START`.
 #[derive(Debug, Clone)]
 pub struct TeamSetup {
     /// One per UAV.
     pub configs: Vec<UavConfig>,
     /// Take-off geometry.
     pub takeoff: Takeoff,
-    /// Cable lengths the controllers use (`sim::run`'s take-off calibration), m.
-    pub calibrated_len_m: Vec<f64>,
 }
 
-/// Configuration of every UAV of `ls` (`lockstep`: `VT_LOCKSTEP = 1`).
+/// Configuration of every UAV of `ls` (`lockstep`: `VT_LOCKSTEP = 1`), cables rated as the
+/// scenario says.
 ///
 /// # Errors
 /// A waypoint is not representable at 0.1 mm, or the scenario's velocity loop is invalid.
 pub fn team_setup(ls: &LoadedScenario, lockstep: bool) -> Result<TeamSetup, PilError> {
     let s = &ls.scenario;
-    let n = s.cables.lengths_m.len();
-    if n > MAX_UAVS {
-        return err(format!("{n} UAVs > capacity {MAX_UAVS}"));
-    }
-    let to = sim::takeoff(s, &ls.tube, s.cables.rated_n);
-    // The take-off calibration without sensor noise: |p_i - p_l| - stretch.
-    let calibrated_len_m: Vec<f64> = to.uav_pos_m.iter().map(|p| (p - to.load_pos_m).norm() - to.stretch_m).collect();
-    team_setup_with(ls, to, calibrated_len_m, lockstep)
+    team_setup_with(ls, sim::takeoff(s, &ls.tube, s.cables.rated_n), s.cables.rated_n, lockstep)
 }
 
-/// [`team_setup`] for a given take-off geometry and calibrated cable lengths (m): what the
-/// mission loop's world measured at take-off.
+/// [`team_setup`] for a given take-off geometry and cable rating `cable_rated_n` (N): what the
+/// mission loop's world holds at take-off.
 ///
 /// # Errors
 /// As [`team_setup`].
-pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f64>, lockstep: bool) -> Result<TeamSetup, PilError> {
+pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, cable_rated_n: f64, lockstep: bool) -> Result<TeamSetup, PilError> {
     let s = &ls.scenario;
     let n = s.cables.lengths_m.len();
     if n > MAX_UAVS {
@@ -92,10 +84,14 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
     let tray = sim::tray(s);
     let c = &s.controller;
     let r = &s.rates;
+    let cap = sim::capacity_params(s, cable_rated_n);
     let configs = (0..n)
         .map(|i| {
-            let cable_m = calibrated_len_m.get(i).copied().unwrap_or(0.0);
-            let v = sim::vertical_params(s, cable_m, &to);
+            // What the companion calibrates and checks with at MISSION_START: the same f32
+            // values CrateTeam::start passes to the crate (sim::calibration_params,
+            // sim::feasibility_params; the lean is measured aboard, any value does here).
+            let cal = sim::calibration_params(s, i);
+            let feas = sim::feasibility_params(s, cable_rated_n, 1.0);
             let g = p.gains();
             let lim = p.integral_limit_mps2();
             let params = vec![
@@ -122,16 +118,18 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
                 (Param::RActive, c.r_active_m as f32),
                 (Param::TrayH, tray.height_above_load_m),
                 (Param::TrayHMin, tray.min_height_above_load_m),
-                (Param::LoadZRef, v.load_altitude_ref_m),
-                (Param::CableL, v.cable_length_m),
-                (Param::CableStretch, v.cable_stretch_m),
-                (Param::Kz, v.kz_per_s),
-                (Param::VzMax, v.vz_max_mps),
-                (Param::ZMin, v.min_height_m),
-                (Param::TShare, v.tension_share_n),
-                (Param::KShare, v.share_gain_mps_per_n),
-                (Param::KLoadAlt, v.load_altitude_gain_per_s),
-                (Param::DzMax, v.share_offset_max_m),
+                (Param::LoadZRef, s.load.altitude_m as f32),
+                (Param::LoadKg, cal.load_mass_kg),
+                (Param::CableK, cal.stiffness_n_per_m),
+                (Param::CableLMax, cal.max_length_m),
+                (Param::CableRated, feas.cable_rated_n),
+                (Param::MarginMin, feas.min_margin),
+                (Param::Kz, c.kz_per_s as f32),
+                (Param::VzMax, c.vz_max_mps as f32),
+                (Param::ZMin, cal.min_length_m),
+                (Param::KShare, c.share_gain_mps_per_n as f32),
+                (Param::KLoadAlt, c.load_altitude_gain_per_s as f32),
+                (Param::DzMax, c.share_offset_max_m as f32),
                 (Param::KpX, g.kp.x),
                 (Param::KpY, g.kp.y),
                 (Param::KpZ, g.kp.z),
@@ -151,11 +149,18 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, calibrated_len_m: Vec<f
                 (Param::ActLag, p.actuator_lag_s()),
                 (Param::Mass, p.mass_kg()),
                 (Param::Yaw, 0.0),
+                (Param::CapOn, if cap.load_mass_kg > 0.0 { 1.0 } else { 0.0 }),
+                (Param::CapMargin, cap.margin),
+                (Param::SepMin, cap.separation_m),
+                (Param::CapRate, cap.rate_per_s),
+                (Param::SagLo, cap.sag_start_m),
+                (Param::SagHi, cap.sag_full_m),
+                (Param::HReserve, sim::horizontal_reserve(s) as f32),
             ];
             UavConfig { system_id: SYSID_BASE + i as u8, params, waypoints: waypoints.clone() }
         })
         .collect();
-    Ok(TeamSetup { configs, takeoff: to, calibrated_len_m })
+    Ok(TeamSetup { configs, takeoff: to })
 }
 
 fn gcs<D: MessageData>(enc: &mut Encoder, d: &D) -> Vec<u8> {
@@ -238,6 +243,15 @@ pub fn configure<P: Port + ?Sized>(port: &mut P, cfg: &UavConfig, enc: &mut Enco
 /// # Errors
 /// No acknowledgement.
 pub fn start_mission<P: Port + ?Sized>(port: &mut P, system_id: u8, enc: &mut Encoder) -> Result<u32, PilError> {
+    start_mission_with_reason(port, system_id, enc).map(|(r, _)| r)
+}
+
+/// `MAV_CMD_MISSION_START`; returns the `MAV_RESULT` value and the `STATUSTEXT`s the companion
+/// sent before its acknowledgement (a refusal's reason and numbers, docs/protocol.md).
+///
+/// # Errors
+/// No acknowledgement.
+pub fn start_mission_with_reason<P: Port + ?Sized>(port: &mut P, system_id: u8, enc: &mut Encoder) -> Result<(u32, Vec<String>), PilError> {
     let cmd = COMMAND_LONG_DATA {
         command: MavCmd::MAV_CMD_MISSION_START,
         target_system: system_id,
@@ -245,8 +259,14 @@ pub fn start_mission<P: Port + ?Sized>(port: &mut P, system_id: u8, enc: &mut En
         ..COMMAND_LONG_DATA::default()
     };
     port.send(&gcs(enc, &cmd))?;
-    recv_until(port, 64, |rx| match rx {
+    let mut texts = Vec::new();
+    let result = recv_until(port, 64, |rx| match rx {
         Rx::CommandAck(c, r) if *c == MavCmd::MAV_CMD_MISSION_START as u32 => Some(*r),
+        Rx::StatusText(_, t) => {
+            texts.push(t.clone());
+            None
+        }
         _ => None,
-    })
+    })?;
+    Ok((result, texts))
 }

@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 use vt_companion::frames::enu_from_ned;
-use super::config::{configure, start_mission, team_setup_with, UavConfig};
+use super::config::{configure, start_mission_with_reason, team_setup_with, UavConfig};
 use super::port::Port;
 use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
 use vt_companion::Mode;
@@ -130,6 +130,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
             load: tick.high_level.then_some((tick.load.pos_m, tick.load.vel_mps)),
             neighbours: if tick.high_level { tick.views.get(i).map_or(&[], Vec::as_slice) } else { &[] },
             own: (own.pos_m, own.vel_mps),
+            sample_ms: (own.sample_ms, tick.load.sample_ms),
             id: i,
         };
         let e = &mut self.enc[i];
@@ -152,16 +153,16 @@ impl<P: Port> Team for PortTeam<'_, P> {
         if self.ports.len() != n {
             return Err(SimError(format!("{} ports for {n} UAVs", self.ports.len())));
         }
-        let setup = team_setup_with(ls, start.takeoff.clone(), start.calibrated_len_m.to_vec(), true).map_err(|e| SimError(e.0))?;
+        let setup = team_setup_with(ls, start.takeoff.clone(), start.cable_rated_n, true).map_err(|e| SimError(e.0))?;
         self.configs = setup.configs;
         for i in 0..n {
             let cfg = self.configs[i].clone();
             configure(&mut self.ports[i], &cfg, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             let bytes = self.tick_frames(i, &start.tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
-            let r = start_mission(&mut self.ports[i], cfg.system_id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+            let (r, texts) = start_mission_with_reason(&mut self.ports[i], cfg.system_id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             if r != 0 {
-                return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r})")));
+                return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r}): {}", texts.join("; "))));
             }
         }
         Ok(())

@@ -40,7 +40,7 @@ pub mod wire;
 
 pub use bench::{bench, bench_scenario, BenchReport, StepCounts, BENCH_TEAM_SIZES};
 pub use cli::{cli, cli_bench};
-pub use config::{configure, recv_until, start_mission, team_setup, team_setup_with, TeamSetup, UavConfig, WireWaypoint};
+pub use config::{configure, recv_until, start_mission, start_mission_with_reason, team_setup, team_setup_with, TeamSetup, UavConfig, WireWaypoint};
 pub use flight::{fly, CommandKind, CommandRecord, FlightOutput, PortTeam};
 pub use port::{build_firmware, decode_defmt, default_firmware_path, firmware_dir, qemu_available, Port, QemuOptions, QemuPort, SilPort};
 pub use report::{compare, run, write_report, CycleStats, Difference, PilOptions, PilReport};

@@ -5,7 +5,7 @@ use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
 use mavlink::dialects::common::{
     MavAutopilot, MavModeFlag, MavState, MavType, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
     MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA,
-    SET_ATTITUDE_TARGET_DATA, SYSTEM_TIME_DATA, SYS_STATUS_DATA,
+    SET_ATTITUDE_TARGET_DATA, STATUSTEXT_DATA, SYSTEM_TIME_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use nalgebra::Vector3;
@@ -75,6 +75,8 @@ pub enum Rx {
     CommandAck(u32, u32),
     /// `NAMED_VALUE_INT`.
     NamedInt(String, i32),
+    /// `STATUSTEXT`: severity (`MAV_SEVERITY`) and text.
+    StatusText(u32, String),
     /// Anything else (message id).
     Other(u32),
 }
@@ -117,6 +119,11 @@ pub(crate) fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
             let d = NAMED_VALUE_INT_DATA::deser(v2, payload).ok()?;
             Rx::NamedInt(d.name.to_str().unwrap_or("").to_string(), d.value)
         }
+        STATUSTEXT_DATA::ID => {
+            let d = STATUSTEXT_DATA::deser(v2, payload).ok()?;
+            let text: Vec<u8> = d.text.iter().copied().take_while(|&b| b != 0).collect();
+            Rx::StatusText(d.severity as u32, String::from_utf8_lossy(&text).into_owned())
+        }
         other => Rx::Other(other),
     })
 }
@@ -134,6 +141,9 @@ pub struct TickFrames<'a> {
     pub neighbours: &'a [Option<V3f>],
     /// Own position and velocity, ENU.
     pub own: (V3f, V3f),
+    /// Sample times of the own and the load state, ms (`time_boot_ms`; older than `time_ms`
+    /// by the sensor latency).
+    pub sample_ms: (u32, u32),
     /// This UAV's index (skipped among the neighbours).
     pub id: usize,
 }
@@ -141,24 +151,40 @@ pub struct TickFrames<'a> {
 impl TickFrames<'_> {
     /// Encodes the tick.
     pub fn encode(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
-        let mut out = self.encode_team(tracker, network);
-        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, &self.own.0, &self.own.1)));
+        let (own_sample_ms, _) = self.sample_ms;
+        let mut out = Vec::with_capacity(64 * (3 + self.neighbours.len()));
+        if own_sample_ms != self.time_ms {
+            // Lockstep clock: the autopilot's SYSTEM_TIME opens the period at "now" when its own
+            // sample is older (docs/protocol.md).
+            out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &self.system_time()));
+        }
+        self.encode_team(tracker, network, &mut out);
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(own_sample_ms, &self.own.0, &self.own.1)));
         out
     }
 
-    /// Encodes the tick of a UAV whose own position feed stalls (`own_feed_stall`): the load
-    /// and the neighbours as usual, then, instead of the own state, the autopilot's
-    /// `SYSTEM_TIME` at `time_ms`, the lockstep clock (docs/protocol.md).
+    /// Encodes the tick of a UAV whose own position feed stalls (`own_feed_stall`): the
+    /// autopilot's `SYSTEM_TIME` at `time_ms` opens the period, the load and the neighbours
+    /// follow as usual, and a second `SYSTEM_TIME` at the same time closes it instead of the own
+    /// state (the lockstep clock, docs/protocol.md).
     pub fn encode_stalled(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
-        let mut out = self.encode_team(tracker, network);
-        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: self.time_ms }));
+        let mut out = Vec::with_capacity(64 * (3 + self.neighbours.len()));
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &self.system_time()));
+        self.encode_team(tracker, network, &mut out);
+        out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &self.system_time()));
         out
     }
 
-    fn encode_team(&self, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
-        let mut out = Vec::with_capacity(64 * (2 + self.neighbours.len()));
+    /// The autopilot's `SYSTEM_TIME` at the tick's time (the lockstep clock).
+    fn system_time(&self) -> SYSTEM_TIME_DATA {
+        SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: self.time_ms }
+    }
+
+    /// The load's and the neighbours' states, appended to `out`.
+    fn encode_team(&self, tracker: &mut Encoder, network: &mut Encoder, out: &mut Vec<u8>) {
+        let (_, load_sample_ms) = self.sample_ms;
         if let Some((p, v)) = &self.load {
-            out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(self.time_ms, p, v)));
+            out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(load_sample_ms, p, v)));
             for (j, nb) in self.neighbours.iter().enumerate() {
                 if let (Some(p), true) = (nb, j != self.id) {
                     let sys = SYSID_BASE + j as u8;
@@ -166,7 +192,6 @@ impl TickFrames<'_> {
                 }
             }
         }
-        out
     }
 }
 

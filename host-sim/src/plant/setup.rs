@@ -44,7 +44,7 @@ pub fn build(
         .zip(true_k_n_per_m)
         .map(|(&l, &k)| CableParams { rest_length_m: l, stiffness_n_per_m: k, damping_ns_per_m: s.cables.damping_ns_per_m, f_max_n: cap })
         .collect();
-    let load = LoadParams { mass_kg: s.load.mass_kg * draw.load_mass };
+    let load = LoadParams { mass_kg: s.load.plant_mass_kg() * draw.load_mass };
     let mut plant = Plant::new(uav_params, cables, load, &to.uav_pos_m, to.load_pos_m, s.rates.plant_substeps as usize)?;
     let breaking = match cable_model {
         CableModel::PaperClamp => f64::INFINITY,

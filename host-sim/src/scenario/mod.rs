@@ -96,6 +96,9 @@ pub struct Scenario {
     /// Team failsafe (docs/design.md, "Team failsafe").
     #[serde(default)]
     pub failsafe: FailsafeSpec,
+    /// The pre-flight feasibility check (docs/design.md, "Pre-flight feasibility check").
+    #[serde(default)]
+    pub preflight: PreflightSpec,
 }
 
 /// What a UAV does when a neighbour's data go stale (`link.stale_timeout_s`).
@@ -130,6 +133,26 @@ impl Default for FailsafeSpec {
 
 fn default_resume_s() -> f64 {
     1.0
+}
+
+/// The pre-flight feasibility check's requirement.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PreflightSpec {
+    /// Required vertical-force margin `F_avail / F_need - 1`, fraction (default 0.01 = 1 %;
+    /// in (-1, 10]). A negative margin flies a load past the team's capacity on purpose.
+    #[serde(default = "default_min_margin")]
+    pub min_margin: f64,
+}
+
+impl Default for PreflightSpec {
+    fn default() -> Self {
+        Self { min_margin: default_min_margin() }
+    }
+}
+
+fn default_min_margin() -> f64 {
+    f64::from(vt_dissipative::feasibility::DEFAULT_MIN_MARGIN)
 }
 
 /// Sensor noise, latency, wind and model uncertainty. Zero means off.
@@ -301,6 +324,18 @@ pub struct LoadSpec {
     /// Start: arc length along the tube where the load starts, m.
     #[serde(default = "default_start_s")]
     pub start_s_m: f64,
+    /// Mass the plant's load really has, kg, when it differs from the declared `mass_kg`
+    /// (overload in flight, issue 15). Controllers, the take-off geometry and the checks use
+    /// `mass_kg`; only the plant flies `true_mass_kg` (times `disturbances.load_mass_error`).
+    #[serde(default)]
+    pub true_mass_kg: Option<f64>,
+}
+
+impl LoadSpec {
+    /// The plant's load mass before disturbance draws, kg: `true_mass_kg`, else `mass_kg`.
+    pub fn plant_mass_kg(&self) -> f64 {
+        self.true_mass_kg.unwrap_or(self.mass_kg)
+    }
 }
 
 fn default_start_s() -> f64 {
@@ -394,6 +429,9 @@ pub struct ControllerSpec {
     /// Bound on the sharing altitude offset, m.
     #[serde(default)]
     pub share_offset_max_m: f64,
+    /// Capacity-aware formation (issue 15).
+    #[serde(default)]
+    pub capacity: CapacitySpec,
 }
 
 fn one() -> f64 {
@@ -440,6 +478,11 @@ pub struct VelocityLoopSpec {
     /// models it, s (default 0: the paper's thrust = command).
     #[serde(default)]
     pub actuator_lag_s: f64,
+    /// Fraction of the thrust limit kept for the horizontal part: the vertical component is
+    /// capped at `thrust_max sqrt(1 - r^2)` (issue 15, "Overload in flight"; default 0, the
+    /// paper's vertical priority; the rigid-body tuning has its own default).
+    #[serde(default)]
+    pub horizontal_reserve: f64,
     /// Tuning used instead when the UAVs are `rigid_body` (flying behind an attitude
     /// autopilot); fields left out take the project's rigid-body tuning
     /// ([`crate::models::RIGID_BODY_CFO_BANDWIDTH_RAD_S`], [`crate::models::RIGID_BODY_ACTUATOR_LAG_S`]).
@@ -455,6 +498,8 @@ pub struct VelocityLoopTuning {
     pub cfo_bandwidth_rad_s: Option<f64>,
     /// Actuator lag the CFO models, s.
     pub actuator_lag_s: Option<f64>,
+    /// Horizontal thrust reserve (issue 15).
+    pub horizontal_reserve: Option<f64>,
 }
 
 impl VelocityLoopSpec {
@@ -472,6 +517,18 @@ impl VelocityLoopSpec {
                 )
             }
             UavModel::PointMass => (self.cfo_bandwidth_rad_s, self.actuator_lag_s),
+        }
+    }
+
+    /// Horizontal thrust reserve the scenario sets for UAV model `model`:
+    /// `horizontal_reserve` for `point_mass`; `[velocity_loop.rigid_body] horizontal_reserve`
+    /// for `rigid_body`, `None` when left to the airframe's default
+    /// ([`crate::sim::horizontal_reserve`]; docs/design.md, "Overload in flight").
+    #[must_use]
+    pub fn horizontal_reserve(&self, model: UavModel) -> Option<f64> {
+        match model {
+            UavModel::RigidBody => self.rigid_body.and_then(|t| t.horizontal_reserve),
+            UavModel::PointMass => Some(self.horizontal_reserve),
         }
     }
 }
@@ -597,6 +654,9 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
     Ok(LoadedScenario { scenario, source_name: source_name.into(), tube, plan })
 }
 
+mod capacity;
 mod validate;
+
+pub use capacity::CapacitySpec;
 
 use validate::{field_at_line, line_of_offset, Validator};

@@ -101,6 +101,9 @@ impl Validator<'_> {
         }
         // Masses, thrust, cables.
         self.positive("load", "mass_kg", s.load.mass_kg)?;
+        if let Some(m) = s.load.true_mass_kg {
+            self.positive("load", "true_mass_kg", m)?;
+        }
         self.positive("load", "altitude_m", s.load.altitude_m)?;
         self.non_negative("load", "start_s_m", s.load.start_s_m)?;
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
@@ -149,6 +152,16 @@ impl Validator<'_> {
         if !(c.r_active_m.is_finite() && c.r_active_m > c.r_safe_m) {
             return Err(self.err("controller", "r_active_m", format!("must be > r_safe_m = {} (got {})", c.r_safe_m, c.r_active_m)));
         }
+        let cap = &c.capacity;
+        self.non_negative("controller.capacity", "margin", cap.margin)?;
+        if let Some(sep) = cap.separation_m {
+            self.positive("controller.capacity", "separation_m", sep)?;
+        }
+        self.positive("controller.capacity", "rate_per_s", cap.rate_per_s)?;
+        self.positive("controller.capacity", "sag_start_m", cap.sag_start_m)?;
+        if !(cap.sag_full_m.is_finite() && cap.sag_full_m > cap.sag_start_m) {
+            return Err(self.err("controller.capacity", "sag_full_m", format!("must be > sag_start_m = {} (got {})", cap.sag_start_m, cap.sag_full_m)));
+        }
         let bl = &s.baseline;
         for (k, v) in [("k1", bl.k1), ("k2", bl.k2), ("k3", bl.k3), ("v_max_mps", bl.v_max_mps), ("r_safe_m", bl.r_safe_m)] {
             self.positive("baseline", k, v)?;
@@ -169,6 +182,19 @@ impl Validator<'_> {
         }
         self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
         self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
+        // issue 15: the vertical cap thrust_max sqrt(1 - r^2) must still lift the UAV (as
+        // vt_cfo::ThrustLimits::with_horizontal_reserve and VelocityLoopParams::new check it).
+        let explicit = [("velocity_loop", Some(vl.horizontal_reserve)), ("velocity_loop.rigid_body", vl.horizontal_reserve(UavModel::RigidBody))];
+        for (table, r) in explicit.iter().filter_map(|(t, r)| r.map(|r| (*t, r))) {
+            if !(r.is_finite() && (0.0..1.0).contains(&r)) {
+                return Err(self.err(table, "horizontal_reserve", format!("must be in [0, 1) (got {r})")));
+            }
+            let vertical_max = s.uavs.thrust_max_n * (1.0 - r * r).sqrt();
+            if s.uavs.mass_kg * f64::from(vt_cfo::GRAVITY_MPS2) > vertical_max {
+                return Err(self.err(table, "horizontal_reserve", format!(
+                    "leaves {vertical_max:.1} N of vertical thrust, less than the UAV's weight {:.1} N", s.uavs.mass_kg * f64::from(vt_cfo::GRAVITY_MPS2))));
+            }
+        }
         if let Some(t) = vl.rigid_body {
             if let Some(bw) = t.cfo_bandwidth_rad_s {
                 self.positive("velocity_loop.rigid_body", "cfo_bandwidth_rad_s", bw)?;
@@ -271,7 +297,7 @@ impl Validator<'_> {
         }
         // Cable stiffness against the integrator's sub-step (docs/plant.md).
         let h = 1.0 / (f64::from(s.rates.plant_hz) * f64::from(s.rates.plant_substeps.max(1)));
-        match check_cable_integration(s.cables.stiffness_n_per_m, s.cables.damping_ns_per_m, s.uavs.mass_kg, s.load.mass_kg, h) {
+        match check_cable_integration(s.cables.stiffness_n_per_m, s.cables.damping_ns_per_m, s.uavs.mass_kg, s.load.mass_kg.min(s.load.plant_mass_kg()), h) {
             Ok(()) => {}
             Err(StiffnessError::Stiffness { omega_h }) => {
                 return Err(self.err("cables", "stiffness_n_per_m", format!(
@@ -286,7 +312,30 @@ impl Validator<'_> {
         let tube = self.check_tube(s)?;
         self.check_obstacles(s, &tube)?;
         self.check_formation(s, &tube)?;
+        self.check_preflight(s)?;
         Ok(tube)
+    }
+
+    /// The pre-flight feasibility check (docs/design.md, "Pre-flight feasibility check"): the
+    /// team carries the declared load with `preflight.min_margin` at the take-off lean, or the
+    /// scenario is refused before anything flies.
+    fn check_preflight(&self, s: &Scenario) -> Result<(), ScenarioError> {
+        let m = s.preflight.min_margin;
+        if !(m.is_finite() && m > -1.0 && m <= 10.0) {
+            return Err(self.err("preflight", "min_margin", format!("must be a fraction in (-1, 10] (got {m})")));
+        }
+        match crate::sim::preflight(s, s.cables.rated_n) {
+            Ok(_) => Ok(()),
+            Err(e @ vt_dissipative::FeasibilityError::Infeasible { .. }) => {
+                let p = crate::sim::feasibility_params(s, s.cables.rated_n, crate::sim::takeoff_cos_lean(s, s.cables.rated_n) as f32);
+                let rotor = vt_dissipative::feasibility::rotor_capacity_n(p.uav_mass_kg * vt_dissipative::calibration::GRAVITY_MPS2, p.thrust_max_n, p.tilt_max_rad, p.cos_lean);
+                Err(self.err("load", "mass_kg", format!(
+                    "{e}; {} UAVs x min(cable rated {:.1} N, rotors {rotor:.1} N) at the take-off lean cos {:.4}: lower the load, add UAVs, \
+                     stand the cables more vertical, or set [preflight] min_margin",
+                    p.n_uavs, p.cable_rated_n, p.cos_lean)))
+            }
+            Err(e) => Err(self.err("preflight", "min_margin", e.to_string())),
+        }
     }
 
     fn check_tube(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
