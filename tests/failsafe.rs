@@ -147,14 +147,21 @@ fn link_dead_the_team_holds_in_the_tube_to_the_end() {
     assert!(creep.abs() < 0.1, "the held load still moves: {creep:+.3} m in 10 s");
 }
 
-/// For the record (docs/design.md): the alternative, flying on without the dead UAV
-/// (`stale_neighbour = "drop"`), measured on the same plant.
+/// The alternative to holding (docs/design.md, "Team failsafe"): flying on without the dead
+/// UAV (`stale_neighbour = "drop"`) delivers the load, but nobody keeps clear of the UAV that no
+/// longer hears the team and that the team no longer sees; the hold keeps every pair farther
+/// apart. Same fault, same plant.
 #[test]
-fn link_dead_with_drop_policy_is_measured() {
-    let ls = with_fault("paper-10uav.toml", FaultKind::LinkDead, STALL_UAV, STALL_AT_S, None, StaleNeighbour::Drop);
-    let out = sim::run(&ls, &RunOptions::default()).unwrap();
-    print("link dead, drop (fly on)", &out.summary);
-    assert!(!out.summary.nonfinite);
+fn link_dead_flying_on_arrives_but_keeps_the_team_closer_than_holding() {
+    let drop = with_fault("paper-10uav.toml", FaultKind::LinkDead, STALL_UAV, STALL_AT_S, None, StaleNeighbour::Drop);
+    let d = sim::run(&drop, &RunOptions::default()).unwrap().summary;
+    print("link dead, drop (fly on)", &d);
+    let mut hold = with_fault("paper-10uav.toml", FaultKind::LinkDead, STALL_UAV, STALL_AT_S, None, StaleNeighbour::Hold);
+    hold.scenario.mission.time_limit_s = drop.scenario.mission.time_limit_s;
+    let h = sim::run(&hold, &RunOptions::default()).unwrap().summary;
+    assert!(!d.nonfinite && d.reached_end, "flying on delivers the load");
+    assert!(!h.reached_end, "holding does not");
+    assert!(h.min_uav_uav_m >= 0.4 && h.min_uav_uav_m > d.min_uav_uav_m, "hold {:.3} m, fly on {:.3} m", h.min_uav_uav_m, d.min_uav_uav_m);
 }
 
 /// The crates' team, recording every setpoint and the team modes it broadcasts.

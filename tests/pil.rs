@@ -281,9 +281,10 @@ fn ticker_mode_holds_with_the_cfo_when_the_autopilot_goes_silent() {
     let Some(elf) = firmware() else { return };
     let ls = experiment();
     let (mut cfg, setup) = uav0_config(&ls, false);
-    // Board time runs on between the take-off state and the start command: allow for it.
-    for p in cfg.params.iter_mut().filter(|p| p.0 == Param::FsOwnTmo) {
-        p.1 = 0.5;
+    // Board time runs on between the take-off state and the start command (more of it when
+    // the host is loaded): allow for it.
+    for p in cfg.params.iter_mut().filter(|p| matches!(p.0, Param::FsOwnTmo | Param::FsLoadTmo | Param::FsNbrTmo)) {
+        p.1 = 2.0;
     }
     let mut q = spawn(&elf, "ticker", false);
     let mut enc = Encoders::default();
