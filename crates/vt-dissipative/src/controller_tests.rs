@@ -1,0 +1,383 @@
+//! Tests of `controller` (kept apart to keep the law's file short).
+
+use super::*;
+use approx::assert_relative_eq;
+use proptest::prelude::*;
+use vt_tube::Waypoint;
+
+const N: usize = 16;
+const DT_S: f32 = 0.02;
+const LOAD_Z_M: f32 = 5.0;
+
+/// 60 m tube, 6 m half-width at the ends, 2.2 m in the middle, gentle S.
+fn tube() -> Tube<256> {
+    Tube::from_waypoints(&[
+        Waypoint::new(0.0, 0.0, 6.0, 6.0),
+        Waypoint::new(15.0, 2.0, 5.0, 5.0),
+        Waypoint::new(30.0, 0.0, 2.2, 2.2),
+        Waypoint::new(45.0, -2.0, 5.0, 5.0),
+        Waypoint::new(60.0, 0.0, 6.0, 6.0),
+    ])
+    .unwrap()
+}
+
+fn params() -> DissipativeParams {
+    DissipativeParams {
+        vertical: VerticalParams { load_altitude_ref_m: LOAD_Z_M, cable_length_m: 8.0, ..Default::default() },
+        ..Default::default()
+    }
+}
+
+/// n UAVs whose nodes sit on a 3 m circle around the load at (x0, 0).
+fn takeoff(n: usize, x0: f32) -> (Vec<Vec3>, Vec3) {
+    let load = Vec3::new(x0, 0.0, LOAD_Z_M);
+    let h = 8.0 / (1.0f32 + 0.09).sqrt(); // taut 8 m cable, node radius 3 at H = 10
+    let uavs = (0..n)
+        .map(|i| {
+            let a = i as f32 / n as f32 * core::f32::consts::TAU;
+            Vec3::new(x0 + 0.3 * h * a.cos(), 0.3 * h * a.sin(), LOAD_Z_M + h)
+        })
+        .collect();
+    (uavs, load)
+}
+
+fn team(n: usize, uavs: &[Vec3], load: &Vec3) -> Vec<DissipativeController<N>> {
+    let f = Formation::<N>::from_takeoff(uavs, load, &params().tray).unwrap();
+    (0..n).map(|i| DissipativeController::new(i, params(), &f).unwrap()).collect()
+}
+
+fn neighbours(uavs: &[Vec3]) -> Vec<Option<Vec3>> {
+    uavs.iter().copied().map(Some).collect()
+}
+
+#[test]
+fn nan_inputs_give_hold_and_are_flagged() {
+    let (uavs, load) = takeoff(4, 5.0);
+    let mut ctl = team(4, &uavs, &load);
+    let nb = neighbours(&uavs);
+    let t = tube();
+    for (own, l) in [
+        (Vec3::new(f32::NAN, 0.0, 12.0), load),
+        (uavs[0], Vec3::new(0.0, f32::INFINITY, 5.0)),
+        (Vec3::repeat(f32::NAN), load),
+    ] {
+        let m = Measurements { own_pos_m: own, load_pos_m: l, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        let c = ctl[0].update(&t, &m, DT_S);
+        assert!(c.status.invalid_input);
+        assert_eq!(c.vel_mps.xy(), Vec2::zeros());
+        assert!(c.vel_mps.z.is_finite());
+    }
+}
+
+#[test]
+fn nan_and_missing_neighbours_are_dropped_and_counted() {
+    let (uavs, load) = takeoff(4, 5.0);
+    let mut ctl = team(4, &uavs, &load);
+    let nb = [Some(uavs[0]), None, Some(Vec3::new(f32::NAN, 0.0, 1.0)), Some(uavs[3])];
+    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let c = ctl[0].update(&tube(), &m, DT_S);
+    assert_eq!(c.status.neighbours_dropped, 2);
+    assert!(!c.status.invalid_input);
+    assert!(c.vel_mps.iter().all(|x| x.is_finite()));
+    // A short slice (fewer entries than UAVs) drops the rest.
+    let m = Measurements { neighbours_m: &nb[..1], ..m };
+    assert_eq!(ctl[0].update(&tube(), &m, DT_S).status.neighbours_dropped, 3);
+}
+
+#[test]
+fn coincident_uavs_get_finite_separating_commands() {
+    let (mut uavs, load) = takeoff(4, 5.0);
+    let mut ctl = team(4, &uavs, &load);
+    uavs[1] = uavs[0];
+    let nb = neighbours(&uavs);
+    let t = tube();
+    let mk = |own| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let c0 = ctl[0].update(&t, &mk(uavs[0]), DT_S);
+    let c1 = ctl[1].update(&t, &mk(uavs[1]), DT_S);
+    assert!(c0.status.coincident_nodes && c1.status.coincident_nodes);
+    assert!(c0.vel_mps.iter().chain(c1.vel_mps.iter()).all(|x| x.is_finite()));
+    assert!((c0.vel_mps - c1.vel_mps).norm() > 1e-3, "coincident UAVs must be driven apart");
+}
+
+#[test]
+fn uav_below_the_load_is_floored_finite_and_limited() {
+    let (mut uavs, load) = takeoff(4, 5.0);
+    let mut ctl = team(4, &uavs, &load);
+    uavs[0].z = LOAD_Z_M - 3.0;
+    let nb = neighbours(&uavs);
+    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let c = ctl[0].update(&tube(), &m, DT_S);
+    assert!(c.status.projection_floored);
+    assert!(c.vel_mps.xy().norm() <= params().v_max_mps);
+    assert!(c.vel_mps.z > 0.0, "a UAV below the load must climb");
+}
+
+#[test]
+fn uav_exactly_at_the_tray_plane_is_nominal() {
+    let (mut uavs, load) = takeoff(4, 5.0);
+    let mut ctl = team(4, &uavs, &load);
+    uavs[2].z = LOAD_Z_M + params().tray.height_above_load_m;
+    let nb = neighbours(&uavs);
+    let m = Measurements { own_pos_m: uavs[2], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let c = ctl[2].update(&tube(), &m, DT_S);
+    assert!(!c.status.projection_floored);
+    assert_relative_eq!(c.node_m, uavs[2].xy(), epsilon = 1e-5);
+}
+
+#[test]
+fn symmetric_formation_on_a_straight_tube_moves_rigidly() {
+    // Straight symmetric tube, formation at rest length: every UAV gets the same velocity.
+    let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 8.0, 8.0), Waypoint::new(80.0, 0.0, 8.0, 8.0)])
+        .unwrap();
+    let (uavs, load) = takeoff(6, 10.0);
+    let mut ctl = team(6, &uavs, &load);
+    let nb = neighbours(&uavs);
+    let cmds: Vec<Command> = ctl
+        .iter_mut()
+        .zip(uavs.iter())
+        .map(|(c, u)| {
+            c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S)
+        })
+        .collect();
+    for c in &cmds {
+        assert!(c.status.is_nominal(), "{:?}", c.status);
+        assert_relative_eq!(c.vel_mps.xy(), cmds[0].vel_mps.xy(), epsilon = 1e-4);
+    }
+    // Passing at v_m mapped by (z_i - z_l)/H.
+    let h = 8.0 / (1.0f32 + 0.09).sqrt();
+    assert_relative_eq!(cmds[0].vel_mps.x, 1.5 * h / 10.0, epsilon = 1e-3);
+}
+
+#[test]
+fn tray_center_replicas_agree() {
+    let (uavs, load) = takeoff(5, 5.0);
+    let mut ctl = team(5, &uavs, &load);
+    let nb = neighbours(&uavs);
+    let t = tube();
+    for _ in 0..50 {
+        for (c, u) in ctl.iter_mut().zip(uavs.iter()) {
+            c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S);
+        }
+    }
+    for c in &ctl {
+        assert_eq!(c.tray_center_m(), ctl[0].tray_center_m());
+    }
+}
+
+/// Kinematic closed loop of the virtual system (Prop. 2): UAVs follow their commands
+/// exactly, the load hangs below the UAVs' centroid. Returns (min node d_t, min node
+/// distance, final load s, final spring-shape error).
+fn fly(n: usize, steps: usize) -> (f32, f32, f32) {
+    fly_with_hold(n, steps, 0..0).0
+}
+
+/// [`fly`] with the whole team in team hold during the steps `hold`; also returns the
+/// load's arc position at every step.
+fn fly_with_hold(n: usize, steps: usize, hold: core::ops::Range<usize>) -> ((f32, f32, f32), Vec<f32>) {
+    let t = tube();
+    let (mut uavs, mut load) = takeoff(n, 4.0);
+    let mut ctl = team(n, &uavs, &load);
+    let (mut min_dt, mut min_sep) = (f32::MAX, f32::MAX);
+    let tray = params().tray;
+    let mut s_load = Vec::with_capacity(steps);
+    for k in 0..steps {
+        for c in ctl.iter_mut() {
+            c.set_team_hold(hold.contains(&k));
+        }
+        let nb = neighbours(&uavs);
+        let vel: Vec<Vec3> = ctl
+            .iter_mut()
+            .zip(uavs.iter())
+            .map(|(c, u)| {
+                let m = Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+                let cmd = c.update(&t, &m, DT_S);
+                assert!(cmd.status.neighbours_dropped == 0 && !cmd.status.invalid_input);
+                min_dt = min_dt.min(cmd.boundary_distance_m);
+                cmd.vel_mps
+            })
+            .collect();
+        for (u, v) in uavs.iter_mut().zip(vel.iter()) {
+            *u += v * DT_S;
+        }
+        let c: Vec2 = uavs.iter().map(|u| u.xy()).sum::<Vec2>() / n as f32;
+        load = Vec3::new(c.x, c.y, LOAD_Z_M);
+        for i in 0..n {
+            for j in i + 1..n {
+                let qi = tray.project(&uavs[i], &load).0;
+                let qj = tray.project(&uavs[j], &load).0;
+                min_sep = min_sep.min((qi - qj).norm());
+            }
+        }
+        s_load.push(t.locate(load.xy(), 0).unwrap().s_m);
+    }
+    let s_end = t.locate(load.xy(), 0).unwrap().s_m;
+    ((min_dt, min_sep, s_end), s_load)
+}
+
+#[test]
+fn team_hold_removes_exactly_the_passing_term() {
+    // Same controller twice, one in team hold: the commands differ by the passing term
+    // eq:2-13 of the own node mapped by eq:2-20 (load at rest: factor (z_i - z_l)/H).
+    let (mut uavs, load) = takeoff(4, 8.0);
+    let mut go = team(4, &uavs, &load).swap_remove(0);
+    uavs[0].y += 0.7; // off its rest position: the springs act on UAV 0
+    let nb = neighbours(&uavs);
+    let t = tube();
+    let mut hold = go.clone();
+    hold.set_team_hold(true);
+    assert!(hold.team_hold() && !go.team_hold());
+    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let (a, b) = (go.update(&t, &m, DT_S), hold.update(&t, &m, DT_S));
+    let sec = t.locate(a.node_m, 0).unwrap();
+    let ratio = (uavs[0].z - load.z) / params().tray.height_above_load_m;
+    let pass = crate::passing::passing_velocity(&sec, &a.node_m, params().k1, params().v_max_mps) * ratio;
+    assert!(pass.norm() > 0.5, "the transport command advances ({pass:?})");
+    assert!(a.vel_mps.xy().norm() < params().v_max_mps, "not saturated: the difference is exact");
+    assert_relative_eq!(a.vel_mps.xy() - b.vel_mps.xy(), pass, epsilon = 1e-5);
+    assert_eq!(a.vel_mps.z, b.vel_mps.z, "altitude law unchanged");
+    assert!(b.vel_mps.xy().norm() > 1e-3, "springs and tube keeping still act in team hold");
+    // The tray-centre replica stands still in team hold (and advances in transport).
+    let c0 = hold.tray_center_m();
+    hold.update(&t, &m, DT_S);
+    assert_eq!(hold.tray_center_m(), c0);
+    assert!(go.tray_center_m().x > c0.x);
+}
+
+#[test]
+fn in_team_hold_a_missing_neighbour_anchors_the_uav_where_it_was() {
+    // UAV 0 of four in team hold loses UAV 2: from then on it holds its horizontal
+    // position where it was (gain HOLD_POSITION_GAIN_PER_S), the tube keeping on, the
+    // springs and the load's velocity off; with every neighbour present no anchor acts.
+    let (uavs, load) = takeoff(4, 8.0);
+    let t = tube();
+    let mut c = team(4, &uavs, &load).swap_remove(0);
+    c.set_team_hold(true);
+    let all = neighbours(&uavs);
+    let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, own_cable_force_n: None };
+    let at_rest = c.update(&t, &m(uavs[0], &all, Vec3::zeros()), DT_S).vel_mps;
+    assert!(at_rest.xy().norm() < 1e-4, "formation at rest, all neighbours: {at_rest:?}");
+    let partial = [Some(uavs[0]), Some(uavs[1]), None, Some(uavs[3])];
+    c.update(&t, &m(uavs[0], &partial, Vec3::zeros()), DT_S); // anchored here
+    let moved = uavs[0] + Vec3::new(0.3, 0.0, 0.0);
+    let swing = Vec3::new(0.0, 0.5, 0.0); // the load swinging does not move the anchored UAV
+    let with_anchor = c.update(&t, &m(moved, &partial, swing), DT_S).vel_mps;
+    // The same controller anchored at `moved`: only the tube keeping (the UAV is where it holds).
+    let mut there = team(4, &uavs, &load).swap_remove(0);
+    there.set_team_hold(true);
+    let keeping = there.update(&t, &m(moved, &partial, swing), DT_S).vel_mps;
+    assert!(keeping.xy().norm() < 0.05, "mid-tube the keeping term is small: {keeping:?}");
+    assert_relative_eq!(with_anchor.xy() - keeping.xy(), Vec2::new(-0.3, 0.0) * HOLD_POSITION_GAIN_PER_S, epsilon = 1e-5);
+    assert_eq!(keeping, there.update(&t, &m(moved, &partial, Vec3::zeros()), DT_S).vel_mps);
+    // The hold ends: the anchor is forgotten; with every neighbour back, no anchor is set.
+    c.set_team_hold(false);
+    c.set_team_hold(true);
+    let fresh = c.update(&t, &m(moved, &all, Vec3::zeros()), DT_S).vel_mps;
+    let mut free = team(4, &uavs, &load).swap_remove(0);
+    free.set_team_hold(true);
+    assert_eq!(fresh, free.update(&t, &m(moved, &all, Vec3::zeros()), DT_S).vel_mps);
+    assert!(fresh.xy().norm() > 0.05, "the springs pull UAV 0 back into the formation: {fresh:?}");
+}
+
+#[test]
+fn team_hold_stops_the_virtual_system_in_its_formation_and_it_resumes() {
+    // Transport for 600 steps (12 s), team hold for 500, transport to the end.
+    let ((min_dt, min_sep, s_end), s) = fly_with_hold(6, 3000, 600..1100);
+    let held = s[1099] - s[700];
+    assert!(held.abs() < 0.05, "load moved {held} m during the last 8 s of the hold");
+    assert!(s[600] - s[500] > 0.5, "the team was advancing before the hold");
+    assert!(min_dt > params().r_safe_m, "node came within {min_dt} m of the boundary");
+    assert!(min_sep > 0.5, "nodes came within {min_sep} m");
+    assert!(s_end > tube().length_m() - 3.0, "after the hold the load only reached s = {s_end}");
+}
+
+#[test]
+fn virtual_system_passes_the_narrow_tube_without_touching_the_boundary() {
+    let (min_dt, min_sep, s_end) = fly(6, 3000);
+    assert!(min_dt > params().r_safe_m, "node came within {min_dt} m of the boundary");
+    assert!(min_sep > 0.5, "nodes came within {min_sep} m");
+    assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
+}
+
+/// Overload (issue 15): with the load far below its reference a UAV flies higher than `H`
+/// above it and lies beyond its node; the tube term then acts at the UAV's own position.
+#[test]
+fn uav_above_the_tray_is_kept_by_its_own_position() {
+    let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 3.0, 3.0), Waypoint::new(40.0, 0.0, 3.0, 3.0)]).unwrap();
+    let (uavs, load) = takeoff(4, 10.0);
+    let mut ctl = team(4, &uavs, &load);
+    let low_load = Vec3::new(10.0, 0.0, LOAD_Z_M - 6.0);
+    let own = Vec3::new(10.0, 2.8, low_load.z + 15.0); // 0.2 m from the boundary, node at y = 1.87
+    let mut nb = neighbours(&uavs);
+    nb[0] = Some(own);
+    let m = Measurements { own_pos_m: own, load_pos_m: low_load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let c = ctl[0].update(&t, &m, DT_S);
+    assert_relative_eq!(c.boundary_distance_m, 0.2, epsilon = 1e-3);
+    assert!(c.vel_mps.y < -0.5, "UAV 0.2 m from the boundary must be pushed inwards: {:?}", c.vel_mps);
+    // Below the tray plane the node's distance is the one kept (the paper's law).
+    let own = Vec3::new(10.0, 2.0, load.z + 8.0);
+    nb[0] = Some(own);
+    let m = Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    assert_relative_eq!(ctl[0].update(&t, &m, DT_S).boundary_distance_m, 3.0 - 2.5, epsilon = 1e-3);
+}
+
+/// The capacity-aware formation scales every rest length: in the kinematic loop the nodes
+/// settle on the take-off shape scaled by the plan's `lambda`; without a declared load the
+/// controller is bit for bit the paper's.
+#[test]
+fn formation_settles_at_the_capacity_scale() {
+    use crate::capacity::{CapacityParams, CapacityPlan, FormationScale};
+    let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 8.0, 8.0), Waypoint::new(2000.0, 0.0, 8.0, 8.0)]).unwrap();
+    let (mut uavs, load) = takeoff(6, 10.0);
+    let cap = CapacityParams { load_mass_kg: 10.0, ..CapacityParams::default() };
+    let plan = CapacityPlan { scale_min: 0.4, scale: 0.5, lean_cos_min: 1.0, capacity_n: 0.0, weight_n: 0.0 };
+    let mut ctl: Vec<_> = team(6, &uavs, &load).into_iter().map(|c| c.with_capacity(FormationScale::new(&plan, &cap))).collect();
+    let mut plain = team(6, &uavs, &load);
+    let mut off: Vec<_> = team(6, &uavs, &load)
+        .into_iter()
+        .map(|c| c.with_capacity(FormationScale::new(&plan, &CapacityParams::default())))
+        .collect();
+    let tray = params().tray;
+    let r0 = (tray.project(&uavs[0], &load).0 - tray.project(&uavs[3], &load).0).norm();
+    let mut load = load;
+    for _ in 0..2000 {
+        let nb = neighbours(&uavs);
+        let mut vel = Vec::new();
+        for i in 0..6 {
+            let m = Measurements { own_pos_m: uavs[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+            let a = plain[i].update(&t, &m, DT_S);
+            assert_eq!(a, off[i].update(&t, &m, DT_S), "the law without a declared load must be the paper's");
+            vel.push(ctl[i].update(&t, &m, DT_S).vel_mps);
+        }
+        for (u, v) in uavs.iter_mut().zip(&vel) {
+            *u += v * DT_S;
+        }
+        let c: Vec2 = uavs.iter().map(|u| u.xy()).sum::<Vec2>() / 6.0;
+        load = Vec3::new(c.x, c.y, LOAD_Z_M);
+    }
+    assert_relative_eq!(ctl[0].formation_scale(), 0.5, epsilon = 1e-6);
+    let r = (tray.project(&uavs[0], &load).0 - tray.project(&uavs[3], &load).0).norm();
+    assert_relative_eq!(r / r0, 0.5, epsilon = 0.02);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn command_is_always_finite_and_limited(
+        dx in -1e4f32..1e4, dy in -1e4f32..1e4, dz in -1e3f32..1e3,
+        lx in -100f32..100.0, ly in -100f32..100.0, lz in -100f32..100.0,
+        vl in -1e3f32..1e3, k in 0usize..4, poison in 0usize..6,
+    ) {
+        let (mut uavs, load0) = takeoff(4, 5.0);
+        let mut ctl = team(4, &uavs, &load0);
+        let special = [f32::NAN, f32::INFINITY, -f32::INFINITY, 1e30, -1e30, 0.0];
+        uavs[k] += Vec3::new(dx, dy, dz);
+        if poison < 3 { uavs[(k + 1) % 4].x = special[poison]; }
+        let load = Vec3::new(lx, ly, lz);
+        let nb = neighbours(&uavs);
+        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::new(vl, -vl, 0.0), neighbours_m: &nb, own_cable_force_n: None };
+        let c = ctl[0].update(&tube(), &m, DT_S);
+        prop_assert!(c.vel_mps.iter().all(|x| x.is_finite()));
+        prop_assert!(c.vel_mps.xy().norm() <= params().v_max_mps);
+        prop_assert!(c.vel_mps.z.abs() <= params().vertical.vz_max_mps);
+    }
+}
