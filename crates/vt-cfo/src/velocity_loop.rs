@@ -230,8 +230,8 @@ pub struct ThrustOutput {
 /// - `v_meas` non-finite, or `dt_s` non-finite or `<= 0`: no feedback is possible; the output
 ///   is the compensated hover, taken as the mean thrust of the last [`BLIND_HOLD_TAU_S`]
 ///   (the observer's `f_hat - G` plus the integral's trim, without the observer's fast
-///   swings), minus a brake `m Kp v_blind` on the last measured velocity dead-reckoned
-///   under that brake (`v_blind' = -Kp v_blind`); the integral is held, the observer skips
+///   swings), minus a brake `m Kp v_blind` on the observer's last velocity estimate
+///   dead-reckoned under that brake (`v_blind' = -Kp v_blind`); the integral is held, the observer skips
 ///   the step and re-seeds at the next measurement, keeping its slow state
 ///   (`docs/design.md`, "Team failsafe").
 /// - `v_cmd` non-finite (measurement fine): the command is taken as zero (brake to a hover),
@@ -278,8 +278,8 @@ pub struct VelocityLoop {
     /// `(dt, dt / BLIND_HOLD_TAU_S)` of the last step with a measurement.
     mean_gain: (f32, f32),
     /// Without measurements: the velocity, dead-reckoned from the observer's last estimate
-    /// under the failsafe's braking, m/s.
-    v_blind_mps: Vector3<f32>,
+    /// under the failsafe's braking, m/s; `None` while measurements arrive.
+    v_blind_mps: Option<Vector3<f32>>,
     /// The applied thrust of the last steps (newest = `thrust_applied_n`), for the delay
     /// compensation ([`crate::prediction`]).
     history: ThrustHistory,
@@ -300,7 +300,7 @@ impl VelocityLoop {
             lag_gain: (0.0, 1.0),
             thrust_mean_n: hover_vector_n(&params),
             mean_gain: (0.0, 0.0),
-            v_blind_mps: Vector3::zeros(),
+            v_blind_mps: None,
             history: ThrustHistory::new(hover_vector_n(&params)),
             prediction: Prediction::undelayed(Vector3::zeros()),
             status: Status::Ok,
@@ -425,17 +425,15 @@ impl VelocityLoop {
             // fast swings), minus a brake on the dead-reckoned velocity: the P term of eq:2-3
             // on `v_blind`, which decays as `v_blind' = -Kp v_blind` if the brake acts as
             // commanded. The UAV stops within about `|v| / Kp` metres instead of coasting.
-            if self.status != Status::InvalidInput {
-                // The first step without: start from the observer's velocity estimate (the
-                // last measurement, predicted one step).
-                self.v_blind_mps = self.cfo.velocity_estimate_mps();
-            }
+            // The first step without starts from the observer's velocity estimate (the last
+            // measurement, predicted one step).
+            let v_blind = *self.v_blind_mps.get_or_insert_with(|| self.cfo.velocity_estimate_mps());
             let f_hat_n = self.cfo.skip();
             self.prediction = Prediction::undelayed(Vector3::zeros());
-            let brake_mps2 = p.gains.kp.component_mul(&self.v_blind_mps);
+            let brake_mps2 = p.gains.kp.component_mul(&v_blind);
             if dt_s.is_finite() && dt_s > 0.0 {
                 let decay = Vector3::repeat(1.0) - (p.gains.kp * dt_s).map(|g| g.min(1.0));
-                self.v_blind_mps = self.v_blind_mps.component_mul(&decay);
+                self.v_blind_mps = Some(v_blind.component_mul(&decay));
             }
             (
                 self.thrust_mean_n - brake_mps2 * m,
@@ -458,6 +456,7 @@ impl VelocityLoop {
             self.integrate(&e_v, &excess_n, dt_s);
         }
         if meas_ok {
+            self.v_blind_mps = None;
             // Exponential mean over BLIND_HOLD_TAU_S (explicit Euler, gain at most 1; the gain
             // is recomputed only when `dt` changes). Finite: `thrust_n` is (replaced by the
             // hover if not), and the gain is in (0, 1].

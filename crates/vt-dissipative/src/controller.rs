@@ -233,11 +233,11 @@ impl<const N: usize> DissipativeController<N> {
     /// failsafe"): the passing term eq:2-13 of the own node is off and the tray-centre replica
     /// stands still (zero tray velocity), so nothing drives the team along the tube and the
     /// centre springs anchor it; the springs eq:2-5, the tube keeping eq:2-14 and the altitude
-    /// law act as in transport. Once a neighbour is missing during the hold, a spring of rest
-    /// length 0 also holds the own node where it was then. With the passing potential gone and
-    /// the centre (and anchor) fixed, the spring and barrier energy alone is a Lyapunov
-    /// function of the node dynamics: the team comes to rest in its formation around the held
-    /// centre, inside the tube.
+    /// law act as in transport. With the passing potential gone and the centre fixed, the
+    /// spring and barrier energy alone is a Lyapunov function of the node dynamics: the team
+    /// comes to rest in its formation around the held centre, inside the tube. Once a
+    /// neighbour is missing during the hold, the UAV instead holds its own horizontal position
+    /// where it was then (gain [`HOLD_POSITION_GAIN_PER_S`]) plus the tube keeping.
     pub fn set_team_hold(&mut self, hold: bool) {
         self.team_hold = hold;
         if !hold {
