@@ -6,42 +6,20 @@
 //! order), so the two must agree command for command, bit for bit. (The third backend, the
 //! firmware in QEMU, is held to the twin in tests/pil.rs.)
 
-use host_sim::mission::{self, CrateTeam, Setpoint, Team, TeamStart, Tick};
+mod common;
+
+use common::Recording;
+use host_sim::mission;
 use host_sim::models::{CableModel, UavModel};
 use host_sim::pil::{self, CommandKind, SilPort};
 use host_sim::scenario::{self, LoadedScenario};
-use host_sim::sim::{ControllerKind, RunOptions, SimError};
+use host_sim::sim::RunOptions;
 use host_sim::summary::Summary;
 use std::path::Path;
 
 fn load(file: &str) -> LoadedScenario {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios").join(file);
     scenario::load(Some(&path)).expect("valid scenario")
-}
-
-/// The crates' team, recording every setpoint as the twin's command log does.
-struct Recording {
-    team: CrateTeam,
-    commands: Vec<(u64, usize, Vec<f32>)>,
-}
-
-impl Team for Recording {
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
-        self.team.start(ls, start)
-    }
-
-    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
-        self.team.step(tick, out)?;
-        for (i, sp) in out.iter().enumerate() {
-            let [w, x, y, z] = sp.q_ned;
-            self.commands.push((tick.step, i, vec![w, x, y, z, sp.thrust]));
-        }
-        Ok(())
-    }
-
-    fn invalid_commands(&self) -> u64 {
-        self.team.invalid_commands()
-    }
 }
 
 /// The summary without the fields that measure the host (wall time, realtime factor).
@@ -61,7 +39,7 @@ fn assert_same(file: &str, uav: UavModel, cable: CableModel) {
 fn assert_same_scenario(ls: &LoadedScenario, file: &str, uav: UavModel, cable: CableModel) {
     let ls = ls.clone();
     let opts = RunOptions { record: false, uav_model: Some(uav), cable_model: Some(cable), ..RunOptions::default() };
-    let mut crates = Recording { team: CrateTeam::new(ControllerKind::Dissipative), commands: Vec::new() };
+    let mut crates = Recording::new();
     let a = mission::fly(&ls, &opts, &mut crates).expect("crates backend flies").summary;
     let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
     let twin = pil::fly(&ls, &mut ports, &opts, "twin").expect("twin backend flies");

@@ -4,11 +4,14 @@
 //! bit-identical to the crates' (the QEMU side is in tests/pil.rs).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-use host_sim::mission::{self, CrateTeam, Setpoint, Team, TeamStart, Tick};
+mod common;
+
+use common::Recording;
+use host_sim::mission;
 use host_sim::pil::{self, CommandKind, SilPort};
 use host_sim::record::{EventKind, RunRecord};
 use host_sim::scenario::{self, FaultKind, FaultSpec, LoadedScenario, StaleNeighbour};
-use host_sim::sim::{self, ControllerKind, RunOptions, SimError};
+use host_sim::sim::{self, RunOptions};
 use host_sim::summary::Summary;
 use std::path::Path;
 use vt_dissipative::TeamMode;
@@ -164,43 +167,11 @@ fn link_dead_flying_on_arrives_but_keeps_the_team_closer_than_holding() {
     assert!(h.min_uav_uav_m >= 0.4 && h.min_uav_uav_m > d.min_uav_uav_m, "hold {:.3} m, fly on {:.3} m", h.min_uav_uav_m, d.min_uav_uav_m);
 }
 
-/// The crates' team, recording every setpoint and the team modes it broadcasts.
-struct Recording {
-    team: CrateTeam,
-    commands: Vec<(u64, usize, Vec<f32>)>,
-    modes: Vec<TeamMode>,
-}
-
-impl Team for Recording {
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
-        self.team.start(ls, start)
-    }
-    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
-        self.team.step(tick, out)?;
-        for (i, sp) in out.iter().enumerate() {
-            let [w, x, y, z] = sp.q_ned;
-            self.commands.push((tick.step, i, vec![w, x, y, z, sp.thrust]));
-        }
-        if tick.high_level {
-            let mut m = vec![TeamMode::Transport; out.len()];
-            self.team.team_modes(&mut m);
-            self.modes.extend(m);
-        }
-        Ok(())
-    }
-    fn holding(&self) -> Vec<bool> {
-        self.team.holding()
-    }
-    fn team_modes(&self, out: &mut [TeamMode]) {
-        self.team.team_modes(out);
-    }
-}
-
 /// Crates and companion twin fly `ls` command for command, bit for bit; returns the crates'
 /// summary and whether anyone held.
 fn assert_crates_equal_twin(label: &str, ls: &LoadedScenario) -> Summary {
     let opts = RunOptions { record: true, ..RunOptions::default() };
-    let mut crates = Recording { team: CrateTeam::new(ControllerKind::Dissipative), commands: Vec::new(), modes: Vec::new() };
+    let mut crates = Recording::new();
     let a = mission::fly(ls, &opts, &mut crates).unwrap();
     let mut ports: Vec<SilPort> = (0..ls.scenario.cables.lengths_m.len()).map(|_| SilPort::new()).collect();
     let twin = pil::fly(ls, &mut ports, &opts, "twin").unwrap();

@@ -1,0 +1,54 @@
+//! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`).
+#![allow(dead_code)] // each test target uses its own part
+
+use host_sim::mission::{CrateTeam, Setpoint, Team, TeamStart, Tick};
+use host_sim::scenario::LoadedScenario;
+use host_sim::sim::{ControllerKind, SimError};
+use vt_dissipative::TeamMode;
+
+/// The crates' team (`CrateTeam`, dissipative), recording every setpoint as the twin's command
+/// log does (`(step, uav, [qw, qx, qy, qz, thrust])`) and, at every high-level step, the team
+/// modes it broadcasts; everything else is passed through.
+pub struct Recording {
+    pub team: CrateTeam,
+    pub commands: Vec<(u64, usize, Vec<f32>)>,
+    pub modes: Vec<TeamMode>,
+}
+
+impl Recording {
+    pub fn new() -> Self {
+        Self { team: CrateTeam::new(ControllerKind::Dissipative), commands: Vec::new(), modes: Vec::new() }
+    }
+}
+
+impl Team for Recording {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+        self.team.start(ls, start)
+    }
+
+    fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
+        self.team.step(tick, out)?;
+        for (i, sp) in out.iter().enumerate() {
+            let [w, x, y, z] = sp.q_ned;
+            self.commands.push((tick.step, i, vec![w, x, y, z, sp.thrust]));
+        }
+        if tick.high_level {
+            let mut m = vec![TeamMode::Transport; out.len()];
+            self.team.team_modes(&mut m);
+            self.modes.extend(m);
+        }
+        Ok(())
+    }
+
+    fn invalid_commands(&self) -> u64 {
+        self.team.invalid_commands()
+    }
+
+    fn holding(&self) -> Vec<bool> {
+        self.team.holding()
+    }
+
+    fn team_modes(&self, out: &mut [TeamMode]) {
+        self.team.team_modes(out);
+    }
+}
