@@ -289,11 +289,12 @@ pub fn velocity_loop(s: &Scenario) -> Result<VelocityLoop, SimError> {
     let limits = ThrustLimits::new(0.05 * thrust_max, thrust_max, s.uavs.tilt_max_deg.to_radians() as f32)
         .and_then(|l| l.with_horizontal_reserve(horizontal_reserve(s) as f32))
         .map_err(|e| SimError(format!("uavs: {e}")))?;
-    let (bandwidth, lag) = vl.tuning(s.uavs.model);
+    let (bandwidth, lag, filter) = vl.tuning(s.uavs.model);
     let cfo = CfoParams::new(bandwidth as f32, s.uavs.mass_kg as f32, 1.0 / s.rates.low_level_hz as f32)
         .map_err(|e| SimError(format!("velocity_loop: {e}")))?;
     let params = VelocityLoopParams::new(gains, limits, V3f::repeat(2.0), cfo)
         .and_then(|p| p.with_actuator_lag(lag as f32))
+        .and_then(|p| p.with_command_filter(filter as f32))
         .map_err(|e| SimError(format!("velocity_loop: {e}")))?;
     Ok(VelocityLoop::new(params))
 }

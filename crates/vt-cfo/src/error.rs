@@ -45,6 +45,8 @@ pub enum CfoError {
     },
     /// `actuator_lag_s` is NaN, infinite or < 0.
     InvalidActuatorLag,
+    /// The thrust command filter's time constant is NaN, infinite or negative.
+    InvalidCommandFilter,
     /// The horizontal reserve is NaN, outside `[0, 1)`, or leaves no vertical range.
     InvalidHorizontalReserve,
     /// The hover thrust `mass_kg * g` lies outside `[thrust_min_n, thrust_max_n]`.
@@ -80,6 +82,7 @@ impl fmt::Display for CfoError {
                 write!(f, "integral_limit_mps2[{axis}] must be finite and >= 0")
             }
             Self::InvalidActuatorLag => write!(f, "actuator_lag_s must be finite and >= 0"),
+            Self::InvalidCommandFilter => write!(f, "command_filter_s must be finite and >= 0"),
             Self::HoverOutsideThrustLimits { hover_n } => write!(
                 f,
                 "hover thrust mass_kg * g = {hover_n:.2} N lies outside [thrust_min_n, thrust_max_n]"

@@ -75,6 +75,8 @@ pub struct VelocityLoopParams {
     cfo: CfoParams,
     /// Time constant of the vehicle's thrust response, s (0: the thrust is the command).
     actuator_lag_s: f32,
+    /// Time constant of the low-pass on the thrust demand, s (0: no filter).
+    command_filter_s: f32,
 }
 
 impl VelocityLoopParams {
@@ -120,6 +122,7 @@ impl VelocityLoopParams {
             integral_limit_mps2,
             cfo,
             actuator_lag_s: 0.0,
+            command_filter_s: 0.0,
         })
     }
 
@@ -137,6 +140,27 @@ impl VelocityLoopParams {
             return Err(CfoError::InvalidActuatorLag);
         }
         Ok(Self { actuator_lag_s: lag_s, ..self })
+    }
+
+    /// The same parameters with the thrust demand low-passed with time constant `tau_s`
+    /// (s, `>= 0`) before the limits: `T_f += (T_d - T_f)(1 - exp(-dt / tau_s))` (docs/design.md,
+    /// "Thrust command filter"). The observer is told the filtered, limited thrust it sends, so
+    /// it stays consistent. 0 (the default) sends eq:2-3's demand as it is (the paper).
+    ///
+    /// # Errors
+    ///
+    /// [`CfoError::InvalidCommandFilter`] when `tau_s` is NaN, infinite or negative.
+    pub fn with_command_filter(self, tau_s: f32) -> Result<Self, CfoError> {
+        if !(tau_s.is_finite() && tau_s >= 0.0) {
+            return Err(CfoError::InvalidCommandFilter);
+        }
+        Ok(Self { command_filter_s: tau_s, ..self })
+    }
+
+    /// Time constant of the low-pass on the thrust demand, s (0: none).
+    #[must_use]
+    pub fn command_filter_s(&self) -> f32 {
+        self.command_filter_s
     }
 
     /// Time constant of the vehicle's thrust response the observer assumes, s.
@@ -192,6 +216,7 @@ impl Default for VelocityLoopParams {
             integral_limit_mps2: Vector3::repeat(DEFAULT_INTEGRAL_LIMIT_MPS2),
             cfo: CfoParams::default(),
             actuator_lag_s: 0.0,
+            command_filter_s: 0.0,
         }
     }
 }
@@ -272,6 +297,10 @@ pub struct VelocityLoop {
     thrust_applied_n: Vector3<f32>,
     /// `(dt, 1 - exp(-dt / actuator_lag_s))` of the last step (`exp` is costly on the MCU).
     lag_gain: (f32, f32),
+    /// The low-passed thrust demand `T_f`, N (equal to the demand without a command filter).
+    demand_filtered_n: Vector3<f32>,
+    /// `(dt, 1 - exp(-dt / command_filter_s))` of the last step.
+    filter_gain: (f32, f32),
     /// Mean of the thrust returned while measurements were usable, N (time constant
     /// [`BLIND_HOLD_TAU_S`]): the no-measurement failsafe's hover thrust.
     thrust_mean_n: Vector3<f32>,
@@ -298,6 +327,8 @@ impl VelocityLoop {
             integral_mps2: Vector3::zeros(),
             thrust_applied_n: hover_vector_n(&params),
             lag_gain: (0.0, 1.0),
+            demand_filtered_n: hover_vector_n(&params),
+            filter_gain: (0.0, 1.0),
             thrust_mean_n: hover_vector_n(&params),
             mean_gain: (0.0, 0.0),
             v_blind_mps: None,
@@ -347,6 +378,7 @@ impl VelocityLoop {
         // the blind hold's mean thrust).
         self.history = ThrustHistory::new(thrust_n);
         self.thrust_mean_n = thrust_n;
+        self.demand_filtered_n = thrust_n;
     }
 
     /// What the last step predicted from its measurement (delay, velocity now, displacement
@@ -443,6 +475,7 @@ impl VelocityLoop {
             )
         };
 
+        let demand_n = self.filtered(demand_n, dt_s);
         let clamped_n = p.limits.clamp(demand_n, hover_n);
         let thrust_n = if is_finite(&clamped_n) {
             clamped_n
@@ -522,6 +555,27 @@ impl VelocityLoop {
         } else {
             thrust_n
         }
+    }
+
+    /// The thrust demand after the command filter (docs/design.md, "Thrust command filter"):
+    /// `T_f += (T_d - T_f)(1 - exp(-dt / tau))`, exact for a demand held over the step; the
+    /// demand itself without a filter. A `dt_s` that is not finite and > 0, or a non-finite
+    /// result, holds `T_f` (a non-finite demand is then replaced by the clamp's hover).
+    fn filtered(&mut self, demand_n: Vector3<f32>, dt_s: f32) -> Vector3<f32> {
+        let tau_s = self.params.command_filter_s;
+        if tau_s <= 0.0 {
+            return demand_n;
+        }
+        if dt_s.is_finite() && dt_s > 0.0 {
+            if self.filter_gain.0 != dt_s {
+                self.filter_gain = (dt_s, -libm::expm1f(-dt_s / tau_s));
+            }
+            let next = self.demand_filtered_n + (demand_n - self.demand_filtered_n) * self.filter_gain.1;
+            if is_finite(&next) {
+                self.demand_filtered_n = next;
+            }
+        }
+        self.demand_filtered_n
     }
 
     /// Conditional integration of `Ki e_v` with the magnitude clamp (anti-windup).

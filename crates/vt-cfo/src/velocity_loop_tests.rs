@@ -247,6 +247,107 @@ fn reset_clears_integral_and_observer() {
 }
 
 /// Any f32 including NaN, infinities and huge values.
+#[test]
+fn command_filter_rejects_a_bad_time_constant() {
+    let d = VelocityLoopParams::default();
+    for tau in [-0.01, f32::NAN, f32::INFINITY] {
+        assert_eq!(d.with_command_filter(tau), Err(CfoError::InvalidCommandFilter));
+    }
+    assert_eq!(d.with_command_filter(0.0).map(|p| p.command_filter_s()), Ok(0.0));
+    assert_eq!(d.command_filter_s(), 0.0);
+}
+
+/// Deterministic zero-mean noise in [-sqrt 3, sqrt 3] (unit variance), per axis.
+fn noise(state: &mut u32) -> Vector3<f32> {
+    let mut draw = || {
+        *state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223); // Numerical Recipes LCG
+        ((*state >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 2.0 * 1.732_050_8
+    };
+    Vector3::new(draw(), draw(), draw())
+}
+
+/// Flies the loop around a point mass with a constant cable force for 20 s, measuring its
+/// velocity with white noise of `sigma` m/s; returns (mean thrust, rms thrust deviation) over
+/// the last 10 s, N.
+fn fly_with_velocity_noise(p: VelocityLoopParams, sigma: f32) -> (Vector3<f32>, f32) {
+    let m = p.mass_kg();
+    let f = Vector3::new(3.0, -2.0, 19.6);
+    let mut ctl = VelocityLoop::new(p);
+    ctl.preload(f);
+    let (mut v, mut seed) = (Vector3::zeros(), 7u32);
+    let (mut sum, mut sum_sq, mut count) = (Vector3::zeros(), 0.0f32, 0.0f32);
+    let expected = f - gravity_mps2() * m;
+    for k in 0..10_000 {
+        let out = ctl.update(Vector3::zeros(), v + noise(&mut seed) * sigma, DT_S);
+        v = plant_step(v, out.thrust_n, f, m);
+        if k >= 5_000 {
+            sum += out.thrust_n;
+            sum_sq += (out.thrust_n - expected).norm_squared();
+            count += 1.0;
+        }
+    }
+    (sum / count, (sum_sq / count).sqrt())
+}
+
+/// The command filter removes most of the thrust noise that velocity noise causes through the
+/// observer's `l1 e` (docs/design.md, "Thrust command filter") and keeps the mean thrust.
+#[test]
+fn command_filter_attenuates_thrust_noise_and_keeps_the_mean() {
+    let p = VelocityLoopParams::default();
+    let expected = Vector3::new(3.0, -2.0, 19.6) - gravity_mps2() * p.mass_kg();
+    let (mean_raw, rms_raw) = fly_with_velocity_noise(p, 0.15);
+    let (mean_f, rms_f) = fly_with_velocity_noise(p.with_command_filter(0.02).unwrap(), 0.15);
+    // Unfiltered: about 2 mu sigma m = 9 N rms per axis (white noise through l1 e).
+    assert!(rms_raw > 8.0, "unfiltered rms {rms_raw} N");
+    assert!(rms_f < 0.3 * rms_raw, "filtered rms {rms_f} N vs {rms_raw} N");
+    assert!((mean_f - expected).norm() < 0.5, "filtered mean {mean_f} vs {expected}");
+    assert!((mean_raw - expected).norm() < 1.0, "unfiltered mean {mean_raw} vs {expected}");
+}
+
+/// With the filter the loop still converges to the command and the observer to the cable
+/// force (the observer is told the thrust actually sent).
+#[test]
+fn filtered_loop_converges_to_the_command_and_the_cable_force() {
+    let p = VelocityLoopParams::default().with_command_filter(0.05).unwrap();
+    let m = p.mass_kg();
+    let (f, v_cmd) = (Vector3::new(4.0, -2.0, 12.0), Vector3::new(1.0, 0.0, -0.3));
+    let mut ctl = VelocityLoop::new(p);
+    let mut v = Vector3::zeros();
+    for _ in 0..30_000 {
+        let out = ctl.update(v_cmd, v, DT_S);
+        v = plant_step(v, out.thrust_n, f, m);
+    }
+    assert_relative_eq!(v, v_cmd, epsilon = 0.01);
+    assert_relative_eq!(ctl.observer().estimate_n(), f, epsilon = 0.05);
+}
+
+/// A step in the demand reaches `1 - 1/e` of its size after one time constant (first-order
+/// low-pass, exact discretisation), and the limits still hold on the filtered value.
+#[test]
+fn command_filter_is_a_first_order_lag() {
+    let tau = 0.05;
+    // No derivative term and a slow observer: the demand stays a step over one time constant.
+    let d = VelocityLoopParams::default();
+    let gains = PidGains { kd: Vector3::zeros(), ..d.gains };
+    let cfo = CfoParams::new(0.5, d.mass_kg(), DT_S).unwrap();
+    let p = VelocityLoopParams::new(gains, d.limits, d.integral_limit_mps2, cfo)
+        .and_then(|p| p.with_command_filter(tau))
+        .unwrap();
+    let mut ctl = VelocityLoop::new(p);
+    let hover = p.hover_thrust_n();
+    // A 1 m/s command at rest: the demand steps by m Kp = 4 N on x (then moves slowly).
+    let first = ctl.update(Vector3::new(1.0, 0.0, 0.0), Vector3::zeros(), DT_S).thrust_n;
+    let gain = 1.0 - (-DT_S / tau).exp();
+    assert_relative_eq!(first.x, 4.0 * gain, epsilon = 1e-3);
+    let mut out = first;
+    for _ in 1..25 {
+        out = ctl.update(Vector3::new(1.0, 0.0, 0.0), Vector3::zeros(), DT_S).thrust_n;
+    }
+    let reached = out.x / 4.0;
+    assert!((reached - (1.0 - (-1.0f32).exp())).abs() < 0.05, "reached {reached} after tau");
+    assert!((out.z - hover).abs() < 0.5);
+}
+
 fn any_component() -> impl Strategy<Value = f32> {
     prop_oneof![
         4 => -20.0f32..20.0,
@@ -311,8 +412,11 @@ proptest! {
         ),
     ) {
         let p = VelocityLoopParams::default();
-        let mut ctl = VelocityLoop::new(p);
+        let filtered = p.with_command_filter(0.02).unwrap();
+        let (mut ctl, mut ctl_f) = (VelocityLoop::new(p), VelocityLoop::new(filtered));
         for (v_cmd, v_meas, dt) in steps {
+            let out_f = ctl_f.update(v_cmd, v_meas, dt);
+            prop_assert!(within_limits(&out_f.thrust_n, p.limits()), "filtered: {out_f:?}");
             let out = ctl.update(v_cmd, v_meas, dt);
             prop_assert!(within_limits(&out.thrust_n, p.limits()), "{out:?}");
             prop_assert!(ctl.integral_mps2().iter().zip(p.integral_limit_mps2().iter())

@@ -115,6 +115,7 @@ params! {
     TiltMax => real("VL_TILT_MAX", core::f32::consts::FRAC_PI_6, 0.0, 1.57), "Tilt limit, rad.";
     CfoMu => real("VL_CFO_MU", 15.0, 0.0, 1.0e4), "CFO bandwidth `mu`, rad/s (REFERENCE §4).";
     ActLag => real("VL_ACT_LAG", 0.0, 0.0, 1.0), "Time constant of the thrust the autopilot realises, as the CFO models it, s (0: thrust = command).";
+    CmdTau => real("VL_CMD_TAU", 0.0, 0.0, 1.0), "Time constant of the low-pass on the thrust demand, s (0: none; docs/design.md, \"Thrust command filter\").";
     Mass => real("VL_MASS", 1.47, 0.0, 1.0e3), "UAV mass, kg.";
     Yaw => real("VL_YAW", 0.0, -3.15, 3.15), "Heading held while transporting, rad (NED yaw: 0 north, pi/2 east).";
     CapOn => int("VT_CAP_ON", 1.0, 0.0, 1.0), "1: capacity-aware formation (issue 15) from `VT_LOAD_KG` and `VT_CABLE_RATED`; 0: the paper's controller.";
@@ -314,7 +315,7 @@ impl Params {
         let gains = PidGains { kp: v(Param::KpX, Param::KpY, Param::KpZ), ki: v(Param::KiX, Param::KiY, Param::KiZ), kd: v(Param::KdX, Param::KdY, Param::KdZ) };
         let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?.with_horizontal_reserve(g(Param::HReserve))?;
         let cfo = CfoParams::new(g(Param::CfoMu), g(Param::Mass), self.low_level_dt_s())?;
-        VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)?.with_actuator_lag(g(Param::ActLag))
+        VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)?.with_actuator_lag(g(Param::ActLag))?.with_command_filter(g(Param::CmdTau))
     }
 
     /// High-level period `1 / VT_HL_HZ`, s (as host-sim computes it: `1.0 / hz as f32`).

@@ -147,6 +147,7 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, cable_rated_n: f64, loc
                 (Param::TiltMax, s.uavs.tilt_max_deg.to_radians() as f32),
                 (Param::CfoMu, p.cfo().bandwidth_rad_s()),
                 (Param::ActLag, p.actuator_lag_s()),
+                (Param::CmdTau, p.command_filter_s()),
                 (Param::Mass, p.mass_kg()),
                 (Param::Yaw, 0.0),
                 (Param::CapOn, if cap.load_mass_kg > 0.0 { 1.0 } else { 0.0 }),

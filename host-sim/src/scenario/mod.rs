@@ -478,6 +478,10 @@ pub struct VelocityLoopSpec {
     /// models it, s (default 0: the paper's thrust = command).
     #[serde(default)]
     pub actuator_lag_s: f64,
+    /// Time constant of the low-pass on the thrust demand, s (default 0: the paper's demand as
+    /// it is; docs/design.md, "Thrust command filter").
+    #[serde(default)]
+    pub command_filter_s: f64,
     /// Fraction of the thrust limit kept for the horizontal part: the vertical component is
     /// capped at `thrust_max sqrt(1 - r^2)` (issue 15, "Overload in flight"; default 0, the
     /// paper's vertical priority; the rigid-body tuning has its own default).
@@ -498,25 +502,28 @@ pub struct VelocityLoopTuning {
     pub cfo_bandwidth_rad_s: Option<f64>,
     /// Actuator lag the CFO models, s.
     pub actuator_lag_s: Option<f64>,
+    /// Time constant of the thrust command filter, s.
+    pub command_filter_s: Option<f64>,
     /// Horizontal thrust reserve (issue 15).
     pub horizontal_reserve: Option<f64>,
 }
 
 impl VelocityLoopSpec {
-    /// `(cfo_bandwidth_rad_s, actuator_lag_s)` flown on UAV model `model`: the table's values
+    /// `(cfo_bandwidth_rad_s, actuator_lag_s, command_filter_s)` flown on UAV model `model`: the table's values
     /// for `point_mass`; `[velocity_loop.rigid_body]`, else the project's rigid-body tuning, for
     /// `rigid_body` (docs/design.md, "Velocity loop behind an attitude autopilot").
     #[must_use]
-    pub fn tuning(&self, model: UavModel) -> (f64, f64) {
+    pub fn tuning(&self, model: UavModel) -> (f64, f64, f64) {
         match model {
             UavModel::RigidBody => {
                 let t = self.rigid_body.unwrap_or_default();
                 (
                     t.cfo_bandwidth_rad_s.unwrap_or(crate::models::RIGID_BODY_CFO_BANDWIDTH_RAD_S),
                     t.actuator_lag_s.unwrap_or(crate::models::RIGID_BODY_ACTUATOR_LAG_S),
+                    t.command_filter_s.unwrap_or(crate::models::RIGID_BODY_COMMAND_FILTER_S),
                 )
             }
-            UavModel::PointMass => (self.cfo_bandwidth_rad_s, self.actuator_lag_s),
+            UavModel::PointMass => (self.cfo_bandwidth_rad_s, self.actuator_lag_s, self.command_filter_s),
         }
     }
 

@@ -182,6 +182,7 @@ impl Validator<'_> {
         }
         self.positive("velocity_loop", "cfo_bandwidth_rad_s", vl.cfo_bandwidth_rad_s)?;
         self.non_negative("velocity_loop", "actuator_lag_s", vl.actuator_lag_s)?;
+        self.non_negative("velocity_loop", "command_filter_s", vl.command_filter_s)?;
         // issue 15: the vertical cap thrust_max sqrt(1 - r^2) must still lift the UAV (as
         // vt_cfo::ThrustLimits::with_horizontal_reserve and VelocityLoopParams::new check it).
         let explicit = [("velocity_loop", Some(vl.horizontal_reserve)), ("velocity_loop.rigid_body", vl.horizontal_reserve(UavModel::RigidBody))];
@@ -201,6 +202,9 @@ impl Validator<'_> {
             }
             if let Some(lag) = t.actuator_lag_s {
                 self.non_negative("velocity_loop.rigid_body", "actuator_lag_s", lag)?;
+            }
+            if let Some(tau) = t.command_filter_s {
+                self.non_negative("velocity_loop.rigid_body", "command_filter_s", tau)?;
             }
         }
         // Rates.
