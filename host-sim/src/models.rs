@@ -59,8 +59,8 @@ pub const RIGID_BODY_CFO_BANDWIDTH_RAD_S: f64 = 15.0;
 pub const RIGID_BODY_ACTUATOR_LAG_S: f64 = 0.05;
 /// Time constant of the thrust command filter on the `rigid_body` plant unless
 /// `[velocity_loop.rigid_body]` says otherwise, s: off (docs/design.md, "Thrust command
-/// filter": 0.02 s fixes 3x velocity noise but costs the overload campaigns their separation
-/// margin, 0.53 -> 0.40 m, so it is opt-in).
+/// filter": 0.02 s fixes 3x velocity noise but takes the overload campaigns' separation margin
+/// from 0.53 m to 0.44 m, and not every campaign has been re-flown with it, so it is opt-in).
 pub const RIGID_BODY_COMMAND_FILTER_S: f64 = 0.0;
 
 /// Largest fraction of the thrust limit the velocity loop keeps for the horizontal part on the

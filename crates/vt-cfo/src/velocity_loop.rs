@@ -75,7 +75,8 @@ pub struct VelocityLoopParams {
     cfo: CfoParams,
     /// Time constant of the vehicle's thrust response, s (0: the thrust is the command).
     actuator_lag_s: f32,
-    /// Time constant of the low-pass on the thrust demand, s (0: no filter).
+    /// Time constant of the low-pass on the observer's compensation `f_hat` in eq:2-3, s
+    /// (0: no filter).
     command_filter_s: f32,
 }
 
@@ -142,10 +143,11 @@ impl VelocityLoopParams {
         Ok(Self { actuator_lag_s: lag_s, ..self })
     }
 
-    /// The same parameters with the thrust demand low-passed with time constant `tau_s`
-    /// (s, `>= 0`) before the limits: `T_f += (T_d - T_f)(1 - exp(-dt / tau_s))` (docs/design.md,
-    /// "Thrust command filter"). The observer is told the filtered, limited thrust it sends, so
-    /// it stays consistent. 0 (the default) sends eq:2-3's demand as it is (the paper).
+    /// The same parameters with the observer's compensation low-passed in the thrust command:
+    /// eq:2-3 takes `f_f += (f_hat - f_f)(1 - exp(-dt / tau_s))` instead of `f_hat` (`tau_s` in
+    /// s, `>= 0`; docs/design.md, "Thrust command filter"). The PID terms are not filtered, and
+    /// the observer is told the thrust sent, so it stays consistent. 0 (the default) is the
+    /// paper's eq:2-3.
     ///
     /// # Errors
     ///
@@ -157,7 +159,7 @@ impl VelocityLoopParams {
         Ok(Self { command_filter_s: tau_s, ..self })
     }
 
-    /// Time constant of the low-pass on the thrust demand, s (0: none).
+    /// Time constant of the low-pass on `f_hat` in the thrust command, s (0: none).
     #[must_use]
     pub fn command_filter_s(&self) -> f32 {
         self.command_filter_s
@@ -297,8 +299,8 @@ pub struct VelocityLoop {
     thrust_applied_n: Vector3<f32>,
     /// `(dt, 1 - exp(-dt / actuator_lag_s))` of the last step (`exp` is costly on the MCU).
     lag_gain: (f32, f32),
-    /// The low-passed thrust demand `T_f`, N (equal to the demand without a command filter).
-    demand_filtered_n: Vector3<f32>,
+    /// The low-passed compensation `f_f`, N (unused without a command filter).
+    f_hat_filtered_n: Vector3<f32>,
     /// `(dt, 1 - exp(-dt / command_filter_s))` of the last step.
     filter_gain: (f32, f32),
     /// Mean of the thrust returned while measurements were usable, N (time constant
@@ -327,7 +329,7 @@ impl VelocityLoop {
             integral_mps2: Vector3::zeros(),
             thrust_applied_n: hover_vector_n(&params),
             lag_gain: (0.0, 1.0),
-            demand_filtered_n: hover_vector_n(&params),
+            f_hat_filtered_n: Vector3::zeros(),
             filter_gain: (0.0, 1.0),
             thrust_mean_n: hover_vector_n(&params),
             mean_gain: (0.0, 0.0),
@@ -378,7 +380,7 @@ impl VelocityLoop {
         // the blind hold's mean thrust).
         self.history = ThrustHistory::new(thrust_n);
         self.thrust_mean_n = thrust_n;
-        self.demand_filtered_n = thrust_n;
+        self.f_hat_filtered_n = f_hat_n;
     }
 
     /// What the last step predicted from its measurement (delay, velocity now, displacement
@@ -443,7 +445,8 @@ impl VelocityLoop {
             let accel_mps2 = p.gains.kp.component_mul(&e_v)
                 + self.integral_mps2
                 + p.gains.kd.component_mul(&e_v_dot);
-            let demand_n = accel_mps2 * m + f_hat_n - weight_n; // eq:2-3
+            // eq:2-3, with `f_hat` low-passed when a command filter is set.
+            let demand_n = accel_mps2 * m + self.filtered(f_hat_n, dt_s) - weight_n;
             let status = if cmd_ok {
                 self.cfo.status()
             } else {
@@ -475,7 +478,6 @@ impl VelocityLoop {
             )
         };
 
-        let demand_n = self.filtered(demand_n, dt_s);
         let clamped_n = p.limits.clamp(demand_n, hover_n);
         let thrust_n = if is_finite(&clamped_n) {
             clamped_n
@@ -557,25 +559,25 @@ impl VelocityLoop {
         }
     }
 
-    /// The thrust demand after the command filter (docs/design.md, "Thrust command filter"):
-    /// `T_f += (T_d - T_f)(1 - exp(-dt / tau))`, exact for a demand held over the step; the
-    /// demand itself without a filter. A `dt_s` that is not finite and > 0, or a non-finite
-    /// result, holds `T_f` (a non-finite demand is then replaced by the clamp's hover).
-    fn filtered(&mut self, demand_n: Vector3<f32>, dt_s: f32) -> Vector3<f32> {
+    /// The compensation after the command filter (docs/design.md, "Thrust command filter"):
+    /// `f_f += (f_hat - f_f)(1 - exp(-dt / tau))`, exact for an `f_hat` held over the step;
+    /// `f_hat` itself without a filter. A `dt_s` that is not finite and > 0, or a non-finite
+    /// result, holds `f_f`.
+    fn filtered(&mut self, f_hat_n: Vector3<f32>, dt_s: f32) -> Vector3<f32> {
         let tau_s = self.params.command_filter_s;
         if tau_s <= 0.0 {
-            return demand_n;
+            return f_hat_n;
         }
         if dt_s.is_finite() && dt_s > 0.0 {
             if self.filter_gain.0 != dt_s {
                 self.filter_gain = (dt_s, -libm::expm1f(-dt_s / tau_s));
             }
-            let next = self.demand_filtered_n + (demand_n - self.demand_filtered_n) * self.filter_gain.1;
+            let next = self.f_hat_filtered_n + (f_hat_n - self.f_hat_filtered_n) * self.filter_gain.1;
             if is_finite(&next) {
-                self.demand_filtered_n = next;
+                self.f_hat_filtered_n = next;
             }
         }
-        self.demand_filtered_n
+        self.f_hat_filtered_n
     }
 
     /// Conditional integration of `Ki e_v` with the magnitude clamp (anti-windup).
