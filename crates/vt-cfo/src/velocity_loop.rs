@@ -548,10 +548,8 @@ impl VelocityLoop {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return self.thrust_applied_n;
         }
-        if self.lag_gain.0 != dt_s {
-            self.lag_gain = (dt_s, -libm::expm1f(-dt_s / lag_s));
-        }
-        let next = self.thrust_applied_n + (thrust_n - self.thrust_applied_n) * self.lag_gain.1;
+        let gain = first_order_gain(&mut self.lag_gain, dt_s, lag_s);
+        let next = self.thrust_applied_n + (thrust_n - self.thrust_applied_n) * gain;
         if is_finite(&next) {
             next
         } else {
@@ -569,10 +567,8 @@ impl VelocityLoop {
             return f_hat_n;
         }
         if dt_s.is_finite() && dt_s > 0.0 {
-            if self.filter_gain.0 != dt_s {
-                self.filter_gain = (dt_s, -libm::expm1f(-dt_s / tau_s));
-            }
-            let next = self.f_hat_filtered_n + (f_hat_n - self.f_hat_filtered_n) * self.filter_gain.1;
+            let gain = first_order_gain(&mut self.filter_gain, dt_s, tau_s);
+            let next = self.f_hat_filtered_n + (f_hat_n - self.f_hat_filtered_n) * gain;
             if is_finite(&next) {
                 self.f_hat_filtered_n = next;
             }
@@ -604,6 +600,16 @@ fn integrate_axis(integral_mps2: f32, increment_mps2: f32, excess_n: f32, limit_
         integral_mps2 + increment_mps2
     };
     next.max(-limit_mps2).min(limit_mps2)
+}
+
+/// The exact first-order gain `1 - exp(-dt / tau)` for the step `dt_s` (s) and time constant
+/// `tau_s` (s, > 0), cached in `cache = (dt, gain)` and recomputed only when `dt` changes
+/// (`exp` is costly on the MCU).
+fn first_order_gain(cache: &mut (f32, f32), dt_s: f32, tau_s: f32) -> f32 {
+    if cache.0 != dt_s {
+        *cache = (dt_s, -libm::expm1f(-dt_s / tau_s));
+    }
+    cache.1
 }
 
 /// `-G = (0, 0, m g)`, N.
