@@ -125,6 +125,15 @@ impl ThrustHistory {
         Self { ring: [thrust_n; HISTORY_LEN], head: 0, window: 0, window_sum_n: Vector3::zeros() }
     }
 
+    /// Makes this [`new`](Self::new)`(thrust_n)` in place (the ring is 1.5 KiB: building a new
+    /// one and moving it costs that much stack twice on the MCU).
+    pub fn fill(&mut self, thrust_n: Vector3<f32>) {
+        self.ring = [thrust_n; HISTORY_LEN];
+        self.head = 0;
+        self.window = 0;
+        self.window_sum_n = Vector3::zeros();
+    }
+
     /// The thrust applied over the step that ended `age` steps ago (age 0: the last step), N;
     /// ages beyond the ring wrap onto older entries, so callers cap them at
     /// [`DELAY_CAPACITY_STEPS`].
@@ -246,6 +255,18 @@ mod tests {
         assert!(err_plain > 1.0, "uncompensated loop unexpectedly settled: {err_plain} m/s");
         // And no delay at all is the plain loop, bit for bit.
         assert_eq!(fly_delayed(0, true, 0.05, 5.0), fly_delayed(0, false, 0.05, 5.0));
+    }
+
+    #[test]
+    fn fill_in_place_is_a_new_history() {
+        let mut h = ThrustHistory::new(Vector3::new(0.0, 0.0, 19.62));
+        for i in 0..300 {
+            h.push(Vector3::new(i as f32, 1.0, 2.0));
+            let _ = h.sum_newest(i % 40);
+        }
+        let t = Vector3::new(0.5, -0.5, 21.0);
+        h.fill(t);
+        assert_eq!(h, ThrustHistory::new(t));
     }
 
     proptest! {

@@ -378,7 +378,7 @@ impl VelocityLoop {
         self.thrust_applied_n = thrust_n;
         // The vehicle has been hovering with this thrust (the delay compensation's history and
         // the blind hold's mean thrust).
-        self.history = ThrustHistory::new(thrust_n);
+        self.history.fill(thrust_n);
         self.thrust_mean_n = thrust_n;
         self.f_hat_filtered_n = f_hat_n;
     }

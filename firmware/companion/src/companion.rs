@@ -725,6 +725,7 @@ impl Core<'_> {
         }
     }
 
+    #[inline(never)] // its frame (Flight::start: ~6 KiB) must not merge into the receive task's (docs/firmware.md)
     fn on_command(&mut self, d: &COMMAND_LONG_DATA, io: &mut impl Io) {
         let result = match d.command {
             MavCmd::MAV_CMD_MISSION_START => {
