@@ -210,3 +210,30 @@ fn baseline_fails_at_20n_over_a_seed_sweep_where_the_dissipative_controller_succ
     assert!(d >= 0.95, "dissipative success rate {d}");
     assert!(b <= 0.5, "baseline success rate {b}: the traditional tube does not fail at 20 N on this plant");
 }
+
+#[test]
+fn without_noise_the_take_off_survey_changes_nothing() {
+    // The paper scenario has no sensor noise: every pre-flight sample is the take-off state, the
+    // survey's means are that state exactly, and the flight must be bit for bit the one that
+    // starts from a single sample with no pre-flight (this also pins the wire clock's offset:
+    // nothing may depend on absolute `time_boot_ms`). docs/design.md, "Take-off survey".
+    let ls = scenario::load(None).expect("built-in scenario is valid");
+    assert!(ls.scenario.mission.preflight_s > 0.0 && ls.scenario.controller.survey_samples > 1, "defaults survey");
+    assert_eq!(ls.scenario.disturbances.position_noise_m, 0.0);
+    let mut single = ls.clone();
+    single.scenario.mission.preflight_s = 0.0;
+    single.scenario.controller.survey_samples = 1;
+    let opts = RunOptions { record: true, ..RunOptions::default() };
+    let a = sim::run(&ls, &opts).expect("run starts");
+    let b = sim::run(&single, &opts).expect("run starts");
+    let strip = |o: &RunOutput| {
+        let mut v = serde_json::to_value(&o.summary).expect("summary serialises");
+        if let Some(m) = v.as_object_mut() {
+            m.remove("wall_time_s");
+            m.remove("realtime_factor");
+        }
+        v
+    };
+    assert_eq!(strip(&a), strip(&b));
+    assert_eq!(a.record.uav_pos_m, b.record.uav_pos_m, "trajectories bit for bit");
+}

@@ -239,3 +239,22 @@ fn a_load_too_heavy_for_the_team_is_refused_with_the_numbers() {
     let bad = format!("{text}\n[preflight]\nmin_margin = -1.0\n");
     expect_error(&bad, "bad-margin.toml", &["preflight.min_margin"]);
 }
+
+/// The take-off survey's settings (docs/design.md, "Take-off survey") name file, line and field.
+#[test]
+fn take_off_survey_settings_are_checked() {
+    let at = line_of("[mission]") + 1;
+    let text = paper().replacen("[mission]\n", "[mission]\npreflight_s = 90.0\n", 1);
+    expect_error(&text, "preflight.toml", &["preflight.toml", "mission.preflight_s", "[0, 60]", &format!(":{at}:")]);
+    let text = paper().replacen("[mission]\n", "[mission]\npreflight_s = -1.0\n", 1);
+    expect_error(&text, "preflight-neg.toml", &["mission.preflight_s", &format!(":{at}:")]);
+    let at = line_of("[controller]") + 1;
+    let header = paper().lines().nth(at - 2).expect("the [controller] line").to_string();
+    let text = paper().replacen(&header, &format!("{header}\nsurvey_samples = 0"), 1);
+    expect_error(&text, "survey.toml", &["controller.survey_samples", "[1, 100000]", &format!(":{at}:")]);
+    let text = paper().replacen(&header, &format!("{header}\nsurvey_samples = 2.5"), 1);
+    expect_error(&text, "survey-float.toml", &["controller.survey_samples", &format!(":{at}:")]);
+    let ok = paper().replacen("[mission]\n", "[mission]\npreflight_s = 0.0\n", 1);
+    let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("no pre-flight is valid");
+    assert_eq!(ls.scenario.mission.preflight_s, 0.0);
+}

@@ -22,6 +22,10 @@ impl Recording {
 }
 
 impl Team for Recording {
+    fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+        self.team.preflight(ls, at)
+    }
+
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
         self.team.start(ls, start)
     }

@@ -425,6 +425,15 @@ impl Core<'_> {
         let sample_ms = offset.map_or(stamp_ms, |o| d.time_boot_ms.wrapping_add(o));
         let own_sys = self.own_system_id();
         let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
+        // Before the mission: the take-off survey averages every position (docs/design.md,
+        // "Take-off survey"); a new `VT_CAL_N` restarts it.
+        let surveying = self.flight.is_none();
+        if surveying {
+            let window = self.params.get_u32(Param::CalN);
+            if self.sources.survey.window() != window {
+                self.sources.survey.reset(window);
+            }
+        }
         if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
             // The own state closes the period.
             self.lockstep_now_ms = None;
@@ -433,18 +442,29 @@ impl Core<'_> {
                 self.lockstep_tick(state, io);
             } else {
                 self.sources.own = Some(state);
+                if surveying {
+                    self.sources.survey.push_own(&pos);
+                }
                 if lockstep {
                     self.clock_ms = stamp_ms;
                 }
             }
         } else if f.system_id == own_sys && u32::from(f.component_id) == self.params.get_u32(Param::LoadComp) {
             self.sources.load = Some(state);
+            if surveying {
+                self.sources.survey.push_load(&pos);
+            }
         } else if f.component_id == AUTOPILOT_COMPONENT_ID {
             let n = self.params.get_u32(Param::NUavs) as usize;
             let base = self.params.get_u32(Param::SysidBase);
             let j = u32::from(f.system_id).wrapping_sub(base) as usize;
             match self.sources.neighbours.get_mut(j) {
-                Some(slot) if j < n => *slot = Some(Stamped { value: pos, stamp_ms }),
+                Some(slot) if j < n => {
+                    *slot = Some(Stamped { value: pos, stamp_ms });
+                    if surveying {
+                        self.sources.survey.push_member(j, &pos);
+                    }
+                }
                 _ => self.ignored(),
             }
         } else {

@@ -30,7 +30,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{
-    capacity, Command, DissipativeController, Formation, FormationScale, Measurements, TeamHoldSupervisor, TeamMode,
+    capacity, Command, DissipativeController, Formation, FormationScale, Measurements, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -101,6 +101,9 @@ pub struct Sources {
     /// Bit `j` set: neighbour `j`'s last broadcast mode was [`TeamMode::Hold`] (own bit never
     /// set); it counts while the neighbour's position is fresh.
     pub neighbour_hold: u32,
+    /// Before the mission starts: the take-off positions averaged over `VT_CAL_N` samples per
+    /// source (`vt_dissipative::survey`); [`Flight::start`] calibrates from them.
+    pub survey: TakeoffSurvey<MAX_UAVS>,
 }
 
 // One bit per UAV in `Sources::neighbour_hold`.
@@ -115,7 +118,7 @@ impl Default for Sources {
 impl Sources {
     /// Nothing received yet.
     pub const fn new() -> Self {
-        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: 0 }
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: 0, survey: TakeoffSurvey::new(1) }
     }
 }
 
@@ -198,24 +201,29 @@ impl Flight {
             (params.timeout_ms(Param::FsOwnTmo), params.timeout_ms(Param::FsLoadTmo), params.timeout_ms(Param::FsNbrTmo));
         let own = src.own.and_then(|s| s.fresh(now_ms, own_tmo_ms)).ok_or(StartError::StaleData)?;
         let load = src.load.and_then(|s| s.fresh(now_ms, load_tmo_ms)).ok_or(StartError::StaleData)?;
+        // Every source must be fresh; the positions used are the survey's averages (the last
+        // sample when the survey has none: it is fed whatever the start reads).
         let mut takeoff = [Vec3::zeros(); MAX_UAVS];
         for (j, slot) in takeoff.iter_mut().enumerate().take(n) {
             *slot = if j == id {
-                own.pos_m
+                src.survey.own().unwrap_or(own.pos_m)
             } else {
-                src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, nbr_tmo_ms)).ok_or(StartError::StaleData)?
+                let last = src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, nbr_tmo_ms)).ok_or(StartError::StaleData)?;
+                src.survey.member(j).unwrap_or(last)
             };
         }
         let takeoff = takeoff.get(..n).unwrap_or(&[]);
-        let cal = vt_dissipative::calibrate(id, takeoff, &load.pos_m, &params.calibration()).map_err(StartError::Calibration)?;
+        let own_pos_m = takeoff.get(id).copied().unwrap_or(own.pos_m);
+        let load_pos_m = src.survey.load().unwrap_or(load.pos_m);
+        let cal = vt_dissipative::calibrate(id, takeoff, &load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
         vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
         let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
         let tray = params.tray();
-        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load.pos_m, &tray)
+        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load_pos_m, &tray)
             .map_err(StartError::Controller)?;
         // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
         let cap = params.capacity().map_err(StartError::Controller)?;
-        let plan = capacity::plan_from_takeoff(takeoff.get(..n).unwrap_or(&[]), &load.pos_m, &tray, &cap)
+        let plan = capacity::plan_from_takeoff(takeoff, &load_pos_m, &tray, &cap)
             .map_err(StartError::Controller)?;
         let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         high.set_capacity(FormationScale::new(&plan, &cap));
@@ -223,7 +231,7 @@ impl Flight {
         let supervisor = TeamHoldSupervisor::new(params.get(Param::FsResume), params.high_level_dt_s()).map_err(StartError::Controller)?;
         let mut low = VelocityLoop::new(vl);
         // Warm start with the declared load's share (bumpless transfer; capacity.rs).
-        if let Some(f) = capacity::takeoff_cable_force_n(&own.pos_m, &load.pos_m, cap.load_mass_kg, n) {
+        if let Some(f) = capacity::takeoff_cable_force_n(&own_pos_m, &load_pos_m, cap.load_mass_kg, n) {
             low.preload(f);
         }
         Ok(Self {

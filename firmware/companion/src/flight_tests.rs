@@ -388,3 +388,34 @@ fn an_implausible_take_off_is_refused_by_the_calibration() {
     // The refusal codes are distinct (HEARTBEAT.custom_mode bits 16..23).
     assert_eq!(StartError::Calibration(CalibrationError::NonFiniteLoad).code(), 6);
 }
+
+#[test]
+fn the_start_calibrates_from_the_take_off_survey_not_the_last_sample() {
+    // Every source's samples alternate +-d around the true position; the last one is off by +d.
+    // With the survey the flight is the reference built on the true positions, bit for bit up to
+    // the mean's rounding; from the last sample alone (window 1) it is not.
+    let (p, t) = (params(1.0), tube());
+    let d = Vec3::new(0.3, -0.2, 0.25);
+    let surveyed = |window: u32| {
+        let mut s = sources(0);
+        s.survey.reset(window);
+        for k in 0..100 {
+            let e = if k % 2 == 0 { -d } else { d };
+            s.survey.push_own(&(uav_pos(0) + e));
+            s.survey.push_load(&(load_pos() + e));
+            for j in 1..3 {
+                s.survey.push_member(j, &(uav_pos(j) + e));
+            }
+        }
+        s
+    };
+    let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
+    let mut r = reference(&p);
+    let expect = r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps;
+    let mut fl = Flight::start(&p, Some(&t), &surveyed(100), 0).unwrap();
+    let v = fl.high_level(&t, &sources(0), 0);
+    assert!((v - expect).norm() < 1e-4, "survey: {v:?} vs {expect:?}");
+    let mut last = Flight::start(&p, Some(&t), &surveyed(1), 0).unwrap();
+    let w = last.high_level(&t, &sources(0), 0);
+    assert!((w - expect).norm() > 1e-2, "one sample should be off: {w:?} vs {expect:?}");
+}

@@ -125,6 +125,7 @@ params! {
     SagLo => real("VT_SAG_LO", 0.3, 0.0, LENGTH_MAX_M), "Load sag where the overload response begins, m.";
     SagHi => real("VT_SAG_HI", 0.8, 0.0, LENGTH_MAX_M), "Load sag where the overload response is complete, m.";
     HReserve => real("VL_H_RES", 0.0, 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority).";
+    CalN => int("VT_CAL_N", 100.0, 1.0, 100000.0), "Take-off survey: take-off positions averaged over this many samples per source before `MISSION_START` (1: the last sample; docs/design.md, \"Take-off survey\").";
 }
 
 /// Number of parameters.

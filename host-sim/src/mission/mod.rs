@@ -45,6 +45,14 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
         ls
     };
     let mut world = World::new(ls, opts)?;
+    // Pre-flight: the team hovers at take-off and its computers survey their measurements
+    // (docs/design.md, "Take-off survey"); then the take-off measurement and the start.
+    let (takeoff, cable_rated_n) = (world.takeoff().clone(), world.cable_rated_n());
+    while world.preflight_due() {
+        let tick = world.measure();
+        team.preflight(ls, &TeamStart { tick, takeoff: &takeoff, cable_rated_n })?;
+        world.advance_preflight()?;
+    }
     team.start(ls, &world.start())?;
     let n = ls.scenario.cables.lengths_m.len();
     let mut setpoints = vec![Setpoint { q_ned: [1.0, 0.0, 0.0, 0.0], thrust: 0.0 }; n];

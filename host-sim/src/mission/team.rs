@@ -14,7 +14,7 @@ use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityL
 use vt_companion::frames::ned_frd_quaternion;
 use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
-    TeamHoldSupervisor, TeamMode,
+    TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
 pub use vt_companion::flight::Setpoint;
@@ -79,6 +79,14 @@ pub trait Team {
     /// A configuration is refused.
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError>;
 
+    /// One low-level period of the pre-flight hover (`at.tick`), before [`Team::start`]: every
+    /// UAV's computer takes the tick's measurements into its take-off survey (docs/design.md,
+    /// "Take-off survey"); nothing is commanded. A backend configures its UAVs at the first.
+    ///
+    /// # Errors
+    /// A configuration is refused, or a backend failed.
+    fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError>;
+
     /// One low-level period: every UAV's setpoint for `tick` into `out` (one per UAV).
     ///
     /// # Errors
@@ -137,6 +145,8 @@ pub struct CrateTeam {
     hold_on_stale: bool,
     supervisors: Vec<TeamHoldSupervisor>,
     team_mode: Vec<TeamMode>,
+    /// Per UAV, its take-off survey (`vt_dissipative::survey`), fed before the start.
+    surveys: Vec<TakeoffSurvey<SIM_MAX_UAVS>>,
 }
 
 impl CrateTeam {
@@ -163,44 +173,78 @@ impl CrateTeam {
             hold_on_stale: false,
             supervisors: Vec::new(),
             team_mode: Vec::new(),
+            surveys: Vec::new(),
         }
     }
 }
 
 impl Team for CrateTeam {
+    fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+        let tick = &at.tick;
+        let n = tick.own.len();
+        if self.surveys.len() != n {
+            self.surveys = vec![TakeoffSurvey::new(ls.scenario.controller.survey_samples); n];
+        }
+        // What each companion's receive path does before the start (vt-companion
+        // `on_local_position`): its own state every period unless its feed stalls, the load's
+        // and the delivered team positions every high-level period.
+        for (i, survey) in self.surveys.iter_mut().enumerate() {
+            if !tick.own_stalled.get(i).copied().unwrap_or(false) {
+                survey.push_own(&tick.own[i].pos_m);
+            }
+            if tick.high_level {
+                survey.push_load(&tick.load.pos_m);
+                for (j, p) in tick.views.get(i).into_iter().flatten().enumerate() {
+                    if let (Some(p), true) = (p, j != i) {
+                        survey.push_member(j, p);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
         let s = &ls.scenario;
         let n = start.tick.own.len();
         let tray = sim::tray(s);
-        let own: Vec<V3f> = start.tick.own.iter().map(|m| m.pos_m).collect();
-        // As the companion's Flight::start: each UAV calibrates its cable from the take-off
-        // positions it holds (its own, the load's, its view of the team), then runs the
-        // pre-flight check at the measured lean.
-        let cals = (0..n)
-            .map(|i| {
-                let seen: Vec<V3f> = (0..n)
-                    .map(|j| if j == i { own[i] } else { start.tick.views.get(i).and_then(|v| v.get(j).copied().flatten()).unwrap_or(V3f::repeat(f32::NAN)) })
-                    .collect();
-                let cal = vt_dissipative::calibrate(i, &seen, &start.tick.load.pos_m, &sim::calibration_params(s, i))
-                    .map_err(|e| SimError(format!("UAV {i}: take-off calibration: {e}")))?;
-                vt_dissipative::feasibility::check(&sim::feasibility_params(s, start.cable_rated_n, cal.cos_lean))
-                    .map_err(|e| SimError(format!("UAV {i}: pre-flight check: {e}")))?;
-                Ok(cal)
-            })
-            .collect::<Result<Vec<_>, SimError>>()?;
-        let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own, &start.tick.load.pos_m, &tray)
-            .map_err(|e| SimError(format!("formation: {e}")))?;
-        // Capacity-aware formation (issue 15): one plan from the take-off measurement, as in the
-        // companion's Flight::start.
+        // The take-off measurement reaches every companion before MISSION_START: into the
+        // survey with the pre-flight's.
+        self.preflight(ls, start)?;
         let cap = sim::capacity_params(s, start.cable_rated_n);
-        let plan = capacity::plan_from_takeoff(&own, &start.tick.load.pos_m, &tray, &cap).map_err(|e| SimError(format!("capacity: {e}")))?;
-        let scale = FormationScale::new(&plan, &cap);
+        // As the companion's Flight::start, per UAV: the take-off positions it surveyed (its
+        // own, the load's, its view of the team), the cable calibration and the pre-flight check
+        // at the measured lean, the take-off formation and the capacity plan from them.
+        let mut takeoffs: Vec<(Vec<V3f>, V3f)> = Vec::with_capacity(n);
+        let mut cals = Vec::with_capacity(n);
+        let mut formations = Vec::with_capacity(n);
+        let mut scales = Vec::with_capacity(n);
+        for (i, survey) in self.surveys.iter().enumerate() {
+            let seen: Vec<V3f> = (0..n)
+                .map(|j| {
+                    let last = if j == i { Some(start.tick.own[i].pos_m) } else { start.tick.views.get(i).and_then(|v| v.get(j).copied().flatten()) };
+                    let mean = if j == i { survey.own() } else { survey.member(j) };
+                    mean.or(last).unwrap_or(V3f::repeat(f32::NAN))
+                })
+                .collect();
+            let load = survey.load().unwrap_or(start.tick.load.pos_m);
+            let cal = vt_dissipative::calibrate(i, &seen, &load, &sim::calibration_params(s, i))
+                .map_err(|e| SimError(format!("UAV {i}: take-off calibration: {e}")))?;
+            vt_dissipative::feasibility::check(&sim::feasibility_params(s, start.cable_rated_n, cal.cos_lean))
+                .map_err(|e| SimError(format!("UAV {i}: pre-flight check: {e}")))?;
+            formations.push(Formation::<SIM_MAX_UAVS>::from_takeoff(&seen, &load, &tray).map_err(|e| SimError(format!("formation: {e}")))?);
+            // Capacity-aware formation (issue 15), from the same take-off positions.
+            let plan = capacity::plan_from_takeoff(&seen, &load, &tray, &cap).map_err(|e| SimError(format!("capacity: {e}")))?;
+            scales.push(FormationScale::new(&plan, &cap));
+            cals.push(cal);
+            takeoffs.push((seen, load));
+        }
         self.high = Some(match self.kind {
             ControllerKind::Dissipative => HighLevel::Dissipative(
                 (0..n)
                     .map(|i| {
-                        DissipativeController::new(i, sim::dissipative_params(s, i, &cals[i]), &formation)
-                            .map(|c| c.with_capacity(scale))
+                        DissipativeController::new(i, sim::dissipative_params(s, i, &cals[i]), &formations[i])
+                            .map(|c| c.with_capacity(scales[i]))
                             .map_err(|e| SimError(format!("controller: {e}")))
                     })
                     .collect::<Result<_, _>>()?,
@@ -226,9 +270,8 @@ impl Team for CrateTeam {
         self.tube = Some(ls.tube.clone());
         self.low = (0..n).map(|_| sim::velocity_loop(s)).collect::<Result<_, _>>()?;
         // Warm start with the declared load's share (capacity.rs; the companion's Flight::start).
-        let cap = sim::capacity_params(s, start.cable_rated_n);
-        for (l, m) in self.low.iter_mut().zip(start.tick.own) {
-            if let Some(f) = capacity::takeoff_cable_force_n(&m.pos_m, &start.tick.load.pos_m, cap.load_mass_kg, n) {
+        for (i, (l, (seen, load))) in self.low.iter_mut().zip(&takeoffs).enumerate() {
+            if let Some(f) = capacity::takeoff_cable_force_n(&seen[i], load, cap.load_mass_kg, n) {
                 l.preload(f);
             }
         }

@@ -48,7 +48,8 @@ pub struct World<'a> {
     record_on: bool,
     takeoff: Takeoff,
     rated_n: f64,
-    formation: Formation<SIM_MAX_UAVS>,
+    /// The take-off formation as measured (`None` until the take-off measurement).
+    formation: Option<Formation<SIM_MAX_UAVS>>,
     start_own: Vec<Meas>,
     start_load: Meas,
     start_views: Vec<Vec<Option<V3f>>>,
@@ -87,6 +88,10 @@ pub struct World<'a> {
     vel_cmd: Vec<V3f>,
     /// Per UAV, the team's last cable-force estimate `f_hat`, ENU, N (for the record).
     f_hat: Vec<V3f>,
+    /// Pre-flight length, plant steps (whole high-level periods).
+    boot_steps: u64,
+    /// The pre-flight's clock, plant steps (`None`: the mission runs).
+    pre_step: Option<u64>,
 }
 
 impl<'a> World<'a> {
@@ -113,22 +118,14 @@ impl<'a> World<'a> {
         // Sensors first: the controllers calibrate from what they measure at take-off.
         let r = &s.rates;
         let latency_steps = (dist.latency_s * dist.intensity * f64::from(r.low_level_hz)).round() as usize;
-        let mut sensors = Sensors::new(dist, latency_steps, seed);
-        sensors.sample(&plant, 0);
-        let start_load = Meas {
-            pos_m: v3f(&sensors.position(&plant.load.pos_m)),
-            vel_mps: v3f(&sensors.velocity(&plant.load.vel_mps)),
-            sample_ms: 0,
-        };
-        let start_own: Vec<Meas> = plant
-            .uavs
-            .iter()
-            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: 0 })
-            .collect();
-        let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
-        let formation = Formation::<SIM_MAX_UAVS>::from_takeoff(&own_pos, &start_load.pos_m, &sim::tray(s))
-            .map_err(|e| SimError(format!("formation: {e}")))?;
-        let start_views = vec![own_pos.iter().copied().map(Some).collect::<Vec<_>>(); n];
+        let sensors = Sensors::new(dist, latency_steps, seed);
+        let hl_every = u64::from(r.plant_hz / r.high_level_hz);
+        // Pre-flight: whole high-level periods of hover before the start (docs/design.md,
+        // "Take-off survey"); the take-off measurement is sampled at its end.
+        let boot_steps = (s.mission.preflight_s * f64::from(r.high_level_hz)).round() as u64 * hl_every;
+        let start_load = Meas::default();
+        let start_own = vec![Meas::default(); n];
+        let start_views = vec![vec![None; n]; n];
 
         let hl_hz = f64::from(r.high_level_hz);
         let link = Link::new(
@@ -155,7 +152,7 @@ impl<'a> World<'a> {
             tray_height_m: s.controller.tray_height_m,
             ..RunRecord::default()
         };
-        Ok(Self {
+        let mut world = Self {
             ls,
             sensors,
             wind: Wind::new(dist, seed),
@@ -168,7 +165,7 @@ impl<'a> World<'a> {
             record_on: opts.record,
             takeoff,
             rated_n: f_max,
-            formation,
+            formation: None,
             own: start_own.clone(),
             load: start_load,
             views: start_views.clone(),
@@ -187,7 +184,7 @@ impl<'a> World<'a> {
             load_hint: 0,
             dt: 1.0 / f64::from(r.plant_hz),
             ll_every: u64::from(r.plant_hz / r.low_level_hz),
-            hl_every: u64::from(r.plant_hz / r.high_level_hz),
+            hl_every,
             rec_every: u64::from(r.plant_hz / r.record_hz),
             max_steps: (time_limit * f64::from(r.plant_hz)).ceil() as u64,
             shortened: opts.duration_s.is_some_and(|d| d < s.mission.time_limit_s),
@@ -202,7 +199,84 @@ impl<'a> World<'a> {
             vel_cmd: vec![V3f::zeros(); n],
             f_hat: vec![V3f::zeros(); n],
             plant,
-        })
+            boot_steps,
+            pre_step: (boot_steps > 0).then_some(0),
+        };
+        if boot_steps == 0 {
+            world.sample_start()?;
+        } else {
+            // The sensors hold the take-off state before the first pre-flight period reads its
+            // "last sample" (no noise is drawn here).
+            world.sensors.sample(&world.plant, 0);
+        }
+        Ok(world)
+    }
+
+    /// The take-off measurement (what [`Self::start`] gives the team), sampled now, at the end
+    /// of the pre-flight: the plant's true state with sensor noise, every view complete.
+    fn sample_start(&mut self) -> Result<(), SimError> {
+        let time_ms = self.clock_ms();
+        let (sensors, plant) = (&mut self.sensors, &self.plant);
+        sensors.sample(plant, time_ms);
+        let start_load = Meas {
+            pos_m: v3f(&sensors.position(&plant.load.pos_m)),
+            vel_mps: v3f(&sensors.velocity(&plant.load.vel_mps)),
+            sample_ms: time_ms,
+        };
+        let start_own: Vec<Meas> = plant
+            .uavs
+            .iter()
+            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: time_ms })
+            .collect();
+        let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
+        self.formation = Some(
+            Formation::<SIM_MAX_UAVS>::from_takeoff(&own_pos, &start_load.pos_m, &sim::tray(&self.ls.scenario))
+                .map_err(|e| SimError(format!("formation: {e}")))?,
+        );
+        let n = own_pos.len();
+        self.start_views = vec![own_pos.iter().copied().map(Some).collect::<Vec<_>>(); n];
+        self.views = self.start_views.clone();
+        self.modes = vec![vec![Some(TeamMode::Transport); n]; n];
+        self.own = start_own.clone();
+        self.load = start_load;
+        self.start_own = start_own;
+        self.start_load = start_load;
+        Ok(())
+    }
+
+    /// True while the pre-flight runs: [`Self::measure`] gives its ticks (for the team's
+    /// survey), [`Self::advance_preflight`] moves its clock; the plant is held.
+    pub fn preflight_due(&self) -> bool {
+        self.pre_step.is_some()
+    }
+
+    /// One low-level period of pre-flight: the clock advances, the plant stays at its take-off
+    /// state (the autopilots hold it); after the last one the take-off measurement is sampled.
+    ///
+    /// # Errors
+    /// The take-off formation is degenerate.
+    pub fn advance_preflight(&mut self) -> Result<(), SimError> {
+        if let Some(k) = self.pre_step {
+            let next = k + self.ll_every;
+            if next >= self.boot_steps {
+                self.pre_step = None;
+                self.sample_start()?;
+            } else {
+                self.pre_step = Some(next);
+            }
+        }
+        Ok(())
+    }
+
+    /// The wire clock, plant steps since the autopilots booted (the pre-flight, then the
+    /// mission): `time_boot_ms` is this times the plant step.
+    fn clock_step(&self) -> u64 {
+        self.pre_step.unwrap_or(self.boot_steps + self.step)
+    }
+
+    /// The wire clock, ms.
+    fn clock_ms(&self) -> u32 {
+        (self.clock_step() as f64 * self.dt * 1000.0).round() as u32
     }
 
     /// What the team knows at take-off.
@@ -210,7 +284,7 @@ impl<'a> World<'a> {
         TeamStart {
             tick: Tick {
                 step: 0,
-                time_ms: 0,
+                time_ms: self.clock_ms(),
                 high_level: true,
                 own: &self.start_own,
                 own_stalled: &self.no_stall,
@@ -221,6 +295,16 @@ impl<'a> World<'a> {
             takeoff: &self.takeoff,
             cable_rated_n: self.rated_n,
         }
+    }
+
+    /// The nominal take-off geometry the plant starts in.
+    pub fn takeoff(&self) -> &Takeoff {
+        &self.takeoff
+    }
+
+    /// Rated tension of each cable (the scenario's, or the run's `--f-max`), N.
+    pub fn cable_rated_n(&self) -> f64 {
+        self.rated_n
     }
 
     /// Plant steps so far.
@@ -257,9 +341,10 @@ impl<'a> World<'a> {
     /// firmware receives it before its own state) and pass through the link; then the sensors
     /// sample the plant and every UAV reads its own state.
     pub fn measure(&mut self) -> Tick<'_> {
-        let high_level = self.step.is_multiple_of(self.hl_every);
+        let clock = self.clock_step();
+        let high_level = clock.is_multiple_of(self.hl_every);
         if high_level {
-            let hl_step = self.step / self.hl_every;
+            let hl_step = clock / self.hl_every;
             let snap = self.sensors.delayed().clone();
             for ((msg, x), mode) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode) {
                 *msg = TeamMsg { pos_m: v3f(&self.sensors.position(x)), mode: *mode };
@@ -282,7 +367,7 @@ impl<'a> World<'a> {
         for (stalled, until) in self.own_stalled.iter_mut().zip(&self.stall_until) {
             *stalled = until.is_some_and(|e| self.step < e);
         }
-        let time_ms = (self.step as f64 * self.dt * 1000.0).round() as u32;
+        let time_ms = self.clock_ms();
         self.sensors.sample(&self.plant, time_ms);
         let snap = self.sensors.delayed().clone();
         for (m, (p, v)) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)) {
@@ -421,7 +506,7 @@ impl<'a> World<'a> {
             seed: self.seed,
             sim_s: self.step as f64 * self.dt,
             wall_s,
-            formation_error: formation_error(&self.plant, &self.formation, &sim::tray(s)),
+            formation_error: self.formation.as_ref().map_or(f64::NAN, |f| formation_error(&self.plant, f, &sim::tray(s))),
             capacity_margin: self.takeoff.capacity_margin,
             completion: self.arrival_step.map(|a| a as f64 * self.dt),
             shortened: self.shortened,

@@ -7,7 +7,7 @@ use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, LOAD_COMPONENT_ID, L
 use crate::scenario::{LoadedScenario, StaleNeighbour};
 use crate::sim::{self, Takeoff};
 use mavlink::dialects::common::{
-    MavCmd, MavFrame, MavParamType, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_SET_DATA,
+    MavCmd, MavFrame, MavParamType, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
 };
 use mavlink::MessageData;
 use vt_companion::{Param, COMPANION_COMPONENT_ID};
@@ -157,6 +157,7 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, cable_rated_n: f64, loc
                 (Param::SagLo, cap.sag_start_m),
                 (Param::SagHi, cap.sag_full_m),
                 (Param::HReserve, sim::horizontal_reserve(s) as f32),
+                (Param::CalN, c.survey_samples as f32),
             ];
             UavConfig { system_id: SYSID_BASE + i as u8, params, waypoints: waypoints.clone() }
         })
@@ -237,6 +238,26 @@ pub fn configure<P: Port + ?Sized>(port: &mut P, cfg: &UavConfig, enc: &mut Enco
             _ => {}
         }
     }
+}
+
+/// A round trip (`PARAM_REQUEST_READ` of `VT_ID`, answered after everything sent before it):
+/// the companion has handled every frame sent so far.
+///
+/// # Errors
+/// No answer.
+pub fn sync<P: Port + ?Sized>(port: &mut P, system_id: u8, enc: &mut Encoder) -> Result<(), PilError> {
+    let name = Param::Id.info().name;
+    let req = PARAM_REQUEST_READ_DATA {
+        param_index: -1,
+        target_system: system_id,
+        target_component: COMPANION_COMPONENT_ID,
+        param_id: name.into(),
+    };
+    port.send(&gcs(enc, &req))?;
+    recv_until(port, 256, |rx| match rx {
+        Rx::ParamValue(n, _) if n == name => Some(()),
+        _ => None,
+    })
 }
 
 /// `MAV_CMD_MISSION_START`; returns the `MAV_RESULT` value.

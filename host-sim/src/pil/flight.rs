@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 use vt_companion::frames::enu_from_ned;
-use super::config::{configure, start_mission_with_reason, team_setup_with, UavConfig};
+use super::config::{configure, start_mission_with_reason, sync, team_setup_with, UavConfig};
 use super::port::Port;
 use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
 use vt_companion::Mode;
@@ -147,17 +147,46 @@ impl<'p, P: Port> PortTeam<'p, P> {
     }
 }
 
-impl<P: Port> Team for PortTeam<'_, P> {
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+impl<P: Port> PortTeam<'_, P> {
+    /// Configures every companion (parameters, tube), once.
+    fn configure_all(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+        if !self.configs.is_empty() {
+            return Ok(());
+        }
         let n = ls.scenario.cables.lengths_m.len();
         if self.ports.len() != n {
             return Err(SimError(format!("{} ports for {n} UAVs", self.ports.len())));
         }
-        let setup = team_setup_with(ls, start.takeoff.clone(), start.cable_rated_n, true).map_err(|e| SimError(e.0))?;
+        let setup = team_setup_with(ls, at.takeoff.clone(), at.cable_rated_n, true).map_err(|e| SimError(e.0))?;
         self.configs = setup.configs;
         for i in 0..n {
             let cfg = self.configs[i].clone();
             configure(&mut self.ports[i], &cfg, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+        }
+        Ok(())
+    }
+}
+
+impl<P: Port> Team for PortTeam<'_, P> {
+    fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+        self.configure_all(ls, at)?;
+        // The period's frames to every companion (no flight: nothing is answered; they go into
+        // its survey), then one round trip each so no receive buffer overflows.
+        for i in 0..self.ports.len() {
+            let bytes = self.tick_frames(i, &at.tick);
+            self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
+        }
+        for i in 0..self.ports.len() {
+            let id = self.configs[i].system_id;
+            sync(&mut self.ports[i], id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+        }
+        Ok(())
+    }
+
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+        self.configure_all(ls, start)?;
+        for i in 0..self.ports.len() {
+            let cfg = self.configs[i].clone();
             let bytes = self.tick_frames(i, &start.tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
             let (r, texts) = start_mission_with_reason(&mut self.ports[i], cfg.system_id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;

@@ -430,6 +430,10 @@ pub struct ControllerSpec {
     #[serde(default)]
     pub share_offset_max_m: f64,
     /// Capacity-aware formation (issue 15).
+    /// Take-off survey window: the take-off positions are averaged over this many samples per
+    /// source before `MISSION_START` (`VT_CAL_N`; 1: the last sample; docs/design.md).
+    #[serde(default = "default_survey_samples")]
+    pub survey_samples: u32,
     #[serde(default)]
     pub capacity: CapacitySpec,
 }
@@ -600,6 +604,19 @@ pub struct MissionSpec {
     /// Allowed load altitude error after settling, m.
     #[serde(default = "one")]
     pub altitude_tolerance_m: f64,
+    /// Pre-flight: how long the team hovers at take-off, its autopilots holding position and
+    /// streaming their measurements, before `MISSION_START`, s (rounded to high-level periods;
+    /// the plant is held at its take-off state; docs/design.md, "Take-off survey").
+    #[serde(default = "default_preflight")]
+    pub preflight_s: f64,
+}
+
+fn default_survey_samples() -> u32 {
+    100
+}
+
+fn default_preflight() -> f64 {
+    2.0
 }
 
 fn default_post() -> f64 {

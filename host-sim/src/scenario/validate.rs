@@ -248,6 +248,13 @@ impl Validator<'_> {
         }
         self.non_negative("mission", "post_arrival_s", m.post_arrival_s)?;
         self.non_negative("mission", "settle_time_s", m.settle_time_s)?;
+        if !(m.preflight_s.is_finite() && (0.0..=60.0).contains(&m.preflight_s)) {
+            return Err(self.err("mission", "preflight_s", format!("must be in [0, 60] s (got {})", m.preflight_s)));
+        }
+        // The firmware's VT_CAL_N range.
+        if !(1..=100_000).contains(&s.controller.survey_samples) {
+            return Err(self.err("controller", "survey_samples", format!("must be in [1, 100000] (got {})", s.controller.survey_samples)));
+        }
         let d = &s.disturbances;
         for (k, v) in [("position_noise_m", d.position_noise_m), ("velocity_noise_mps", d.velocity_noise_mps),
                        ("latency_s", d.latency_s), ("link_jitter_s", d.link_jitter_s), ("gust_std_mps", d.gust_std_mps),
