@@ -58,10 +58,10 @@ pub const RIGID_BODY_CFO_BANDWIDTH_RAD_S: f64 = 15.0;
 /// `[velocity_loop.rigid_body]` says otherwise, s (same source).
 pub const RIGID_BODY_ACTUATOR_LAG_S: f64 = 0.05;
 /// Time constant of the thrust command filter on the `rigid_body` plant unless
-/// `[velocity_loop.rigid_body]` says otherwise, s: off (docs/design.md, "Thrust command
-/// filter": 0.02 s fixes 3x velocity noise but takes the overload campaigns' separation margin
-/// from 0.53 m to 0.44 m, and not every campaign has been re-flown with it, so it is opt-in).
-pub const RIGID_BODY_COMMAND_FILTER_S: f64 = 0.0;
+/// `[velocity_loop.rigid_body]` says otherwise, s (docs/design.md, "Thrust command filter":
+/// with the take-off survey every campaign flies as well or better with it, and 3x velocity
+/// noise only with it; the point mass keeps none).
+pub const RIGID_BODY_COMMAND_FILTER_S: f64 = 0.02;
 
 /// Largest fraction of the thrust limit the velocity loop keeps for the horizontal part on the
 /// `rigid_body` plant unless `[velocity_loop.rigid_body]` says otherwise; less where the
