@@ -128,12 +128,6 @@ impl<const N: usize> TakeoffSurvey<N> {
         self.team.get(j).and_then(PositionMean::mean)
     }
 
-    /// Samples behind each mean: (own, load, fewest over members `0..n` other than `own_index`).
-    #[must_use]
-    pub fn counts(&self, own_index: usize, n: usize) -> (u32, u32, u32) {
-        let members = self.team.iter().take(n).enumerate().filter(|(j, _)| *j != own_index).map(|(_, m)| m.count()).min();
-        (self.own.count(), self.load.count(), members.unwrap_or(0))
-    }
 }
 
 #[cfg(test)]
@@ -221,7 +215,7 @@ mod tests {
     }
 
     #[test]
-    fn survey_keeps_sources_apart_and_counts() {
+    fn survey_keeps_sources_apart() {
         let mut s = TakeoffSurvey::<4>::new(10);
         s.push_own(&v(1.0, 0.0, 0.0));
         s.push_load(&v(0.0, 0.0, -3.0));
@@ -234,8 +228,6 @@ mod tests {
         assert_eq!(s.member(1), Some(v(3.0, 0.0, 0.0)));
         assert_eq!(s.member(3), None);
         assert_eq!(s.member(9), None);
-        assert_eq!(s.counts(0, 3), (1, 1, 1));
-        assert_eq!(s.counts(0, 4), (1, 1, 0));
         s.reset(5);
         assert_eq!((s.own(), s.window()), (None, 5));
     }

@@ -186,10 +186,10 @@ impl<P: Port> Team for PortTeam<'_, P> {
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
         self.configure_all(ls, start)?;
         for i in 0..self.ports.len() {
-            let cfg = self.configs[i].clone();
+            let id = self.configs[i].system_id;
             let bytes = self.tick_frames(i, &start.tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
-            let (r, texts) = start_mission_with_reason(&mut self.ports[i], cfg.system_id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+            let (r, texts) = start_mission_with_reason(&mut self.ports[i], id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             if r != 0 {
                 return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r}): {}", texts.join("; "))));
             }
