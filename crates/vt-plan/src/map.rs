@@ -14,6 +14,12 @@ pub trait ClearanceMap {
     /// an obstacle, `f32::INFINITY` when the map holds none. Never larger than the true
     /// distance (the planner's guarantees rest on this lower bound).
     fn clearance_m(&self, p_m: Vec2) -> f32;
+    /// The clearance where it is below `cap_m`; elsewhere any lower bound of it that is at least
+    /// `cap_m`, m. For callers that use `min(clearance, cap)` only; maps may answer it faster.
+    fn clearance_capped_m(&self, p_m: Vec2, cap_m: f32) -> f32 {
+        let _ = cap_m;
+        self.clearance_m(p_m)
+    }
     /// Whether `p_m` lies inside the map rectangle.
     fn contains(&self, p_m: Vec2) -> bool {
         let (lo, hi) = self.bounds_m();

@@ -192,7 +192,7 @@ pub struct RadiusRule {
 impl RadiusRule {
     /// Free-disc radius at `p`: `min(clearance - margin, r_max)`, m.
     pub fn radius_m<M: ClearanceMap>(&self, map: &M, p_m: Vec2) -> f32 {
-        (map.clearance_m(p_m) - self.margin_m).min(self.max_radius_m)
+        (map.clearance_capped_m(p_m, self.max_radius_m + self.margin_m) - self.margin_m).min(self.max_radius_m)
     }
 }
 

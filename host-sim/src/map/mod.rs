@@ -97,7 +97,7 @@ impl Grid {
         }
         let mut dist_cells: Vec<f32> = occupied.iter().map(|&o| if o { 0.0 } else { f32::INFINITY }).collect();
         let n = width.max(height);
-        let (mut line, mut v, mut z) = (vec![0.0f32; 2 * n], vec![0usize; n], vec![0.0f32; n + 1]);
+        let (mut line, mut v, mut z) = (vec![0.0f32; 3 * n + 1], vec![0usize; n + 1], vec![0.0f32; n + 2]);
         vt_plan::distance_transform(&mut dist_cells, width, height, &mut line, &mut v, &mut z).map_err(|e| e.to_string())?;
         Ok(Self { width, height, resolution_m, origin_m, occupied, dist_cells })
     }
@@ -204,6 +204,7 @@ impl LoadedMap {
 trait DynClearance {
     fn bounds(&self) -> (Vec2, Vec2);
     fn clearance(&self, p: Vec2) -> f32;
+    fn clearance_capped(&self, p: Vec2, cap: f32) -> f32;
 }
 
 impl<M: ClearanceMap> DynClearance for M {
@@ -212,6 +213,9 @@ impl<M: ClearanceMap> DynClearance for M {
     }
     fn clearance(&self, p: Vec2) -> f32 {
         self.clearance_m(p)
+    }
+    fn clearance_capped(&self, p: Vec2, cap: f32) -> f32 {
+        self.clearance_capped_m(p, cap)
     }
 }
 
@@ -225,6 +229,9 @@ impl ClearanceMap for DynMap<'_> {
     }
     fn clearance_m(&self, p_m: Vec2) -> f32 {
         self.0.clearance(p_m)
+    }
+    fn clearance_capped_m(&self, p_m: Vec2, cap_m: f32) -> f32 {
+        self.0.clearance_capped(p_m, cap_m)
     }
 }
 
