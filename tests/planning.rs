@@ -114,12 +114,22 @@ fn touches(exact: &LoadedMap, c: [f64; 2], a: f64, depth: u32) -> bool {
 /// Conservative raster of a geometric map: a cell is occupied when an obstacle touches its
 /// square (to 1/64 of a cell).
 fn rasterise(exact: &LoadedMap, res: f64) -> LoadedMap {
+    rasterise_by(exact, res, |c| touches(exact, c, res / 2.0, 6))
+}
+
+/// Sampled raster: a cell is occupied when its centre lies in an obstacle (what drawing the
+/// shapes into an image does).
+fn rasterise_centres(exact: &LoadedMap, res: f64) -> LoadedMap {
+    rasterise_by(exact, res, |c| exact.clearance_m(c) <= 0.0)
+}
+
+fn rasterise_by(exact: &LoadedMap, res: f64, occupied_at: impl Fn([f64; 2]) -> bool) -> LoadedMap {
     let b = exact.bounds_m();
     let (w, h) = (((b[1] - b[0]) / res).round() as usize, ((b[3] - b[2]) / res).round() as usize);
     let occupied = (0..w * h)
         .map(|k| {
             let c = [b[0] + ((k % w) as f64 + 0.5) * res, b[2] + ((k / w) as f64 + 0.5) * res];
-            touches(exact, c, res / 2.0, 6)
+            occupied_at(c)
         })
         .collect();
     LoadedMap { source_name: "raster".into(), map: Map::Grid(Grid::new(w, h, res, [b[0], b[2]], occupied).expect("free cells")) }
@@ -146,35 +156,63 @@ proptest! {
     /// Planning on the conservative raster (0.1 m cells) agrees with planning on the exact
     /// map within one cell: the grid tube is sound on the exact map; refusals name bottlenecks
     /// whose half-widths differ by at most one cell (its diagonal, `sqrt(2) res`: the raster
-    /// moves each side of a passage by at most that), and the two disagree only on passages
-    /// within one cell of the need (docs/planning.md, "Grids").
+    /// moves each side of a passage outward by at most that), and the two disagree only on
+    /// passages within one cell of the need (docs/planning.md, "Grids").
     #[test]
     fn raster_agrees_with_exact(shapes in shapes_strategy()) {
         let exact = geometric(BOUNDS, clear_terminals(shapes));
         let res = 0.1;
-        let grid = rasterise(&exact, res);
-        let p = paper_params();
-        let (e, g) = (exact.plan(START, GOAL, &p), grid.plan(START, GOAL, &p));
-        // The corridor's disc capacity is a documented limit (docs/planning.md, "Length"), not a
-        // disagreement: the raster's smaller clearance can need more discs.
-        let full = |r: &Result<PlannedTube, PlanError>| matches!(r, Err(PlanError::TooManyDiscs { .. }));
-        prop_assume!(!full(&e) && !full(&g));
-        if let Ok(t) = &g {
-            if let Err(msg) = check_planned(&exact, t, &p, START, GOAL) { prop_assert!(false, "grid tube on the exact map: {}", msg); }
+        match agreement(&exact, &rasterise(&exact, res), std::f32::consts::SQRT_2 * res as f32, 0.0) {
+            Ok(judged) => prop_assume!(judged),
+            Err(msg) => prop_assert!(false, "{}", msg),
         }
-        // Disagreement is allowed only where the refused map's bottleneck is within one cell of
-        // the need (a marginal passage). Widths are twice the half-widths.
-        let tol = 2.0 * std::f32::consts::SQRT_2 * res as f32 + 1e-3;
-        match (&e, &g) {
-            (Err(PlanError::TooNarrow { width_m: we, .. }), Err(PlanError::TooNarrow { width_m: wg, .. })) => {
-                prop_assert!((wg - we).abs() <= tol, "bottleneck widths exact {} grid {}: {:?} / {:?}", we, wg, e.as_ref().err(), g.as_ref().err());
-            }
-            (Err(PlanError::TooNarrow { width_m, needed_m, .. }), Ok(_)) | (Ok(_), Err(PlanError::TooNarrow { width_m, needed_m, .. })) => {
-                prop_assert!(needed_m - width_m <= tol, "one refuses with width {} (needs {}), the other plans", width_m, needed_m);
-            }
-            (Ok(_), Ok(_)) => {}
-            (a, b) => prop_assert!(false, "unexpected: exact {:?} grid {:?}", a.as_ref().err(), b.as_ref().err()),
+    }
+
+    /// On the sampled raster (a cell is occupied when its centre is inside an obstacle, as
+    /// drawing the shapes into an image does) the raster moves each side of a passage by at
+    /// most half a diagonal either way, and planning agrees with the exact map within one cell,
+    /// `res`, both ways: bottleneck half-widths within `res`, and the grid tube keeps the margin
+    /// less one cell from the exact obstacles.
+    #[test]
+    fn sampled_raster_agrees_with_exact_within_one_cell(shapes in shapes_strategy()) {
+        let exact = geometric(BOUNDS, clear_terminals(shapes));
+        let res = 0.1;
+        match agreement(&exact, &rasterise_centres(&exact, res), res as f32, res as f32) {
+            Ok(judged) => prop_assume!(judged),
+            Err(msg) => prop_assert!(false, "{}", msg),
         }
+    }
+}
+
+/// Planning on `grid` agrees with planning on `exact` within `cell_m` per side: bottleneck
+/// half-widths within `cell_m`, a refusal on one side only where its bottleneck is within
+/// `cell_m` of the need, and the grid's tube sound on the exact map with `lose_m` of the margin.
+/// `Ok(false)`: not judged, either side hit the disc capacity (docs/planning.md, "Length"; the
+/// raster's smaller clearance can need more discs).
+fn agreement(exact: &LoadedMap, grid: &LoadedMap, cell_m: f32, lose_m: f32) -> Result<bool, String> {
+    let p = paper_params();
+    let (e, g) = (exact.plan(START, GOAL, &p), grid.plan(START, GOAL, &p));
+    let full = |r: &Result<PlannedTube, PlanError>| matches!(r, Err(PlanError::TooManyDiscs { .. }));
+    if full(&e) || full(&g) {
+        return Ok(false);
+    }
+    if let Ok(t) = &g {
+        let on_exact = PlanParams { margin_m: p.margin_m - lose_m, ..p };
+        check_planned(exact, t, &on_exact, START, GOAL).map_err(|msg| format!("grid tube on the exact map: {msg}"))?;
+    }
+    // Widths are twice the half-widths.
+    let tol = 2.0 * cell_m + 1e-3;
+    match (&e, &g) {
+        (Err(PlanError::TooNarrow { width_m: we, .. }), Err(PlanError::TooNarrow { width_m: wg, .. })) if (wg - we).abs() > tol => {
+            Err(format!("bottleneck widths exact {we} grid {wg}: {:?} / {:?}", e.as_ref().err(), g.as_ref().err()))
+        }
+        (Err(PlanError::TooNarrow { width_m, needed_m, .. }), Ok(_)) | (Ok(_), Err(PlanError::TooNarrow { width_m, needed_m, .. }))
+            if needed_m - width_m > tol =>
+        {
+            Err(format!("one refuses with width {width_m} (needs {needed_m}), the other plans"))
+        }
+        (Err(PlanError::TooNarrow { .. }) | Ok(_), Err(PlanError::TooNarrow { .. }) | Ok(_)) => Ok(true),
+        (a, b) => Err(format!("unexpected: exact {:?} grid {:?}", a.as_ref().err(), b.as_ref().err())),
     }
 }
 
@@ -193,7 +231,7 @@ fn squares_distance_m(g: &Grid, q: [f64; 2]) -> f64 {
 }
 
 /// The raster's clearance brackets the exact one: `c - sqrt(2) res <= c_grid <= c` at three
-/// cells or more from the obstacles. The raster is the only error:
+/// cells or more from the obstacles; on the sampled raster `|c_grid - c| <= res`. The raster is the only error:
 /// each occupied cell touches an obstacle, so its square lies within one cell (its diagonal,
 /// `sqrt(2) res`) of it, and the planner reads the squares' distance almost exactly.
 #[test]
@@ -223,11 +261,25 @@ fn raster_clearance_brackets_the_exact_one() {
             }
         }
     }
+    // The sampled raster moves each boundary by at most half a diagonal either way.
+    let sampled = rasterise_centres(&exact, res);
+    let mut two_sided = 0.0f32;
+    for i in 0..300 {
+        for j in 0..200 {
+            let q = [0.05 + f64::from(i) * 0.1 + 0.013, 0.05 + f64::from(j) * 0.1 + 0.029];
+            let (c, cs) = (exact.clearance_m(q), sampled.clearance_m(q));
+            if c >= 3.0 * res as f32 {
+                assert!((c - cs).abs() <= res as f32, "sampled raster {cs} more than one cell from exact {c} at {q:?}");
+                two_sided = two_sided.max((c - cs).abs());
+            }
+        }
+    }
     let cells = |m: f64| m / res;
     println!(
-        "raster clearance error at 3+ cells: at most {worst:.4} m = {:.3} cells (one cell diagonal 1.414); reading of the squares: {:.3} cells",
+        "raster clearance error at 3+ cells: at most {worst:.4} m = {:.3} cells (one cell diagonal 1.414); reading of the squares: {:.3} cells; sampled raster, either way: {:.3} cells (one cell)",
         cells(f64::from(worst)),
-        cells(worst_reading)
+        cells(worst_reading),
+        cells(f64::from(two_sided))
     );
 }
 
