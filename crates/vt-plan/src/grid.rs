@@ -8,7 +8,7 @@
 //! cell's *square*, `g(t) = max(|t| - 1/2, 0)^2` per axis (t in cells), which the same
 //! envelope computes exactly: for `t != 0`, `g(t) = (t - 1/2)^2` on one side and `(t + 1/2)^2`
 //! on the other, parabolas centred half a cell from the occupied cell, and the wrong side's
-//! parabola is always the larger (see [`square_pass`]).
+//! parabola is always the larger (see `square_pass`).
 #![allow(clippy::indexing_slicing)] // kernels only; every slice length is checked on entry
 
 use crate::{ClearanceMap, PlanError, Vec2};
@@ -175,15 +175,14 @@ impl ClearanceMap for GridMap<'_> {
         (self.origin_m, self.origin_m + size)
     }
 
-    /// A lower bound of the distance from `p` to the occupied squares, tight to a few hundredths
-    /// of a cell away from them (docs/planning.md, "Grids").
+    /// A lower bound of the distance from `p` to the occupied squares, m, tight to a few
+    /// hundredths of a cell a few cells away from them (docs/planning.md, "Grids").
     ///
-    /// The transform gives, at each of the four cell centres `c_k` around `p`, the exact distance
-    /// `r_k` to the occupied squares, so no occupied square meets the open disc `B(c_k, r_k)`. The
-    /// distance from `p` to the complement of the union of the four discs is therefore a lower
-    /// bound, and it is the distance to the union's boundary: the nearest point of one circle,
-    /// or a point where two circles cross, that no other disc covers. Inside an occupied cell
-    /// the value is negative.
+    /// The transform gives, at each of the 4 x 4 cell centres `c_k` around `p`, the exact
+    /// distance `r_k` to the occupied squares, so no occupied square meets the open disc
+    /// `B(c_k, r_k)`, and none lies outside the grid. The distance from `p` to the part of the
+    /// grid the discs leave uncovered is therefore a lower bound (`union_depth`). Inside an
+    /// occupied cell the value is negative; `f32::INFINITY` when no cell is occupied.
     fn clearance_m(&self, p_m: Vec2) -> f32 {
         self.clearance_capped_m(p_m, f32::INFINITY)
     }
