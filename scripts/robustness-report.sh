@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
-for c in nominal nominal-point-mass cable-uncertainty cable-snap uav-silent own-feed-stall nominal-levels latency-levels latency-150ms; do
+for c in nominal nominal-point-mass cable-uncertainty cable-snap uav-silent own-feed-stall nominal-levels intensity-3x latency-levels latency-150ms; do
   echo "## $c"
   ./target/release/host-sim sweep "scenarios/campaigns/$c.toml" --out "out/robustness/$c" | sed -n '1,20p'
 done

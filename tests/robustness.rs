@@ -54,6 +54,18 @@ fn nominal_disturbances_succeed_in_at_least_99_percent_of_200_runs_on_the_rigid_
     assert!(rep.success_rate >= 0.99, "success rate {:.3}", rep.success_rate);
 }
 
+/// Issue 15: three times every nominal disturbance (15 cm / 15 cm/s noise, 60 ms latency and
+/// jitter, 30 % drops, 9 m/s wind + 3 m/s gusts) on the default plant, 100 runs: at least 95 %
+/// succeed. 97/100 since the tilt limit went to 45 deg; 85/100 at 35 deg (docs/design.md,
+/// "Tilt limit").
+#[test]
+fn three_times_the_nominal_disturbances_succeed_in_at_least_95_percent_of_100_runs() {
+    let c = load("intensity-3x.toml");
+    assert_eq!(c.runs, 100);
+    let rep = fly(&c);
+    assert!(rep.success_rate >= 0.95, "success rate {:.3}", rep.success_rate);
+}
+
 /// Issue 15: 150 ms of measurement latency with the paper's observer bandwidth (mu = 15 rad/s)
 /// on the default plant: every run succeeds and keeps both floors.
 #[test]
