@@ -13,6 +13,15 @@ fn jobs() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// Loads campaign `name`, checks it holds `runs` runs, flies it and asserts its success rate.
+fn succeeds_at_least(name: &str, runs: usize, rate: f64) -> campaign::SweepReport {
+    let c = load(name);
+    assert_eq!(c.runs, runs);
+    let rep = fly(&c);
+    assert!(rep.success_rate >= rate, "success rate {:.3}", rep.success_rate);
+    rep
+}
+
 /// Flies the campaign at its own run count and seed; returns the report.
 fn fly(c: &Campaign) -> campaign::SweepReport {
     let rows = campaign::fly(c, c.runs, c.seed, jobs(), false).expect("runs start");
@@ -37,10 +46,7 @@ fn fly(c: &Campaign) -> campaign::SweepReport {
 
 #[test]
 fn nominal_disturbances_succeed_in_at_least_99_percent_of_200_runs_on_the_paper_plant() {
-    let c = load("nominal-point-mass.toml");
-    assert_eq!(c.runs, 200);
-    let rep = fly(&c);
-    assert!(rep.success_rate >= 0.99, "success rate {:.3}", rep.success_rate);
+    succeeds_at_least("nominal-point-mass.toml", 200, 0.99);
 }
 
 /// Issue 14's target on the default plant (rigid-body UAVs, elastic cables): met since the
@@ -48,10 +54,7 @@ fn nominal_disturbances_succeed_in_at_least_99_percent_of_200_runs_on_the_paper_
 /// before, 188/200.
 #[test]
 fn nominal_disturbances_succeed_in_at_least_99_percent_of_200_runs_on_the_rigid_body_plant() {
-    let c = load("nominal.toml");
-    assert_eq!(c.runs, 200);
-    let rep = fly(&c);
-    assert!(rep.success_rate >= 0.99, "success rate {:.3}", rep.success_rate);
+    succeeds_at_least("nominal.toml", 200, 0.99);
 }
 
 /// Issue 15: three times every nominal disturbance (15 cm / 15 cm/s noise, 60 ms latency and
@@ -60,20 +63,14 @@ fn nominal_disturbances_succeed_in_at_least_99_percent_of_200_runs_on_the_rigid_
 /// "Tilt limit").
 #[test]
 fn three_times_the_nominal_disturbances_succeed_in_at_least_95_percent_of_100_runs() {
-    let c = load("intensity-3x.toml");
-    assert_eq!(c.runs, 100);
-    let rep = fly(&c);
-    assert!(rep.success_rate >= 0.95, "success rate {:.3}", rep.success_rate);
+    succeeds_at_least("intensity-3x.toml", 100, 0.95);
 }
 
 /// Issue 15: 150 ms of measurement latency with the paper's observer bandwidth (mu = 15 rad/s)
 /// on the default plant: every run succeeds and keeps both floors.
 #[test]
 fn every_run_succeeds_at_150_ms_of_measurement_latency() {
-    let c = load("latency-150ms.toml");
-    assert_eq!(c.runs, 10);
-    let rep = fly(&c);
-    assert_eq!(rep.success_rate, 1.0, "success rate {:.3}", rep.success_rate);
+    let rep = succeeds_at_least("latency-150ms.toml", 10, 1.0);
     let uu = rep.percentiles.get("min_uav_uav_m").expect("metric").min;
     let bnd = rep.percentiles.get("min_uav_boundary_m").expect("metric").min;
     assert!(uu >= 0.4 && bnd > 0.0, "UAV-UAV {uu} m, UAV-boundary {bnd} m");

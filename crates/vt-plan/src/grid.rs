@@ -219,14 +219,18 @@ impl ClearanceMap for GridMap<'_> {
             let c = Vec2::new(io as f32, jo as f32);
             return -(vt_fpu::norm(&(rel - c)) + HALF_DIAGONAL_CELLS) * res;
         }
-        // Each disc holds the ball of radius `r_k - |p - c_k|` around p.
-        let simple = discs.iter().map(|(c, r)| r - vt_fpu::norm(&(rel - c))).fold(f32::NEG_INFINITY, f32::max);
+        // Disc k holds the ball of radius `depth[k] = r_k - |p - c_k|` around p.
+        let mut depth = [0.0f32; SIDE * SIDE];
+        for (dk, (c, r)) in depth.iter_mut().zip(discs.iter()) {
+            *dk = r - vt_fpu::norm(&(rel - c));
+        }
+        let simple = depth.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         if simple * res >= cap_m {
             return simple * res;
         }
         // The grid's extent in centre coordinates: no occupied square lies beyond it.
         let (lo, hi) = (Vec2::new(-0.5, -0.5), Vec2::new(self.width as f32 - 0.5, self.height as f32 - 0.5));
-        union_depth(&discs, rel, lo, hi).max(0.0) * res
+        union_depth(&discs, &depth, rel, lo, hi).max(0.0) * res
     }
 }
 
@@ -237,11 +241,12 @@ impl ClearanceMap for GridMap<'_> {
 /// bound of the distance to them. Its nearest point to `p` lies on the uncovered part's
 /// boundary: the point of a circle nearest `p`, a crossing of two circles, a crossing of a
 /// circle and an edge, the foot of `p` on an edge, or a corner, whichever no disc covers.
-fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], p: Vec2, lo: Vec2, hi: Vec2) -> f32 {
+/// `depth[k] = r_k - |p - c_k|`: how far inside disc k `p` lies (negative outside).
+fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], depth: &[f32; SIDE * SIDE], p: Vec2, lo: Vec2, hi: Vec2) -> f32 {
     /// A candidate point counts as covered, or outside the rectangle, only this far in or out
     /// (cells), so rounding can only lower the bound.
     const TOL: f32 = 1e-4;
-    if !discs.iter().any(|(c, r)| vt_fpu::norm(&(p - c)) < *r) {
+    if !depth.iter().any(|d| *d > 0.0) {
         return 0.0;
     }
     let outside = |q: Vec2| q.x < lo.x - TOL || q.x > hi.x + TOL || q.y < lo.y - TOL || q.y > hi.y + TOL;
@@ -265,10 +270,7 @@ fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], p: Vec2, lo: Vec2, hi: Vec2) 
     let reaches_out = discs.iter().any(|(c, r)| c.x - r < lo.x || c.x + r > hi.x || c.y - r < lo.y || c.y + r > hi.y);
     // Every point of circle k is at least `gap[k]` from p: visit the circles nearest first and
     // stop at the first whose gap cannot beat the best so far (crossings lie on both circles).
-    let mut gap = [0.0f32; SIDE * SIDE];
-    for (g, (c, r)) in gap.iter_mut().zip(discs.iter()) {
-        *g = (r - vt_fpu::norm(&(p - c))).abs();
-    }
+    let gap = depth.map(f32::abs);
     let mut order = [0usize; SIDE * SIDE];
     for k in 0..SIDE * SIDE {
         // Insertion sort, ascending gap (16 entries).
