@@ -10,6 +10,13 @@ echo "== toolchain: thumbv7em-none-eabihf target and clippy"
 rustup target list --installed | grep -qx thumbv7em-none-eabihf || rustup target add thumbv7em-none-eabihf
 rustup component list --installed | grep -q '^clippy' || rustup component add clippy
 
+echo "== aarch64 cross toolchain (the Linux companion for a Raspberry Pi, docs/deploy.md)"
+rustup target list --installed | grep -qx aarch64-unknown-linux-gnu || rustup target add aarch64-unknown-linux-gnu
+if ! command -v aarch64-linux-gnu-gcc >/dev/null 2>&1; then
+  as_root apt-get update -qq
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-aarch64-linux-gnu libc6-dev-arm64-cross
+fi
+
 echo "== QEMU (processor-in-the-loop tests)"
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
   as_root apt-get update -qq
@@ -26,6 +33,12 @@ chromium --version 2>/dev/null | head -n 1
 
 echo "== the controller crates build for the flight MCU (no_std, no alloc)"
 cargo build --release --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -p vt-plan
+
+echo "== the Linux companion cross-builds for the Raspberry Pi (aarch64)"
+cargo build --release -p vt-companion-linux --target aarch64-unknown-linux-gnu
+# ELF e_machine (offset 18) must be EM_AARCH64 (0xb7).
+[ "$(od -An -tx1 -j18 -N2 target/aarch64-unknown-linux-gnu/release/vt-companion | tr -d ' \n')" = "b700" ] \
+  || { echo "vt-companion: not an aarch64 executable"; exit 1; }
 
 echo "== firmware: both boards build; flash and static RAM within budget"
 cargo run -q --release -p xtask -- firmware-size

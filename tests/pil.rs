@@ -350,28 +350,18 @@ fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut En
     for p in cfg.params.iter_mut().filter(|p| p.0 == Param::LoadKg) {
         p.1 = 6.0;
     }
-    // What the companion must compute: its calibration from the take-off state, then the check.
-    let param = |k: Param| cfg.params.iter().find(|p| p.0 == k).unwrap().1;
+    // What the companion must compute: its calibration from the take-off state, then the check,
+    // from the parameters it was sent (derived values included, as it derives them).
+    let mut params = vt_companion::Params::new();
+    for &(k, v) in &cfg.params {
+        params.set(k, v).unwrap();
+    }
     let (all, (load, _)) = takeoff_state(&setup);
     let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap()).collect();
-    let cal_params = vt_dissipative::CalibrationParams {
-        load_mass_kg: 6.0,
-        stiffness_n_per_m: param(Param::CableK),
-        min_length_m: param(Param::ZMin),
-        max_length_m: param(Param::CableLMax),
-        min_cos_lean: vt_dissipative::calibration::MIN_COS_LEAN,
-    };
+    let cal_params = params.calibration();
+    assert_eq!(cal_params.load_mass_kg, 6.0);
     let cal = vt_dissipative::calibrate(0, &uavs, &load, &cal_params).unwrap();
-    let feas = vt_dissipative::FeasibilityParams {
-        n_uavs: 3,
-        load_mass_kg: 6.0,
-        uav_mass_kg: param(Param::Mass),
-        thrust_max_n: param(Param::ThrustMax),
-        tilt_max_rad: param(Param::TiltMax),
-        cable_rated_n: param(Param::CableRated),
-        cos_lean: cal.cos_lean,
-        min_margin: param(Param::MarginMin),
-    };
+    let feas = params.feasibility(cal.cos_lean);
     let err = vt_dissipative::feasibility::check(&feas).unwrap_err();
     let vt_dissipative::FeasibilityError::Infeasible { needed_n, available_n, margin, .. } = err else { panic!("{err:?}") };
     assert!((needed_n - 58.86).abs() < 1e-3 && (available_n - 45.1).abs() < 0.1 && margin < -0.2, "{err:?}");

@@ -134,7 +134,8 @@ fn uav_heavier_than_its_thrust_names_the_field_and_line() {
     // UAV the team lifts a 0.3 kg load, not the paper's 18 kg (the pre-flight check, issue 15).
     let ok = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 20.0", 1).replacen("mass_kg = 18.0", "mass_kg = 0.3", 1);
     let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("20 N lifts a 2 kg UAV");
-    assert!(host_sim::sim::velocity_loop(&ls.scenario).is_ok(), "validation and the velocity loop disagree");
+    let params = host_sim::companion::params_for(&ls.scenario, 0, host_sim::sim::ControllerKind::Dissipative, ls.scenario.cables.rated_n, false).expect("parameters");
+    assert!(params.velocity_loop().is_ok(), "validation and the velocity loop disagree");
 }
 
 /// Issue 17: a derivative gain >= 1 (rejected by vt-cfo) is a validation error with a location.

@@ -112,18 +112,19 @@ impl<const N: usize> Team<N> {
         let s = team_scenario(base, n);
         let tube = tube_of(&s);
         let to = sim::takeoff(&s, &tube, s.cables.rated_n);
-        let tray = sim::tray(&s);
+        let p = host_sim::companion::params_for(&s, 0, sim::ControllerKind::Dissipative, s.cables.rated_n, false).expect("parameters");
+        let tray = p.tray();
         let uav_f: Vec<Vector3<f32>> = to.uav_pos_m.iter().map(v3f).collect();
         let load_f = v3f(&to.load_pos_m);
         let formation = Formation::<N>::from_takeoff(&uav_f, &load_f, &tray).expect("formation");
-        let cal = vt_dissipative::calibrate(0, &uav_f, &load_f, &sim::calibration_params(&s, 0)).expect("calibration");
-        let params = sim::dissipative_params(&s, 0, &cal);
+        let cal = vt_dissipative::calibrate(0, &uav_f, &load_f, &p.calibration()).expect("calibration");
+        let params = p.dissipative(&cal).expect("dissipative parameters");
         let mut controller = DissipativeController::<N>::new(0, params, &formation).expect("controller");
         let own_m = uav_f[0];
         // The cable pulls UAV 0 towards the load with its share (what the CFO estimates).
         let f_hat_n = (load_f - own_m).normalize() * to.share_n as f32;
         let neighbours_m: Vec<Option<Vector3<f32>>> = uav_f.iter().copied().map(Some).collect();
-        let mut velocity_loop = sim::velocity_loop(&s).expect("velocity loop");
+        let mut velocity_loop = VelocityLoop::new(p.velocity_loop().expect("velocity loop"));
         let v_meas_mps = Vector3::new(0.8, 0.1, 0.0);
         // Warm start: section hints found, observer and integrators past their first steps.
         let m = measurements(own_m, load_f, &neighbours_m, f_hat_n);

@@ -5,6 +5,7 @@
 
 pub mod cable;
 pub mod campaign;
+pub mod companion;
 pub mod disturbance;
 pub mod link;
 pub mod metrics;

@@ -123,8 +123,6 @@ enum Cmd {
         #[arg(long, value_name = "FILE")]
         mcap: Option<PathBuf>,
     },
-    /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
-    /// `qemu-system-arm -icount shift=0`; writes DIR/bench.json.
     /// Plan a tube on a map (TOML obstacle list or ROS map_server YAML) and write it in the
     /// scenario's `[tube]` format; prints the bottleneck (issue 16, docs/planning.md).
     Plan {
@@ -146,6 +144,8 @@ enum Cmd {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
+    /// `qemu-system-arm -icount shift=0`; writes OUT/bench.json (docs/benchmarks.md).
     PilBench {
         /// Output directory.
         #[arg(long, default_value = "out/bench/mcu")]

@@ -89,11 +89,15 @@ pub fn params_of(s: &Scenario, spec: &PlanSpec) -> vt_plan::PlanParams {
     p
 }
 
-/// The planned waypoints as the scenario stores them `[x, y, w_L, w_R]`, m.
+/// The planned waypoints as the scenario stores them `[x, y, w_L, w_R]`, m: positions on the
+/// mission protocol's 0.1 mm grid (the value every companion reconstructs from
+/// `MISSION_ITEM_INT`, [`crate::companion::on_wire_grid_m`]; at most 0.05 mm from the plan), so
+/// the simulator measures the very tube the companions fly.
 pub fn waypoints_f64(t: &PlannedTube) -> Vec<[f64; 4]> {
+    use crate::companion::on_wire_grid_m;
     t.waypoints
         .iter()
-        .map(|w| [f64::from(w.pos_m.x), f64::from(w.pos_m.y), f64::from(w.w_left_m), f64::from(w.w_right_m)])
+        .map(|w| [on_wire_grid_m(f64::from(w.pos_m.x)), on_wire_grid_m(f64::from(w.pos_m.y)), f64::from(w.w_left_m), f64::from(w.w_right_m)])
         .collect()
 }
 

@@ -1,23 +1,23 @@
 //! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`).
 #![allow(dead_code)] // each test target uses its own part
 
-use host_sim::mission::{CrateTeam, Setpoint, Team, TeamStart, Tick};
+use host_sim::mission::{CompanionTeam, Setpoint, Team, TeamStart, Tick};
 use host_sim::scenario::LoadedScenario;
 use host_sim::sim::{ControllerKind, SimError};
 use vt_dissipative::TeamMode;
 
-/// The crates' team (`CrateTeam`, dissipative), recording every setpoint as the twin's command
+/// The crates' team (`CompanionTeam`, dissipative), recording every setpoint as the twin's command
 /// log does (`(step, uav, [qw, qx, qy, qz, thrust])`) and, at every high-level step, the team
 /// modes it broadcasts; everything else is passed through.
 pub struct Recording {
-    pub team: CrateTeam,
+    pub team: CompanionTeam,
     pub commands: Vec<(u64, usize, Vec<f32>)>,
     pub modes: Vec<TeamMode>,
 }
 
 impl Recording {
     pub fn new() -> Self {
-        Self { team: CrateTeam::new(ControllerKind::Dissipative), commands: Vec::new(), modes: Vec::new() }
+        Self { team: CompanionTeam::new(ControllerKind::Dissipative), commands: Vec::new(), modes: Vec::new() }
     }
 }
 

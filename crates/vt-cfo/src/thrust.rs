@@ -125,6 +125,22 @@ impl ThrustLimits {
         Ok(Self { vertical_max_n, ..self })
     }
 
+    /// The horizontal reserve an airframe can afford while its vertical cap still holds its
+    /// weight plus its rated cable pull (docs/design.md, "Overload in flight"; issue 26: derived
+    /// aboard from the companion's `VL_MASS`, `VT_CABLE_RATED`, `VL_T_MAX`):
+    /// `min(cap, sqrt(1 - ((m g + rated) / T_max)^2))`, 0 when the airframe cannot lift that
+    /// much at all. Every degenerate input (NaN, `T_max <= 0`) gives 0: the paper's vertical
+    /// priority.
+    #[must_use]
+    pub fn rated_pull_reserve(mass_kg: f32, cable_rated_n: f32, thrust_max_n: f32, cap: f32) -> f32 {
+        let need = (mass_kg * crate::GRAVITY_MPS2 + cable_rated_n) / thrust_max_n;
+        if !((0.0..1.0).contains(&need) && cap > 0.0) {
+            return 0.0;
+        }
+        let room = vt_fpu::sqrt((1.0 - need) * (1.0 + need));
+        if room < cap { room } else { cap }
+    }
+
     /// Largest vertical thrust component, N (`thrust_max_n` without a horizontal reserve). The
     /// hover thrust must stay below it.
     #[must_use]
@@ -391,6 +407,31 @@ mod tests {
         n <= l.thrust_max_n() * (1.0 + ROUNDING)
             && t.z >= l.thrust_min_n()
             && t.z >= l.tilt_max_cos() * n * (1.0 - ROUNDING)
+    }
+
+    #[test]
+    fn rated_pull_reserve_keeps_the_weight_plus_rated_pull_under_the_vertical_cap() {
+        // Paper airframe (2 kg, 50 N) on 20 N cables: need = 39.62 / 50, room 0.61 -> cap 0.5.
+        assert_eq!(ThrustLimits::rated_pull_reserve(2.0, 20.0, 50.0, 0.5), 0.5);
+        // Experiment airframe (1.47 kg, 30 N) on 30 N cables: it cannot lift its rated pull.
+        assert_eq!(ThrustLimits::rated_pull_reserve(1.47, 30.0, 30.0, 0.5), 0.0);
+        // Degenerate inputs: the paper's vertical priority.
+        for (m, r, t) in [(f32::NAN, 1.0, 50.0), (2.0, 1.0, 0.0), (2.0, 1.0, -5.0), (2.0, f32::INFINITY, 50.0)] {
+            assert_eq!(ThrustLimits::rated_pull_reserve(m, r, t, 0.5), 0.0, "{m} {r} {t}");
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn rated_pull_reserve_is_bounded_and_leaves_the_need(m in 0.1f32..10.0, rated in 0.0f32..100.0, t_max in 1.0f32..200.0) {
+            let r = ThrustLimits::rated_pull_reserve(m, rated, t_max, 0.5);
+            prop_assert!((0.0..=0.5).contains(&r));
+            if r > 0.0 {
+                // The vertical cap with this reserve still lifts weight + rated pull.
+                let cap = t_max * vt_fpu::sqrt((1.0 - r) * (1.0 + r));
+                prop_assert!(cap >= (m * crate::GRAVITY_MPS2 + rated) * (1.0 - ROUNDING), "cap {cap}");
+            }
+        }
     }
 
     /// Any f32, including NaN, infinities and huge values.

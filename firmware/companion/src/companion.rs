@@ -24,6 +24,7 @@ use crate::flight::{Flight, HoldReasons, Setpoint, Sources, Stamped, StartError,
 use crate::framer::{Frame, Framer, LinkCounters};
 use crate::frames::{enu_from_ned, finite3, ned_from_enu};
 use crate::mission::{Item, MissionResult, MissionUpload, UploadReply};
+use crate::Vec3;
 use crate::params::{self, Param, ParamError, Params};
 use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 
@@ -60,6 +61,25 @@ pub trait Io {
     fn stack_used_bytes(&self) -> u32 {
         0
     }
+    /// False when nobody reads the companion's frames (host-sim's software in the loop, which
+    /// reads the results through [`Companion::setpoint`] and [`Companion::flight`]): the frames
+    /// are then not even encoded. Every decision is taken as with a link.
+    fn wants_frames(&self) -> bool {
+        true
+    }
+}
+
+/// Where a position report comes from (the frame's system and component ids, mapped by
+/// `VT_SYSID_BASE` and `VT_LOAD_COMP`; docs/protocol.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Source {
+    /// The own autopilot (`LOCAL_POSITION_NED`, own system, `MAV_COMP_ID_AUTOPILOT1`).
+    Own,
+    /// The load tracker on the own system.
+    Load,
+    /// Team member `j`'s autopilot, relayed by the team network (position only).
+    Member(usize),
 }
 
 /// What the board should do after a message (from `MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN`).
@@ -149,6 +169,10 @@ struct Core<'t> {
     link: LinkCounters,
     /// Code of the last refused `MISSION_START` ([`StartError::code`]; 0 after a start).
     refusal: u8,
+    /// `custom_mode` of the last `HEARTBEAT` (what the team sees of this UAV).
+    beacon: u32,
+    /// The last low-level setpoint.
+    setpoint: Option<Setpoint>,
 }
 
 impl<'t> Companion<'t> {
@@ -178,6 +202,8 @@ impl<'t> Companion<'t> {
                 request: None,
                 link: LinkCounters::ZERO,
                 refusal: 0,
+                beacon: 0,
+                setpoint: None,
             },
         }
     }
@@ -260,6 +286,100 @@ impl<'t> Companion<'t> {
         self.core.flight.as_ref()
     }
 
+    /// A position report from `from` (world ENU, m and m/s), sampled at `time_boot_ms` on its
+    /// sender's clock: what a `LOCAL_POSITION_NED` frame does once its ids are mapped. Out of
+    /// range or non-finite values are counted and dropped; in lockstep the own state runs the
+    /// period's control steps.
+    pub fn position(&mut self, from: Source, pos_m: Vec3, vel_mps: Vec3, time_boot_ms: u32, io: &mut impl Io) {
+        self.core.position(from, pos_m, vel_mps, time_boot_ms, io);
+    }
+
+    /// The own autopilot's `SYSTEM_TIME` (`time_boot_ms`): in lockstep it opens a period, and a
+    /// second one at the same time closes it without an own state.
+    pub fn system_time(&mut self, time_boot_ms: u32, io: &mut impl Io) {
+        self.core.system_time(time_boot_ms, io);
+    }
+
+    /// Team member `j`'s companion `HEARTBEAT` with `custom_mode` (the team failsafe).
+    pub fn member_heartbeat(&mut self, j: usize, custom_mode: u32) {
+        self.core.member_heartbeat(j, custom_mode);
+    }
+
+    /// `PARAM_SET` without the echo.
+    ///
+    /// # Errors
+    /// The value is refused, or the mission runs.
+    pub fn set_param(&mut self, p: Param, value: f32) -> Result<(), ParamError> {
+        if self.core.flight.is_some() {
+            return Err(ParamError::Locked);
+        }
+        self.core.params.set(p, value)
+    }
+
+    /// The tube upload without the handshake: `items` as the mission protocol carries them,
+    /// checked and built as an upload over the link is.
+    ///
+    /// # Errors
+    /// The `MAV_MISSION_RESULT` a ground station would get.
+    pub fn upload_tube(&mut self, items: &[Item], io: &mut impl Io) -> Result<(), MissionResult> {
+        if self.core.flight.is_some() {
+            return Err(MissionResult::Denied);
+        }
+        let mut reply = self.core.mission.begin(u16::try_from(items.len()).unwrap_or(u16::MAX));
+        for it in items {
+            match reply {
+                UploadReply::Refuse(r) => return Err(r),
+                _ => reply = self.core.mission.item(it),
+            }
+        }
+        match reply {
+            UploadReply::Complete if self.core.finish_upload(io) => Ok(()),
+            UploadReply::Complete => Err(MissionResult::Invalid),
+            UploadReply::Refuse(r) => Err(r),
+            _ => Err(MissionResult::InvalidSequence),
+        }
+    }
+
+    /// `MAV_CMD_MISSION_START` without the acknowledgement (a refusal still sends its
+    /// `STATUSTEXT` lines and heartbeat).
+    ///
+    /// # Errors
+    /// Why the start was refused.
+    pub fn start_mission(&mut self, io: &mut impl Io) -> Result<(), StartError> {
+        let r = self.core.start(io);
+        self.core.update_mode();
+        r
+    }
+
+    /// The operator's hold (`MAV_CMD_DO_PAUSE_CONTINUE`) without the command: on, this UAV
+    /// holds and tells the team at once (a `HEARTBEAT` in `Hold`, which every fresh neighbour
+    /// follows); off, the team resumes `FS_RESUME` after the last alarm. Returns false when no
+    /// mission runs.
+    pub fn operator_hold(&mut self, on: bool, io: &mut impl Io) -> bool {
+        let Some(fl) = self.core.flight.as_mut() else {
+            return false;
+        };
+        fl.set_operator_hold(on);
+        if on {
+            // Announce now: the next high-level step may never come (the Linux companion's
+            // Ctrl-C exits right after).
+            self.core.mode = Mode::Hold;
+            self.core.send_heartbeat_with(io, HoldReasons::OPERATOR);
+        }
+        true
+    }
+
+    /// The last low-level setpoint (`SET_ATTITUDE_TARGET`), if any.
+    pub fn setpoint(&self) -> Option<Setpoint> {
+        self.core.setpoint
+    }
+
+    /// `custom_mode` of the last `HEARTBEAT` sent: mode, hold reasons `<< 8`, refusal code
+    /// `<< 16` (docs/protocol.md). What the team and the ground station see of this UAV.
+    pub fn heartbeat_custom_mode(&self) -> u32 {
+        self.core.beacon
+    }
+
     /// High-level rate, Hz.
     pub fn high_level_hz(&self) -> u32 {
         self.core.params.get_u32(Param::HlHz)
@@ -281,6 +401,9 @@ impl Core<'_> {
     }
 
     fn send<D: MessageData>(&mut self, io: &mut impl Io, data: &D) {
+        if !io.wants_frames() {
+            return;
+        }
         let mut raw = MAVLinkV2MessageRaw::new();
         let header = MavHeader { system_id: u32::from(self.own_system_id()), component_id: COMPANION_COMPONENT_ID, sequence: self.tx_seq };
         raw.serialize_message_data(header, data);
@@ -404,10 +527,23 @@ impl Core<'_> {
         }
     }
 
+    /// `LOCAL_POSITION_NED`: its sender by the frame's ids, then [`Self::position`].
     fn on_local_position(&mut self, f: &Frame<'_>, d: &LOCAL_POSITION_NED_DATA, io: &mut impl Io) {
-        let pos = enu_from_ned(d.x, d.y, d.z);
-        let vel = enu_from_ned(d.vx, d.vy, d.vz);
-        let within = |v: &crate::Vec3, lim: f32| finite3(v) && v.iter().all(|c| c.abs() <= lim);
+        let own_sys = self.own_system_id();
+        let from = if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
+            Source::Own
+        } else if f.system_id == own_sys && u32::from(f.component_id) == self.params.get_u32(Param::LoadComp) {
+            Source::Load
+        } else if f.component_id == AUTOPILOT_COMPONENT_ID {
+            Source::Member(u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize)
+        } else {
+            return self.ignored();
+        };
+        self.position(from, enu_from_ned(d.x, d.y, d.z), enu_from_ned(d.vx, d.vy, d.vz), d.time_boot_ms, io);
+    }
+
+    fn position(&mut self, from: Source, pos: Vec3, vel: Vec3, time_boot_ms: u32, io: &mut impl Io) {
+        let within = |v: &Vec3, lim: f32| finite3(v) && v.iter().all(|c| c.abs() <= lim);
         if !(within(&pos, POSITION_LIMIT_M) && within(&vel, VELOCITY_LIMIT_MPS)) {
             return self.bad_value();
         }
@@ -416,14 +552,13 @@ impl Core<'_> {
         // opened this period, else the message's own time); else the board's clock at receipt.
         let stamp_ms = match (lockstep, self.lockstep_now_ms) {
             (true, Some(now)) => now,
-            (true, None) => d.time_boot_ms,
+            (true, None) => time_boot_ms,
             (false, _) => io.now_ms(),
         };
         // Sample time on the companion's clock (delay compensation, vt_cfo::prediction): the
         // autopilot's `time_boot_ms` shifted by the SYSTEM_TIME offset; unknown offset: receipt.
         let offset = if lockstep { Some(0) } else { self.autopilot_offset_ms };
-        let sample_ms = offset.map_or(stamp_ms, |o| d.time_boot_ms.wrapping_add(o));
-        let own_sys = self.own_system_id();
+        let sample_ms = offset.map_or(stamp_ms, |o| time_boot_ms.wrapping_add(o));
         let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
         // Before the mission: the take-off survey averages every position (docs/design.md,
         // "Take-off survey"); a new `VT_CAL_N` restarts it.
@@ -434,41 +569,41 @@ impl Core<'_> {
                 self.sources.survey.reset(window);
             }
         }
-        if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
-            // The own state closes the period.
-            self.lockstep_now_ms = None;
-            if lockstep && self.flight.is_some() {
-                self.clock_ms = stamp_ms;
-                self.lockstep_tick(state, io);
-            } else {
-                self.sources.own = Some(state);
-                if surveying {
-                    self.sources.survey.push_own(&pos);
-                }
-                if lockstep {
+        match from {
+            Source::Own => {
+                // The own state closes the period.
+                self.lockstep_now_ms = None;
+                if lockstep && self.flight.is_some() {
                     self.clock_ms = stamp_ms;
-                }
-            }
-        } else if f.system_id == own_sys && u32::from(f.component_id) == self.params.get_u32(Param::LoadComp) {
-            self.sources.load = Some(state);
-            if surveying {
-                self.sources.survey.push_load(&pos);
-            }
-        } else if f.component_id == AUTOPILOT_COMPONENT_ID {
-            let n = self.params.get_u32(Param::NUavs) as usize;
-            let base = self.params.get_u32(Param::SysidBase);
-            let j = u32::from(f.system_id).wrapping_sub(base) as usize;
-            match self.sources.neighbours.get_mut(j) {
-                Some(slot) if j < n => {
-                    *slot = Some(Stamped { value: pos, stamp_ms });
+                    self.lockstep_tick(state, io);
+                } else {
+                    self.sources.own = Some(state);
                     if surveying {
-                        self.sources.survey.push_member(j, &pos);
+                        self.sources.survey.push_own(&pos);
+                    }
+                    if lockstep {
+                        self.clock_ms = stamp_ms;
                     }
                 }
-                _ => self.ignored(),
             }
-        } else {
-            self.ignored();
+            Source::Load => {
+                self.sources.load = Some(state);
+                if surveying {
+                    self.sources.survey.push_load(&pos);
+                }
+            }
+            Source::Member(j) => {
+                let n = self.params.get_u32(Param::NUavs) as usize;
+                match self.sources.neighbours.get_mut(j) {
+                    Some(slot) if j < n => {
+                        *slot = Some(Stamped { value: pos, stamp_ms });
+                        if surveying {
+                            self.sources.survey.push_member(j, &pos);
+                        }
+                    }
+                    _ => self.ignored(),
+                }
+            }
         }
     }
 
@@ -478,15 +613,14 @@ impl Core<'_> {
         if f.component_id != COMPANION_COMPONENT_ID || f.system_id == self.own_system_id() {
             return;
         }
-        let n = self.params.get_u32(Param::NUavs) as usize;
         let j = u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize;
-        if j < n && j < 32 {
-            let bit = 1u32 << j;
-            if d.custom_mode & 0xFF == Mode::Hold as u32 {
-                self.sources.neighbour_hold |= bit;
-            } else {
-                self.sources.neighbour_hold &= !bit;
-            }
+        self.member_heartbeat(j, d.custom_mode);
+    }
+
+    fn member_heartbeat(&mut self, j: usize, custom_mode: u32) {
+        let n = self.params.get_u32(Param::NUavs) as usize;
+        if j < n && j != self.params.get_u32(Param::Id) as usize {
+            self.sources.neighbour_hold.set(j, custom_mode & 0xFF == Mode::Hold as u32);
         }
     }
 
@@ -501,13 +635,17 @@ impl Core<'_> {
         if !(f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
             return self.ignored();
         }
+        self.system_time(d.time_boot_ms, io);
+    }
+
+    fn system_time(&mut self, time_boot_ms: u32, io: &mut impl Io) {
         if self.params.get_u32(Param::Lockstep) != 1 {
-            self.autopilot_offset_ms = Some(io.now_ms().wrapping_sub(d.time_boot_ms));
-        } else if self.lockstep_now_ms != Some(d.time_boot_ms) {
-            self.lockstep_now_ms = Some(d.time_boot_ms);
+            self.autopilot_offset_ms = Some(io.now_ms().wrapping_sub(time_boot_ms));
+        } else if self.lockstep_now_ms != Some(time_boot_ms) {
+            self.lockstep_now_ms = Some(time_boot_ms);
         } else {
             self.lockstep_now_ms = None;
-            self.clock_ms = d.time_boot_ms;
+            self.clock_ms = time_boot_ms;
             if self.flight.is_some() {
                 if self.flight.as_ref().is_some_and(Flight::high_level_due) {
                     self.high_level(io);
@@ -583,6 +721,7 @@ impl Core<'_> {
         };
         let t0 = io.cycles();
         let sp: Setpoint = fl.low_level(&self.sources, now);
+        self.setpoint = Some(sp);
         self.ll_cycles = io.cycles().wrapping_sub(t0);
         self.ll_cycles_max = self.ll_cycles_max.max(self.ll_cycles);
         // Hold on stale data is a designed state; only a non-finite output is unhealthy.
@@ -619,6 +758,11 @@ impl Core<'_> {
 
     fn send_heartbeat(&mut self, io: &mut impl Io) {
         let reasons = self.flight.as_ref().map_or(0, |f| f.hold_reasons().0);
+        self.send_heartbeat_with(io, reasons);
+    }
+
+    fn send_heartbeat_with(&mut self, io: &mut impl Io, reasons: u8) {
+        self.beacon = u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16);
         let system_status = match self.mode {
             Mode::Unconfigured | Mode::Ready => MavState::MAV_STATE_STANDBY,
             Mode::Transport => MavState::MAV_STATE_ACTIVE,
@@ -627,7 +771,7 @@ impl Core<'_> {
         self.send(
             io,
             &HEARTBEAT_DATA {
-                custom_mode: u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16),
+                custom_mode: self.beacon,
                 mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
                 autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
                 base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
@@ -723,62 +867,73 @@ impl Core<'_> {
                 self.send(io, &ack(code));
             }
             UploadReply::Complete => {
-                // Build and validate the tube now, once (the lookup tables are the expensive part).
-                let t0 = io.cycles();
-                let built = self.tube.rebuild(self.mission.waypoints());
-                let _cycles = io.cycles().wrapping_sub(t0);
-                self.tube_ok = built.is_ok();
-                let result = match built {
-                    Ok(()) => {
-                        log!(info, "tube accepted: {} waypoints, built in {} cycles", self.mission.waypoints().len(), _cycles);
-                        MavMissionResult::MAV_MISSION_ACCEPTED
-                    }
-                    Err(_e) => {
-                        log!(warn, "tube rejected: {}", _e);
-                        self.values.bad_values = self.values.bad_values.wrapping_add(1);
-                        MavMissionResult::MAV_MISSION_INVALID
-                    }
-                };
-                self.update_mode();
+                let result = if self.finish_upload(io) { MavMissionResult::MAV_MISSION_ACCEPTED } else { MavMissionResult::MAV_MISSION_INVALID };
                 self.send(io, &ack(result));
             }
         }
     }
 
+    /// A complete upload: builds and validates the tube now, once (the lookup tables are the
+    /// expensive part). True when accepted.
+    fn finish_upload(&mut self, io: &mut impl Io) -> bool {
+        let t0 = io.cycles();
+        let built = self.tube.rebuild(self.mission.waypoints());
+        let _cycles = io.cycles().wrapping_sub(t0);
+        self.tube_ok = built.is_ok();
+        match built {
+            Ok(()) => {
+                log!(info, "tube accepted: {} waypoints, built in {} cycles", self.mission.waypoints().len(), _cycles);
+            }
+            Err(_e) => {
+                log!(warn, "tube rejected: {}", _e);
+                self.bad_value();
+            }
+        }
+        self.update_mode();
+        self.tube_ok
+    }
+
+    /// `MAV_CMD_MISSION_START`: arms the flight from the sources at the current time, or
+    /// reports the refusal (`STATUSTEXT`, heartbeat).
     #[inline(never)] // its frame (Flight::start: ~6 KiB) must not merge into the receive task's (docs/firmware.md)
+    fn start(&mut self, io: &mut impl Io) -> Result<(), StartError> {
+        let now = if self.params.get_u32(Param::Lockstep) == 1 { self.sources.own.map_or(self.clock_ms, |s| s.stamp_ms) } else { io.now_ms() };
+        self.clock_ms = now;
+        match Flight::start(&self.params, self.tube(), &self.sources, now) {
+            Ok(fl) => {
+                self.flight = Some(fl);
+                self.refusal = 0;
+                self.hl_steps = 0;
+                self.team_mode_sent = TeamMode::Transport;
+                log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
+                Ok(())
+            }
+            Err(e) => {
+                log!(warn, "mission start refused: {}", e);
+                self.refused(&e, io);
+                Err(e)
+            }
+        }
+    }
+
     fn on_command(&mut self, d: &COMMAND_LONG_DATA, io: &mut impl Io) {
         let result = match d.command {
-            MavCmd::MAV_CMD_MISSION_START => {
-                if self.flight.is_some() {
-                    MavResult::MAV_RESULT_TEMPORARILY_REJECTED
-                } else {
-                    let now = if self.params.get_u32(Param::Lockstep) == 1 {
-                        self.sources.own.map_or(self.clock_ms, |s| s.stamp_ms)
-                    } else {
-                        io.now_ms()
-                    };
-                    self.clock_ms = now;
-                    match Flight::start(&self.params, self.tube(), &self.sources, now) {
-                        Ok(fl) => {
-                            self.flight = Some(fl);
-                            self.refusal = 0;
-                            self.hl_steps = 0;
-                            self.team_mode_sent = TeamMode::Transport;
-                            log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
-                            MavResult::MAV_RESULT_ACCEPTED
-                        }
-                        Err(e) => {
-                            log!(warn, "mission start refused: {}", e);
-                            self.refused(&e, io);
-                            match e {
-                                StartError::StaleData => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-                                StartError::Infeasible(_) => MavResult::MAV_RESULT_DENIED,
-                                _ => MavResult::MAV_RESULT_FAILED,
-                            }
-                        }
-                    }
+            MavCmd::MAV_CMD_MISSION_START if self.flight.is_some() => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            MavCmd::MAV_CMD_MISSION_START => match self.start(io) {
+                Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
+                Err(StartError::StaleData) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                Err(StartError::Infeasible(_)) => MavResult::MAV_RESULT_DENIED,
+                Err(_) => MavResult::MAV_RESULT_FAILED,
+            },
+            // Operator hold and resume (docs/protocol.md): param1 0 pause, 1 continue.
+            MavCmd::MAV_CMD_DO_PAUSE_CONTINUE => match (self.flight.as_mut(), d.param1) {
+                (Some(fl), p) if p == 0.0 || p == 1.0 => {
+                    fl.set_operator_hold(p == 0.0);
+                    MavResult::MAV_RESULT_ACCEPTED
                 }
-            }
+                (Some(_), _) => MavResult::MAV_RESULT_DENIED,
+                (None, _) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            },
             MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if d.param1 == REBOOT => {
                 self.request = Some(Request::Reboot);
                 MavResult::MAV_RESULT_ACCEPTED

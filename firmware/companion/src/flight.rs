@@ -30,7 +30,8 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{
-    capacity, Command, DissipativeController, Formation, FormationScale, Measurements, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
+    capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, TakeoffSurvey,
+    TeamHoldSupervisor, TeamMode,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -53,6 +54,9 @@ impl HoldReasons {
     pub const INVALID_INPUT: u8 = 1 << 3;
     /// A command was non-finite.
     pub const NONFINITE: u8 = 1 << 4;
+    /// The operator asked for a hold (`MAV_CMD_DO_PAUSE_CONTINUE` with `param1 = 0`, or the
+    /// Linux companion's Ctrl-C); cleared by a continue.
+    pub const OPERATOR: u8 = 1 << 5;
 
     /// True when no reason is set.
     pub fn is_clear(self) -> bool {
@@ -100,14 +104,48 @@ pub struct Sources {
     pub neighbours: [Option<Stamped<Vec3>>; MAX_UAVS],
     /// Bit `j` set: neighbour `j`'s last broadcast mode was [`TeamMode::Hold`] (own bit never
     /// set); it counts while the neighbour's position is fresh.
-    pub neighbour_hold: u32,
+    pub neighbour_hold: MemberBits,
     /// Before the mission starts: the take-off positions averaged over `VT_CAL_N` samples per
     /// source (`vt_dissipative::survey`); [`Flight::start`] calibrates from them.
     pub survey: TakeoffSurvey<MAX_UAVS>,
 }
 
-// One bit per UAV in `Sources::neighbour_hold`.
-const _: () = assert!(MAX_UAVS <= 32, "Sources::neighbour_hold has 32 bits");
+/// Words of [`MemberBits`].
+const MEMBER_WORDS: usize = MAX_UAVS.div_ceil(32);
+
+/// One bit per team member (`MAX_UAVS` bits).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MemberBits([u32; MEMBER_WORDS]);
+
+impl MemberBits {
+    /// No bit set.
+    pub const EMPTY: Self = Self([0; MEMBER_WORDS]);
+
+    /// Sets bit `j` to `on` (nothing for `j >= MAX_UAVS`).
+    #[inline]
+    pub fn set(&mut self, j: usize, on: bool) {
+        if let Some(w) = self.0.get_mut(j / 32) {
+            let bit = 1u32 << (j % 32);
+            if on {
+                *w |= bit;
+            } else {
+                *w &= !bit;
+            }
+        }
+    }
+
+    /// Bit `j` (false for `j >= MAX_UAVS`).
+    #[inline]
+    pub fn get(&self, j: usize) -> bool {
+        self.0.get(j / 32).is_some_and(|w| (w >> (j % 32)) & 1 == 1)
+    }
+
+    /// True when any bit is set.
+    #[inline]
+    pub fn any(&self) -> bool {
+        self.0.iter().any(|&w| w != 0)
+    }
+}
 
 impl Default for Sources {
     fn default() -> Self {
@@ -118,7 +156,7 @@ impl Default for Sources {
 impl Sources {
     /// Nothing received yet.
     pub const fn new() -> Self {
-        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: 0, survey: TakeoffSurvey::new(1) }
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: MemberBits::EMPTY, survey: TakeoffSurvey::new(1) }
     }
 }
 
@@ -151,12 +189,39 @@ pub struct Setpoint {
     pub thrust: f32,
 }
 
+/// The high-level law flown (`VT_CTRL`).
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // no heap on the MCU, and one flight exists per board
+enum HighLevel {
+    /// The paper's dissipative controller (tube passing, virtual springs, capacity-aware
+    /// formation).
+    Dissipative(DissipativeController<MAX_UAVS>),
+    /// Traditional virtual-tube control (REFERENCE §2), the paper's comparison.
+    Baseline(BaselineController),
+}
+
+impl HighLevel {
+    fn set_team_hold(&mut self, hold: bool) {
+        match self {
+            Self::Dissipative(c) => c.set_team_hold(hold),
+            Self::Baseline(c) => c.set_team_hold(hold),
+        }
+    }
+
+    fn update(&mut self, tube: &CompanionTube, m: &Measurements<'_>, dt_s: f32) -> Command {
+        match self {
+            Self::Dissipative(c) => c.update(tube, m, dt_s),
+            Self::Baseline(c) => c.update(tube, m, dt_s),
+        }
+    }
+}
+
 /// The armed controllers and their inputs.
 #[derive(Debug, Clone)]
 pub struct Flight {
     id: usize,
     n: usize,
-    high: DissipativeController<MAX_UAVS>,
+    high: HighLevel,
     low: VelocityLoop,
     heading: Unit<Vector2<f32>>,
     thrust_max_n: f32,
@@ -176,14 +241,17 @@ pub struct Flight {
     last_command: Option<Command>,
     supervisor: TeamHoldSupervisor,
     team_mode: TeamMode,
+    invalid_commands: u32,
+    operator_hold: bool,
 }
 
 impl Flight {
     /// Arms: the cable calibration from the current positions of every UAV and the load
     /// (`vt_dissipative::calibrate`), the pre-flight check at the measured lean
     /// (`vt_dissipative::feasibility::check`), the take-off formation (eq:2-7), then the
-    /// controllers from the parameters and the calibration. host-sim's `CrateTeam::start` makes
-    /// the same calls with the same `f32` inputs.
+    /// controllers from the parameters and the calibration (`VT_CTRL` picks the high-level law;
+    /// the baseline takes the gains `VT_K1`..`VT_R_ACT`, no formation). Every backend of host-sim
+    /// flies this (docs/design.md, "One flight logic").
     ///
     /// # Errors
     /// [`StartError`].
@@ -225,8 +293,22 @@ impl Flight {
         let cap = params.capacity().map_err(StartError::Controller)?;
         let plan = capacity::plan_from_takeoff(takeoff, &load_pos_m, &tray, &cap)
             .map_err(StartError::Controller)?;
-        let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
-        high.set_capacity(FormationScale::new(&plan, &cap));
+        let high = if params.get_u32(Param::Ctrl) == 1 {
+            let baseline = BaselineParams {
+                k1: dissipative.k1,
+                k2: dissipative.k2,
+                k3: dissipative.k3,
+                v_max_mps: dissipative.v_max_mps,
+                r_safe_m: dissipative.r_safe_m,
+                r_active_m: dissipative.r_active_m,
+                vertical: dissipative.vertical,
+            };
+            HighLevel::Baseline(BaselineController::new(id, n, baseline).map_err(StartError::Controller)?)
+        } else {
+            let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+            high.set_capacity(FormationScale::new(&plan, &cap));
+            HighLevel::Dissipative(high)
+        };
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
         let supervisor = TeamHoldSupervisor::new(params.get(Param::FsResume), params.high_level_dt_s()).map_err(StartError::Controller)?;
         let mut low = VelocityLoop::new(vl);
@@ -257,6 +339,8 @@ impl Flight {
             last_command: None,
             supervisor,
             team_mode: TeamMode::Transport,
+            invalid_commands: 0,
+            operator_hold: false,
         })
     }
 
@@ -269,7 +353,7 @@ impl Flight {
     /// One high-level step at `now_ms`: the velocity command (zero in hold without usable own
     /// or load data; the controller's team hold while the team holds).
     pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
-        let mut reasons = 0u8;
+        let mut reasons = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
         let own = src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms));
         let load = src.load.and_then(|s| s.fresh(now_ms, self.load_tmo_ms));
         if own.is_none() {
@@ -293,7 +377,7 @@ impl Flight {
         // A fresh neighbour in hold: the team holds (docs/design.md, "Team failsafe"). No
         // neighbour holds in nominal flight: one test then.
         let holds = src.neighbour_hold;
-        let follow = holds != 0 && view.iter().enumerate().take(self.n).any(|(j, v)| v.is_some() && (holds >> j) & 1 == 1);
+        let follow = holds.any() && view.iter().enumerate().take(self.n).any(|(j, v)| v.is_some() && holds.get(j));
         self.vel_cmd_mps = Vec3::zeros();
         self.team_mode = self.supervisor.step(reasons != 0, follow);
         if let (Some(own), Some(load)) = (own, load) {
@@ -322,6 +406,7 @@ impl Flight {
                 self.vel_cmd_mps = cmd.vel_mps;
             }
             if reasons & (HoldReasons::NONFINITE | HoldReasons::INVALID_INPUT) != 0 {
+                self.invalid_commands = self.invalid_commands.wrapping_add(1);
                 // The controller flagged its output: an own detection after all (the hold
                 // restarts whatever the neighbours say).
                 self.team_mode = self.supervisor.step(true, false);
@@ -370,7 +455,8 @@ impl Flight {
 
     /// Current hold reasons (high and low level).
     pub fn hold_reasons(&self) -> HoldReasons {
-        HoldReasons(self.hl_reasons.0 | self.ll_reasons.0)
+        let operator = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
+        HoldReasons(self.hl_reasons.0 | self.ll_reasons.0 | operator)
     }
 
     /// The team mode decided at the last high-level step (what this UAV broadcasts).
@@ -391,6 +477,23 @@ impl Flight {
     /// The last high-level command with its status (None before the first nominal step).
     pub fn last_command(&self) -> Option<&Command> {
         self.last_command.as_ref()
+    }
+
+    /// The operator's hold on or off: while on, this UAV holds as after its own detection (it
+    /// broadcasts `Hold`, the team follows); after it is lifted the team resumes `FS_RESUME`
+    /// later, as after any alarm.
+    pub fn set_operator_hold(&mut self, on: bool) {
+        self.operator_hold = on;
+    }
+
+    /// True while the operator's hold is on.
+    pub fn operator_hold(&self) -> bool {
+        self.operator_hold
+    }
+
+    /// High-level commands so far that fell back to hold (invalid input or non-finite output).
+    pub fn invalid_commands(&self) -> u32 {
+        self.invalid_commands
     }
 
     /// Low-level steps so far.

@@ -73,7 +73,7 @@ fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_aft
     assert_eq!(fl.team_mode(), TeamMode::Transport);
     // UAV 2 broadcasts Hold: UAV 0 follows, flying the team hold (passing off), bit for bit.
     let mut held = sources(0);
-    held.neighbour_hold = 1 << 2;
+    held.neighbour_hold.set(2, true);
     r.set_team_hold(true);
     for _ in 0..3 {
         now += HL_MS;
@@ -98,6 +98,36 @@ fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_aft
 }
 
 #[test]
+fn the_operators_hold_is_broadcast_flown_as_the_team_hold_and_lifted_after_fs_resume() {
+    let (p, t) = (params(1.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let mut r = reference(&p);
+    let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
+    let mut now = 0;
+    assert_eq!(fl.high_level(&t, &sources(now), now), r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
+    fl.set_operator_hold(true);
+    assert_eq!(fl.hold_reasons().0, HoldReasons::OPERATOR, "the reason shows at once, before the next step");
+    r.set_team_hold(true);
+    for _ in 0..3 {
+        now += HL_MS;
+        let v = fl.high_level(&t, &sources(now), now);
+        assert_eq!(fl.team_mode(), TeamMode::Hold, "an own detection: the team must follow");
+        assert_eq!(fl.hold_reasons().0, HoldReasons::OPERATOR);
+        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "the controller's team hold");
+    }
+    fl.set_operator_hold(false);
+    for k in 0..5 {
+        now += HL_MS;
+        let v = fl.high_level(&t, &sources(now), now);
+        let expect = if k < 4 { TeamMode::TeamHold } else { TeamMode::Transport };
+        assert_eq!(fl.team_mode(), expect, "quiet step {k}");
+        r.set_team_hold(k < 4);
+        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "quiet step {k}");
+    }
+    assert!(fl.hold_reasons().is_clear());
+}
+
+#[test]
 fn a_stale_neighbours_hold_flag_is_not_followed() {
     // FS_NBR_ACT = 0: a stale neighbour is dropped from the springs, and its last hold flag
     // with it (its position is what makes the flag current).
@@ -106,7 +136,7 @@ fn a_stale_neighbours_hold_flag_is_not_followed() {
     let now = 50 * HL_MS;
     let mut src = sources(now);
     src.neighbours[2] = Some(Stamped { value: uav_pos(2), stamp_ms: now - 600 }); // > FS_NBR_TMO
-    src.neighbour_hold = 1 << 2;
+    src.neighbour_hold.set(2, true);
     fl.high_level(&t, &src, now);
     assert_eq!(fl.team_mode(), TeamMode::Transport);
     assert!(fl.hold_reasons().is_clear());

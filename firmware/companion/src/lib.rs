@@ -34,14 +34,21 @@ pub mod mission;
 pub mod params;
 pub mod refusal;
 
-pub use companion::{Companion, Io, Mode, Request};
-pub use flight::{Flight, HoldReasons};
+pub use companion::{Companion, Io, Mode, Request, Source};
+pub use flight::{Flight, HoldReasons, MemberBits};
 pub use framer::{Frame, Framer, LinkCounters};
-pub use mission::MissionUpload;
-pub use params::{Param, Params};
+pub use mission::{Item, MissionResult, MissionUpload};
+pub use params::{Param, ParamError, Params, AUTO};
 
-/// Team capacity of the fixed-size controller types (the crates' default).
+/// Team capacity of the fixed-size controller types: the crates' default (32) on the flight
+/// MCU; 128 with the `large-teams` feature (host builds: the simulator's 100-UAV scenario). The
+/// control steps loop over the team's `VT_N_UAVS` members only, so the capacity changes memory,
+/// not results (the twin with 128 and the firmware with 32 agree bit for bit, tests/pil.rs).
+#[cfg(not(feature = "large-teams"))]
 pub const MAX_UAVS: usize = vt_dissipative::MAX_UAVS;
+/// Team capacity of the fixed-size controller types (`large-teams`: host builds).
+#[cfg(feature = "large-teams")]
+pub const MAX_UAVS: usize = 128;
 /// Arc-length table size of the tube; host-sim's `TUBE_SAMPLES` is the same constant, so the
 /// firmware and the simulator build the same table.
 pub const TUBE_SAMPLES: usize = vt_tube::DEFAULT_SAMPLES;

@@ -81,6 +81,14 @@ const FRAME_LOCAL_NED: u8 = 1;
 /// `MAV_CMD_NAV_WAYPOINT`.
 const CMD_NAV_WAYPOINT: u16 = 16;
 
+impl Item {
+    /// Waypoint `seq` of a tube as a ground station sends it: `MAV_CMD_NAV_WAYPOINT` in
+    /// `MAV_FRAME_LOCAL_NED`, `x` north and `y` east in 1e-4 m, the half-widths in m.
+    pub const fn tube_waypoint(seq: u16, x: i32, y: i32, w_left_m: f32, w_right_m: f32) -> Self {
+        Self { seq, frame: FRAME_LOCAL_NED, command: CMD_NAV_WAYPOINT, x, y, param1: w_left_m, param2: w_right_m }
+    }
+}
+
 /// Upload state.
 #[derive(Debug, Clone, Default)]
 pub struct MissionUpload {

@@ -26,14 +26,44 @@ pub struct ParamInfo {
     pub max: f32,
     /// Only integral values are accepted.
     pub integer: bool,
+    /// [`AUTO`] is also accepted: the value is derived aboard from the other parameters
+    /// ([`Params`]' accessors say how).
+    pub auto: bool,
 }
 
+/// The value of an `auto` parameter that asks the companion to derive it (PX4's `-1`
+/// convention).
+pub const AUTO: f32 = -1.0;
+
+/// The cap on the derived horizontal thrust reserve (`VL_H_RES = -1`), a fraction of `VL_T_MAX`
+/// (docs/design.md, "Overload in flight": measured against 0 .. 0.5 on the nominal and overload
+/// campaigns of the rigid-body plant).
+pub const HORIZONTAL_RESERVE_CAP: f32 = 0.5;
+/// The derived smallest vertical thrust (`VL_T_MIN = -1`) as a fraction of `VL_T_MAX` (keeps
+/// the rotors spinning; PX4's `MPC_THR_MIN` is 12 % of throttle, 5 % of thrust is this project's
+/// choice).
+pub const THRUST_MIN_FRACTION: f32 = 0.05;
+/// The derived height floor (`VT_Z_MIN = -1`): at most this, m ...
+pub const Z_MIN_CAP_M: f32 = 1.0;
+/// ... or this fraction of the nominal cable `VT_CABLE_L` when that is less.
+pub const Z_MIN_CABLE_FRACTION: f32 = 0.5;
+/// The derived longest plausible cable (`VT_CABLE_LMAX = -1`) over the nominal `VT_CABLE_L`: room
+/// for any length error a real cable has, far from a wrong measurement.
+pub const CABLE_LMAX_FACTOR: f32 = 1.5;
+/// The derived neighbour timeout (`FS_NBR_TMO = -1`) outside lockstep, s.
+pub const NEIGHBOUR_TIMEOUT_S: f32 = 0.5;
+
 const fn real(name: &'static str, default: f32, min: f32, max: f32) -> ParamInfo {
-    ParamInfo { name, default, min, max, integer: false }
+    ParamInfo { name, default, min, max, integer: false, auto: false }
 }
 
 const fn int(name: &'static str, default: f32, min: f32, max: f32) -> ParamInfo {
-    ParamInfo { name, default, min, max, integer: true }
+    ParamInfo { name, default, min, max, integer: true, auto: false }
+}
+
+/// A real parameter that defaults to [`AUTO`] (derived aboard).
+const fn derived(name: &'static str, min: f32, max: f32) -> ParamInfo {
+    ParamInfo { name, default: AUTO, min, max, integer: false, auto: true }
 }
 
 /// Largest gain accepted by the table (the crates check the rest).
@@ -66,8 +96,8 @@ macro_rules! params {
 }
 
 params! {
-    Id => int("VT_ID", 0.0, 0.0, 31.0), "This UAV's index in the team, `0..VT_N_UAVS`.";
-    NUavs => int("VT_N_UAVS", 3.0, 1.0, 32.0), "Team size.";
+    Id => int("VT_ID", 0.0, 0.0, (crate::MAX_UAVS - 1) as f32), "This UAV's index in the team, `0..VT_N_UAVS`.";
+    NUavs => int("VT_N_UAVS", 3.0, 1.0, crate::MAX_UAVS as f32), "Team size (at most the build's `MAX_UAVS`).";
     SysidBase => int("VT_SYSID_BASE", 1.0, 1.0, 223.0), "MAVLink system id of UAV 0; UAV `j` is `VT_SYSID_BASE + j`.";
     LoadComp => int("VT_LOAD_COMP", 100.0, 1.0, 255.0), "Component id of the load tracker on the own system (`MAV_COMP_ID_CAMERA`).";
     Lockstep => int("VT_LOCKSTEP", 0.0, 0.0, 1.0), "1: each own `LOCAL_POSITION_NED` is one low-level period (processor in the loop); 0: Tickers.";
@@ -75,7 +105,7 @@ params! {
     LlHz => int("VT_LL_HZ", 500.0, 1.0, 2000.0), "Low-level (velocity loop + CFO) rate, Hz; a multiple of `VT_HL_HZ`.";
     FsOwnTmo => real("FS_OWN_TMO", 0.1, 0.001, 10.0), "Own state older than this: hold, s.";
     FsLoadTmo => real("FS_LOAD_TMO", 0.5, 0.001, 10.0), "Load state older than this: hold, s.";
-    FsNbrTmo => real("FS_NBR_TMO", 0.5, 0.001, 10.0), "A neighbour's position older than this is stale, s.";
+    FsNbrTmo => derived("FS_NBR_TMO", 0.001, 10.0), "A neighbour's position older than this is stale, s (-1: half a high-level period in lockstep, where the simulator's link model relays only fresh positions; 0.5 s otherwise).";
     FsNbrAct => int("FS_NBR_ACT", 1.0, 0.0, 1.0), "Stale neighbour: 1 the team holds (failsafe), 0 drop its springs and fly on.";
     FsResume => real("FS_RESUME", 1.0, 0.0, 10.0), "Team hold: resume after this long without any alarm, s (rounded to high-level steps).";
     K1 => real("VT_K1", 0.3, 0.0, GAIN_MAX), "Passing gain `k1`, 1/s (eq:2-13).";
@@ -89,12 +119,12 @@ params! {
     LoadZRef => real("VT_LOAD_ZREF", 3.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Load altitude reference, m (ENU up).";
     LoadKg => real("VT_LOAD_KG", 3.06, 0.0, MASS_MAX_KG), "Declared load mass, kg (take-off calibration and pre-flight check).";
     CableK => real("VT_CABLE_K", 800.0, 0.0, 1.0e7), "Nominal cable stiffness, N/m (static stretch at take-off).";
-    CableLMax => real("VT_CABLE_LMAX", 10.0, 0.0, LENGTH_MAX_M), "Longest plausible cable, m (take-off calibration refuses longer).";
+    CableLMax => derived("VT_CABLE_LMAX", 0.0, LENGTH_MAX_M), "Longest plausible cable, m (take-off calibration refuses longer; -1: 1.5 `VT_CABLE_L`).";
     CableRated => real("VT_CABLE_RATED", 30.0, 0.0, FORCE_MAX_N), "Rated cable tension, N (pre-flight check).";
     MarginMin => real("VT_MARGIN_MIN", 0.01, -0.99, 10.0), "Required vertical-force margin of the pre-flight check, fraction.";
     Kz => real("VT_KZ", 1.0, 0.0, GAIN_MAX), "Altitude gain `k_z`, 1/s.";
     VzMax => real("VT_VZ_MAX", 1.0, 0.0, 50.0), "Vertical speed limit, m/s.";
-    ZMin => real("VT_Z_MIN", 1.0, 0.0, LENGTH_MAX_M), "Smallest UAV height above the load reference, m.";
+    ZMin => derived("VT_Z_MIN", 0.0, LENGTH_MAX_M), "Smallest UAV height above the load reference, m; also the shortest cable the calibration accepts (-1: 1 m, or half `VT_CABLE_L` when shorter).";
     KShare => real("VT_K_SHARE", 0.0, 0.0, GAIN_MAX), "Load-sharing gain `k_T`, (m/s)/N.";
     KLoadAlt => real("VT_K_LALT", 0.0, 0.0, GAIN_MAX), "Load-altitude gain `k_L` of the sharing integrator, 1/s.";
     DzMax => real("VT_DZ_MAX", 0.0, 0.0, LENGTH_MAX_M), "Bound on the sharing offset, m.";
@@ -110,7 +140,7 @@ params! {
     ILimX => real("VL_ILIM_X", 2.0, 0.0, 100.0), "Integral bound `|Ki int e_v|`, east, m/s^2.";
     ILimY => real("VL_ILIM_Y", 2.0, 0.0, 100.0), "Integral bound, north, m/s^2.";
     ILimZ => real("VL_ILIM_Z", 2.0, 0.0, 100.0), "Integral bound, up, m/s^2.";
-    ThrustMin => real("VL_T_MIN", 1.5, 0.0, FORCE_MAX_N), "Smallest vertical thrust, N.";
+    ThrustMin => derived("VL_T_MIN", 0.0, FORCE_MAX_N), "Smallest vertical thrust, N (-1: 5 % of `VL_T_MAX`).";
     ThrustMax => real("VL_T_MAX", 30.0, 0.0, FORCE_MAX_N), "Thrust limit, N (collective 1 in `SET_ATTITUDE_TARGET`).";
     TiltMax => real("VL_TILT_MAX", core::f32::consts::FRAC_PI_6, 0.0, 1.57), "Tilt limit, rad.";
     CfoMu => real("VL_CFO_MU", 15.0, 0.0, 1.0e4), "CFO bandwidth `mu`, rad/s (REFERENCE §4).";
@@ -124,8 +154,10 @@ params! {
     CapRate => real("VT_CAP_RATE", 0.2, 0.0, 100.0), "Largest closing rate of the formation scale, 1/s (opens at a quarter of it).";
     SagLo => real("VT_SAG_LO", 0.3, 0.0, LENGTH_MAX_M), "Load sag where the overload response begins, m.";
     SagHi => real("VT_SAG_HI", 0.8, 0.0, LENGTH_MAX_M), "Load sag where the overload response is complete, m.";
-    HReserve => real("VL_H_RES", 0.0, 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority).";
+    HReserve => derived("VL_H_RES", 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority; -1: as much as the airframe affords with its weight plus `VT_CABLE_RATED` under the vertical cap, at most 0.5, `ThrustLimits::rated_pull_reserve`).";
     CalN => int("VT_CAL_N", 100.0, 1.0, 100000.0), "Take-off survey: take-off positions averaged over this many samples per source before `MISSION_START` (1: the last sample; docs/design.md, \"Take-off survey\").";
+    CableL => real("VT_CABLE_L", 3.0, 0.0, LENGTH_MAX_M), "Nominal length of this UAV's cable, m (derives `VT_Z_MIN` and `VT_CABLE_LMAX`; the calibration measures the true one).";
+    Ctrl => int("VT_CTRL", 0.0, 0.0, 1.0), "High-level controller: 0 the paper's dissipative controller; 1 traditional virtual-tube control (the baseline, REFERENCE §2: `VT_K1`..`VT_R_ACT` are its gains, no springs).";
 }
 
 /// Number of parameters.
@@ -204,7 +236,8 @@ impl Params {
     pub fn set(&mut self, p: Param, value: f32) -> Result<(), ParamError> {
         let info = p.info();
         let integral = !info.integer || libm::truncf(value) == value;
-        if !(value.is_finite() && value >= info.min && value <= info.max && integral) {
+        let auto = info.auto && value == AUTO;
+        if !(auto || (value.is_finite() && value >= info.min && value <= info.max && integral)) {
             return Err(ParamError::BadValue);
         }
         if let Some(slot) = self.values.get_mut(p as usize) {
@@ -229,8 +262,8 @@ impl Params {
         CalibrationParams {
             load_mass_kg: self.get(Param::LoadKg),
             stiffness_n_per_m: self.get(Param::CableK),
-            min_length_m: self.get(Param::ZMin),
-            max_length_m: self.get(Param::CableLMax),
+            min_length_m: self.min_height_m(),
+            max_length_m: self.max_cable_m(),
             min_cos_lean: MIN_COS_LEAN,
         }
     }
@@ -271,7 +304,7 @@ impl Params {
                 cable_stretch_m: cal.stretch_m,
                 kz_per_s: g(Param::Kz),
                 vz_max_mps: g(Param::VzMax),
-                min_height_m: g(Param::ZMin),
+                min_height_m: self.min_height_m(),
                 tension_share_n: cal.tension_share_n,
                 share_gain_mps_per_n: g(Param::KShare),
                 load_altitude_gain_per_s: g(Param::KLoadAlt),
@@ -314,7 +347,7 @@ impl Params {
         let g = |p| self.get(p);
         let v = |x, y, z| Vector3::new(g(x), g(y), g(z));
         let gains = PidGains { kp: v(Param::KpX, Param::KpY, Param::KpZ), ki: v(Param::KiX, Param::KiY, Param::KiZ), kd: v(Param::KdX, Param::KdY, Param::KdZ) };
-        let limits = ThrustLimits::new(g(Param::ThrustMin), g(Param::ThrustMax), g(Param::TiltMax))?.with_horizontal_reserve(g(Param::HReserve))?;
+        let limits = ThrustLimits::new(self.thrust_min_n(), g(Param::ThrustMax), g(Param::TiltMax))?.with_horizontal_reserve(self.horizontal_reserve())?;
         let cfo = CfoParams::new(g(Param::CfoMu), g(Param::Mass), self.low_level_dt_s())?;
         VelocityLoopParams::new(gains, limits, v(Param::ILimX, Param::ILimY, Param::ILimZ), cfo)?.with_actuator_lag(g(Param::ActLag))?.with_command_filter(g(Param::CmdTau))
     }
@@ -343,9 +376,60 @@ impl Params {
         Unit::try_new(h, 1e-6).unwrap_or_else(|| Unit::new_unchecked(Vector2::new(0.0, 1.0)))
     }
 
-    /// Timeout of `p` (one of the `FS_*` parameters) in milliseconds.
+    /// Timeout of `p` (one of the `FS_*` parameters) in milliseconds; `FS_NBR_TMO` as
+    /// [`Self::neighbour_timeout_ms`].
     pub fn timeout_ms(&self, p: Param) -> u32 {
+        if p == Param::FsNbrTmo {
+            return self.neighbour_timeout_ms();
+        }
         (self.get(p) * 1000.0) as u32
+    }
+
+    /// The value of `p` unless it is [`AUTO`].
+    fn explicit(&self, p: Param) -> Option<f32> {
+        let v = self.get(p);
+        (v != AUTO || !p.info().auto).then_some(v)
+    }
+
+    /// The altitude law's height floor and the shortest cable the calibration accepts
+    /// (`VT_Z_MIN`), m: derived as `min(1, 0.5 VT_CABLE_L)`.
+    pub fn min_height_m(&self) -> f32 {
+        self.explicit(Param::ZMin).unwrap_or_else(|| {
+            let half = Z_MIN_CABLE_FRACTION * self.get(Param::CableL);
+            if half < Z_MIN_CAP_M { half } else { Z_MIN_CAP_M }
+        })
+    }
+
+    /// The longest plausible cable (`VT_CABLE_LMAX`), m: derived as `1.5 VT_CABLE_L`.
+    pub fn max_cable_m(&self) -> f32 {
+        self.explicit(Param::CableLMax).unwrap_or_else(|| CABLE_LMAX_FACTOR * self.get(Param::CableL))
+    }
+
+    /// The smallest vertical thrust (`VL_T_MIN`), N: derived as 5 % of `VL_T_MAX`.
+    pub fn thrust_min_n(&self) -> f32 {
+        self.explicit(Param::ThrustMin).unwrap_or_else(|| THRUST_MIN_FRACTION * self.get(Param::ThrustMax))
+    }
+
+    /// The horizontal thrust reserve (`VL_H_RES`), fraction of `VL_T_MAX`: derived by
+    /// [`ThrustLimits::rated_pull_reserve`] from `VL_MASS`, `VT_CABLE_RATED` and `VL_T_MAX`,
+    /// capped at [`HORIZONTAL_RESERVE_CAP`].
+    pub fn horizontal_reserve(&self) -> f32 {
+        self.explicit(Param::HReserve).unwrap_or_else(|| {
+            ThrustLimits::rated_pull_reserve(self.get(Param::Mass), self.get(Param::CableRated), self.get(Param::ThrustMax), HORIZONTAL_RESERVE_CAP)
+        })
+    }
+
+    /// A neighbour's position is stale after this long (`FS_NBR_TMO`), ms: derived as half a
+    /// high-level period in lockstep (the simulator's link model relays, once per high-level
+    /// period, only the positions it holds fresh: the companion then uses exactly those;
+    /// docs/design.md, "Team failsafe"), 0.5 s otherwise.
+    pub fn neighbour_timeout_ms(&self) -> u32 {
+        let s = match self.explicit(Param::FsNbrTmo) {
+            Some(s) => s,
+            None if self.get_u32(Param::Lockstep) == 1 => 0.5 / self.get(Param::HlHz),
+            None => NEIGHBOUR_TIMEOUT_S,
+        };
+        (s * 1000.0) as u32
     }
 }
 
@@ -357,7 +441,8 @@ mod tests {
     fn names_fit_mavlink_and_are_unique() {
         for (k, info) in TABLE.iter().enumerate() {
             assert!(info.name.len() <= 16, "{}", info.name);
-            assert!(info.min <= info.default && info.default <= info.max, "{}", info.name);
+            let auto = info.auto && info.default == AUTO;
+            assert!(auto || (info.min <= info.default && info.default <= info.max), "{}", info.name);
             assert_eq!(Param::from_name(info.name).map(|p| p as usize), Some(k));
         }
         assert_eq!(ALL.len(), TABLE.len());
@@ -390,9 +475,38 @@ mod tests {
         let mut p = Params::new();
         assert_eq!(p.set(Param::K1, f32::NAN), Err(ParamError::BadValue));
         assert_eq!(p.set(Param::NUavs, 2.5), Err(ParamError::BadValue));
-        assert_eq!(p.set(Param::NUavs, 33.0), Err(ParamError::BadValue));
+        assert_eq!(p.set(Param::NUavs, crate::MAX_UAVS as f32 + 1.0), Err(ParamError::BadValue));
         assert_eq!(p.set(Param::NUavs, 10.0), Ok(()));
         assert_eq!(p.get_u32(Param::NUavs), 10);
+    }
+
+    #[test]
+    fn derived_values_follow_their_rules_and_explicit_values_win() {
+        let mut p = Params::new();
+        // Defaults: the experiment's airframe (1.47 kg, 30 N) on 3 m cables rated 30 N.
+        assert_eq!(p.min_height_m(), 1.0);
+        assert_eq!(p.max_cable_m(), 4.5);
+        assert_eq!(p.thrust_min_n(), 1.5);
+        assert_eq!(p.horizontal_reserve(), 0.0, "30 N cannot lift 1.47 kg + 30 N: no reserve");
+        assert_eq!(p.neighbour_timeout_ms(), 500);
+        p.set(Param::CableL, 1.6).unwrap();
+        assert_eq!(p.min_height_m(), 0.8, "half a short cable");
+        p.set(Param::Lockstep, 1.0).unwrap();
+        assert_eq!(p.neighbour_timeout_ms(), 10, "half of 1 / 50 Hz");
+        p.set(Param::Mass, 2.0).unwrap();
+        p.set(Param::ThrustMax, 50.0).unwrap();
+        p.set(Param::CableRated, 20.0).unwrap();
+        assert_eq!(p.horizontal_reserve(), HORIZONTAL_RESERVE_CAP, "the paper airframe affords the cap");
+        assert_eq!(p.thrust_min_n(), 2.5);
+        for (q, v) in [(Param::ZMin, 0.7), (Param::CableLMax, 9.0), (Param::ThrustMin, 3.0), (Param::HReserve, 0.2), (Param::FsNbrTmo, 0.25)] {
+            p.set(q, v).unwrap();
+        }
+        assert_eq!((p.min_height_m(), p.max_cable_m(), p.thrust_min_n(), p.horizontal_reserve(), p.neighbour_timeout_ms()), (0.7, 9.0, 3.0, 0.2, 250));
+        // -1 only where a rule exists; other negatives stay refused.
+        assert_eq!(p.set(Param::ZMin, -0.5), Err(ParamError::BadValue));
+        assert_eq!(p.set(Param::K1, AUTO), Err(ParamError::BadValue));
+        assert_eq!(p.set(Param::ZMin, AUTO), Ok(()));
+        assert_eq!(p.min_height_m(), 0.8);
     }
 
     #[test]

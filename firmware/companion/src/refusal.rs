@@ -111,6 +111,22 @@ impl Line {
     }
 }
 
+/// The refusal in full (the crates' own messages with every number), for a log or a host; the
+/// link carries [`StartError::lines`].
+impl core::fmt::Display for StartError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoTube => f.write_str("no valid tube uploaded"),
+            Self::BadTeam => f.write_str("VT_ID >= VT_N_UAVS, or VT_LL_HZ not a multiple of VT_HL_HZ"),
+            Self::StaleData => f.write_str("own, load or a neighbour's state missing or stale"),
+            Self::Controller(e) => write!(f, "controller parameters: {e}"),
+            Self::VelocityLoop(e) => write!(f, "velocity loop parameters: {e}"),
+            Self::Calibration(e) => write!(f, "take-off calibration: {e}"),
+            Self::Infeasible(e) => write!(f, "pre-flight check: {e}"),
+        }
+    }
+}
+
 impl StartError {
     /// The refusal code reported in `HEARTBEAT.custom_mode` bits 16..23 (0: none).
     pub fn code(&self) -> u8 {

@@ -9,7 +9,7 @@
 pub mod team;
 pub mod world;
 
-pub use team::{CrateTeam, Meas, Setpoint, Team, TeamStart, Tick};
+pub use team::{holding_of, team_mode_of, CompanionTeam, Meas, Setpoint, Team, TeamStart, Tick};
 pub use world::World;
 
 use crate::record::RunRecord;

@@ -3,35 +3,22 @@
 
 use super::port::Port;
 use super::wire::{Encoder, Rx};
-use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, LOAD_COMPONENT_ID, LOAD_TIMEOUT_S, OWN_TIMEOUT_S, SYSID_BASE};
-use crate::scenario::{LoadedScenario, StaleNeighbour};
-use crate::sim::{self, Takeoff};
+use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID};
+use crate::companion::{param_list, params_for, tube_waypoints, WireWaypoint};
+use crate::scenario::LoadedScenario;
+use crate::sim::{self, ControllerKind, Takeoff};
 use mavlink::dialects::common::{
     MavCmd, MavFrame, MavParamType, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
 };
 use mavlink::MessageData;
 use vt_companion::{Param, COMPANION_COMPONENT_ID};
-use vt_dissipative::MAX_UAVS;
-
-/// A waypoint as sent in `MISSION_ITEM_INT`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WireWaypoint {
-    /// North, 1e-4 m.
-    pub x: i32,
-    /// East, 1e-4 m.
-    pub y: i32,
-    /// Left half-width, m.
-    pub w_left_m: f32,
-    /// Right half-width, m.
-    pub w_right_m: f32,
-}
 
 /// Everything one UAV's companion is told before the mission.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UavConfig {
     /// Its MAVLink system id.
     pub system_id: u8,
-    /// Parameter values (every parameter of the table that the scenario determines).
+    /// Every parameter of the companion's table, in table order ([`crate::companion::params_for`]).
     pub params: Vec<(Param, f32)>,
     /// The tube.
     pub waypoints: Vec<WireWaypoint>,
@@ -63,105 +50,24 @@ pub fn team_setup(ls: &LoadedScenario, lockstep: bool) -> Result<TeamSetup, PilE
 /// # Errors
 /// As [`team_setup`].
 pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, cable_rated_n: f64, lockstep: bool) -> Result<TeamSetup, PilError> {
+    team_setup_for(ls, ControllerKind::Dissipative, to, cable_rated_n, lockstep)
+}
+
+/// [`team_setup_with`] for the high-level law `kind` (`VT_CTRL`).
+///
+/// # Errors
+/// As [`team_setup`].
+pub fn team_setup_for(ls: &LoadedScenario, kind: ControllerKind, to: Takeoff, cable_rated_n: f64, lockstep: bool) -> Result<TeamSetup, PilError> {
     let s = &ls.scenario;
     let n = s.cables.lengths_m.len();
-    if n > MAX_UAVS {
-        return err(format!("{n} UAVs > capacity {MAX_UAVS}"));
-    }
-    let mut waypoints = Vec::new();
-    for (k, w) in s.tube.waypoints.iter().enumerate() {
-        let (east, north, wl, wr) = (w[0], w[1], w[2], w[3]);
-        let q = |v: f64| (v * 1e4).round();
-        let (x, y) = (q(north), q(east));
-        // The firmware computes `x as f32 / 1e4`; it must equal the scenario's value as f32.
-        if (x as f32 / 1e4) != north as f32 || (y as f32 / 1e4) != east as f32 || x.abs() > f64::from(i32::MAX) || y.abs() > f64::from(i32::MAX) {
-            return err(format!("tube waypoint {k}: not representable in 0.1 mm units without changing its f32 value"));
-        }
-        waypoints.push(WireWaypoint { x: x as i32, y: y as i32, w_left_m: wl as f32, w_right_m: wr as f32 });
-    }
-    let vl = sim::velocity_loop(s).map_err(|e| PilError(e.to_string()))?;
-    let p = vl.params();
-    let tray = sim::tray(s);
-    let c = &s.controller;
-    let r = &s.rates;
-    let cap = sim::capacity_params(s, cable_rated_n);
+    let waypoints = tube_waypoints(s).map_err(|e| PilError(e.0))?;
     let configs = (0..n)
         .map(|i| {
-            // What the companion calibrates and checks with at MISSION_START: the same f32
-            // values CrateTeam::start passes to the crate (sim::calibration_params,
-            // sim::feasibility_params; the lean is measured aboard, any value does here).
-            let cal = sim::calibration_params(s, i);
-            let feas = sim::feasibility_params(s, cable_rated_n, 1.0);
-            let g = p.gains();
-            let lim = p.integral_limit_mps2();
-            let params = vec![
-                (Param::NUavs, n as f32),
-                (Param::Id, i as f32),
-                (Param::SysidBase, f32::from(SYSID_BASE)),
-                (Param::LoadComp, f32::from(LOAD_COMPONENT_ID)),
-                (Param::Lockstep, if lockstep { 1.0 } else { 0.0 }),
-                (Param::HlHz, r.high_level_hz as f32),
-                (Param::LlHz, r.low_level_hz as f32),
-                (Param::FsOwnTmo, OWN_TIMEOUT_S),
-                (Param::FsLoadTmo, LOAD_TIMEOUT_S),
-                // The host's link model ages the team's data (link.stale_timeout_s) and relays
-                // only what is fresh, once per high-level period: half a period makes the
-                // companion use exactly that (docs/design.md, "Team failsafe").
-                (Param::FsNbrTmo, 0.5 / r.high_level_hz as f32),
-                (Param::FsNbrAct, if s.failsafe.stale_neighbour == StaleNeighbour::Hold { 1.0 } else { 0.0 }),
-                (Param::FsResume, s.failsafe.resume_s as f32),
-                (Param::K1, c.k1 as f32),
-                (Param::K2, c.k2 as f32),
-                (Param::K3, c.k3 as f32),
-                (Param::VMax, c.v_max_mps as f32),
-                (Param::RSafe, c.r_safe_m as f32),
-                (Param::RActive, c.r_active_m as f32),
-                (Param::TrayH, tray.height_above_load_m),
-                (Param::TrayHMin, tray.min_height_above_load_m),
-                (Param::LoadZRef, s.load.altitude_m as f32),
-                (Param::LoadKg, cal.load_mass_kg),
-                (Param::CableK, cal.stiffness_n_per_m),
-                (Param::CableLMax, cal.max_length_m),
-                (Param::CableRated, feas.cable_rated_n),
-                (Param::MarginMin, feas.min_margin),
-                (Param::Kz, c.kz_per_s as f32),
-                (Param::VzMax, c.vz_max_mps as f32),
-                (Param::ZMin, cal.min_length_m),
-                (Param::KShare, c.share_gain_mps_per_n as f32),
-                (Param::KLoadAlt, c.load_altitude_gain_per_s as f32),
-                (Param::DzMax, c.share_offset_max_m as f32),
-                (Param::KpX, g.kp.x),
-                (Param::KpY, g.kp.y),
-                (Param::KpZ, g.kp.z),
-                (Param::KiX, g.ki.x),
-                (Param::KiY, g.ki.y),
-                (Param::KiZ, g.ki.z),
-                (Param::KdX, g.kd.x),
-                (Param::KdY, g.kd.y),
-                (Param::KdZ, g.kd.z),
-                (Param::ILimX, lim.x),
-                (Param::ILimY, lim.y),
-                (Param::ILimZ, lim.z),
-                (Param::ThrustMin, p.limits().thrust_min_n()),
-                (Param::ThrustMax, p.limits().thrust_max_n()),
-                (Param::TiltMax, s.uavs.tilt_max_deg.to_radians() as f32),
-                (Param::CfoMu, p.cfo().bandwidth_rad_s()),
-                (Param::ActLag, p.actuator_lag_s()),
-                (Param::CmdTau, p.command_filter_s()),
-                (Param::Mass, p.mass_kg()),
-                (Param::Yaw, 0.0),
-                (Param::CapOn, if cap.load_mass_kg > 0.0 { 1.0 } else { 0.0 }),
-                (Param::CapMargin, cap.margin),
-                (Param::SepMin, cap.separation_m),
-                (Param::CapRate, cap.rate_per_s),
-                (Param::SagLo, cap.sag_start_m),
-                (Param::SagHi, cap.sag_full_m),
-                (Param::HReserve, sim::horizontal_reserve(s) as f32),
-                (Param::CalN, c.survey_samples as f32),
-            ];
-            UavConfig { system_id: SYSID_BASE + i as u8, params, waypoints: waypoints.clone() }
+            // The one parameter map (the SIL team sets the same values directly).
+            let params = params_for(s, i, kind, cable_rated_n, lockstep).map_err(|e| PilError(e.0))?;
+            Ok(UavConfig { system_id: params.own_system_id(), params: param_list(&params), waypoints: waypoints.clone() })
         })
-        .collect();
+        .collect::<Result<_, PilError>>()?;
     Ok(TeamSetup { configs, takeoff: to })
 }
 

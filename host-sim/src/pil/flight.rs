@@ -4,16 +4,16 @@
 
 use nalgebra::Vector3;
 use vt_companion::frames::enu_from_ned;
-use super::config::{configure, start_mission_with_reason, sync, team_setup_with, UavConfig};
+use super::config::{configure, start_mission_with_reason, sync, team_setup_for, UavConfig};
 use super::port::Port;
 use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
 use vt_companion::Mode;
 use vt_dissipative::TeamMode;
 use super::{err, PilError};
-use crate::mission::{self, Setpoint, Team, TeamStart, Tick};
+use crate::mission::{self, holding_of, team_mode_of, Setpoint, Team, TeamStart, Tick};
 use crate::record::RunRecord;
 use crate::scenario::LoadedScenario;
-use crate::sim::{RunOptions, SimError};
+use crate::sim::{ControllerKind, RunOptions, SimError};
 use crate::summary::Summary;
 use serde::Serialize;
 
@@ -71,6 +71,7 @@ pub struct FlightOutput {
 /// The companions behind `ports` (one per UAV, fresh) as a [`Team`].
 pub struct PortTeam<'p, P: Port> {
     ports: &'p mut [P],
+    kind: ControllerKind,
     label: String,
     configs: Vec<UavConfig>,
     enc: Vec<Encoders>,
@@ -97,6 +98,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
         let n = ports.len();
         Self {
             ports,
+            kind: ControllerKind::Dissipative,
             label: label.into(),
             configs: Vec::new(),
             enc: (0..n).map(|_| Encoders::default()).collect(),
@@ -108,6 +110,13 @@ impl<'p, P: Port> PortTeam<'p, P> {
             last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
             relayed: vec![vec![TeamMode::Transport; n]; n],
         }
+    }
+
+    /// The same team flying the high-level law `kind` (`VT_CTRL`).
+    #[must_use]
+    pub fn with_controller(mut self, kind: ControllerKind) -> Self {
+        self.kind = kind;
+        self
     }
 
     fn tick_frames(&mut self, i: usize, tick: &Tick<'_>) -> Vec<u8> {
@@ -157,7 +166,7 @@ impl<P: Port> PortTeam<'_, P> {
         if self.ports.len() != n {
             return Err(SimError(format!("{} ports for {n} UAVs", self.ports.len())));
         }
-        let setup = team_setup_with(ls, at.takeoff.clone(), at.cable_rated_n, true).map_err(|e| SimError(e.0))?;
+        let setup = team_setup_for(ls, self.kind, at.takeoff.clone(), at.cable_rated_n, true).map_err(|e| SimError(e.0))?;
         self.configs = setup.configs;
         for i in 0..n {
             let cfg = self.configs[i].clone();
@@ -249,21 +258,12 @@ impl<P: Port> Team for PortTeam<'_, P> {
 
     fn holding(&self) -> Vec<bool> {
         // HEARTBEAT.custom_mode = mode | hold reasons << 8 (docs/protocol.md).
-        self.custom_mode.iter().map(|m| (m >> 8) & 0xff != 0 || team_mode_of(*m).is_holding()).collect()
+        self.custom_mode.iter().map(|m| holding_of(*m)).collect()
     }
 
     fn team_modes(&self, out: &mut [TeamMode]) {
         // The companion sends a HEARTBEAT at every change of its team mode.
         out.iter_mut().zip(&self.custom_mode).for_each(|(o, m)| *o = team_mode_of(*m));
-    }
-}
-
-/// The team mode in a companion's `HEARTBEAT.custom_mode` (low byte, docs/protocol.md).
-fn team_mode_of(custom_mode: u32) -> TeamMode {
-    match custom_mode & 0xFF {
-        m if m == Mode::Hold as u32 => TeamMode::Hold,
-        m if m == Mode::TeamHold as u32 => TeamMode::TeamHold,
-        _ => TeamMode::Transport,
     }
 }
 
@@ -276,7 +276,7 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], opts: &RunOptions, lab
     if ports.is_empty() {
         return err("no companions");
     }
-    let mut team = PortTeam::new(ports, label);
+    let mut team = PortTeam::new(ports, label).with_controller(opts.controller);
     let flown = mission::fly(ls, opts, &mut team).map_err(|e| PilError(e.0))?;
     Ok(FlightOutput {
         summary: flown.summary,

@@ -40,7 +40,8 @@ pub mod wire;
 
 pub use bench::{bench, bench_scenario, BenchReport, StepCounts, BENCH_TEAM_SIZES};
 pub use cli::{cli, cli_bench};
-pub use config::{configure, recv_until, start_mission, start_mission_with_reason, team_setup, team_setup_with, TeamSetup, UavConfig, WireWaypoint};
+pub use config::{configure, recv_until, start_mission, start_mission_with_reason, team_setup, team_setup_for, team_setup_with, TeamSetup, UavConfig};
+pub use crate::companion::{WireWaypoint, LOAD_COMPONENT_ID, LOAD_TIMEOUT_S, OWN_TIMEOUT_S, SYSID_BASE};
 pub use flight::{fly, CommandKind, CommandRecord, FlightOutput, PortTeam};
 pub use port::{build_firmware, decode_defmt, default_firmware_path, firmware_dir, qemu_available, Port, QemuOptions, QemuPort, SilPort};
 pub use report::{compare, run, write_report, CycleStats, Difference, PilOptions, PilReport};
@@ -53,16 +54,8 @@ use std::time::Duration;
 pub const GCS_SYSTEM_ID: u8 = 255;
 /// Component id the host uses as ground station (`MAV_COMP_ID_MISSIONPLANNER`).
 pub const GCS_COMPONENT_ID: u8 = 190;
-/// Component id of the load tracker on every UAV (`VT_LOAD_COMP`, `MAV_COMP_ID_CAMERA`).
-pub const LOAD_COMPONENT_ID: u8 = 100;
-/// System id of UAV 0 (`VT_SYSID_BASE`).
-pub const SYSID_BASE: u8 = 1;
 /// How long the host waits for one answer from an emulator before giving up.
 pub const REPLY_TIMEOUT: Duration = Duration::from_secs(30);
-/// Own-state timeout sent to the firmware (`FS_OWN_TMO`), s: ten low-level periods at 500 Hz.
-pub const OWN_TIMEOUT_S: f32 = 0.02;
-/// Load-state timeout (`FS_LOAD_TMO`), s.
-pub const LOAD_TIMEOUT_S: f32 = 0.5;
 
 /// A PIL run that could not be carried out.
 #[derive(Debug, Clone, PartialEq)]

@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use vt_companion::{Companion, CompanionTube, Framer, Io, COMPANION_COMPONENT_ID};
+use crate::companion::HostCompanion;
+use vt_companion::{Companion, Framer, Io, COMPANION_COMPONENT_ID};
 use super::wire::*;
 use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, REPLY_TIMEOUT};
 
@@ -66,15 +67,9 @@ impl Io for TwinIo<'_> {
     }
 }
 
-/// Tube storage of dropped twins, reused by new ones: a companion borrows its tube for its
-/// lifetime (`'static` on the MCU), so the twins take theirs from this pool (leaked once,
-/// about 9 KiB each); memory is bounded by the most twins alive at once.
-static TUBE_POOL: std::sync::Mutex<Vec<&'static mut CompanionTube>> = std::sync::Mutex::new(Vec::new());
-
-/// The firmware's companion compiled for the host (software in the loop).
+/// The firmware's companion compiled for the host (software in the loop), fed bytes.
 pub struct SilPort {
-    /// Always `Some` until dropped (then its tube goes back to the pool).
-    companion: Option<Box<Companion<'static>>>,
+    companion: HostCompanion,
     framer: Framer,
     pending: VecDeque<Rx>,
 }
@@ -88,32 +83,19 @@ impl Default for SilPort {
 impl SilPort {
     /// A fresh companion.
     pub fn new() -> Self {
-        let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
-        let tube: &'static mut CompanionTube = pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())));
-        Self { companion: Some(Box::new(Companion::new(tube))), framer: Framer::new(), pending: VecDeque::new() }
+        Self { companion: HostCompanion::new(), framer: Framer::new(), pending: VecDeque::new() }
     }
 
     /// The companion (for inspection in tests); `None` only while the twin is being dropped.
     pub fn companion(&self) -> Option<&Companion<'static>> {
-        self.companion.as_deref()
-    }
-}
-
-impl Drop for SilPort {
-    fn drop(&mut self) {
-        if let Some(c) = self.companion.take() {
-            let tube = c.into_tube();
-            if let Ok(mut pool) = TUBE_POOL.lock() {
-                pool.push(tube);
-            }
-        }
+        self.companion.get()
     }
 }
 
 impl Port for SilPort {
     fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
         let mut out = Vec::new();
-        let Some(companion) = self.companion.as_deref_mut() else {
+        let Some(companion) = self.companion.get_mut() else {
             return Err(PilError("host twin: dropped".into()));
         };
         let _request = companion.on_bytes(bytes, &mut TwinIo { out: &mut out });

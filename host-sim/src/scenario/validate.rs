@@ -110,7 +110,7 @@ impl Validator<'_> {
         self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
         self.non_negative("uavs", "thrust_lag_s", s.uavs.thrust_lag_s)?;
         // issue 17: the velocity loop needs the hover thrust m g within its limits
-        // [0.05 thrust_max, thrust_max] (sim::velocity_loop, vt_cfo::VelocityLoopParams::new, in
+        // [0.05 thrust_max, thrust_max] (the companion's derived VL_T_MIN, vt_cfo::VelocityLoopParams::new, in
         // f32 as there); else the crate's error surfaced as a bare SimError with no location.
         let hover_n = s.uavs.mass_kg as f32 * vt_cfo::GRAVITY_MPS2;
         let thrust_max = s.uavs.thrust_max_n as f32;
@@ -338,7 +338,9 @@ impl Validator<'_> {
         match crate::sim::preflight(s, s.cables.rated_n) {
             Ok(_) => Ok(()),
             Err(e @ vt_dissipative::FeasibilityError::Infeasible { .. }) => {
-                let p = crate::sim::feasibility_params(s, s.cables.rated_n, crate::sim::takeoff_cos_lean(s, s.cables.rated_n) as f32);
+                let Some(p) = crate::sim::feasibility_at_takeoff(s, s.cables.rated_n) else {
+                    return Err(self.err("load", "mass_kg", e.to_string()));
+                };
                 let rotor = vt_dissipative::feasibility::rotor_capacity_n(p.uav_mass_kg * vt_dissipative::calibration::GRAVITY_MPS2, p.thrust_max_n, p.tilt_max_rad, p.cos_lean);
                 Err(self.err("load", "mass_kg", format!(
                     "{e}; {} UAVs x min(cable rated {:.1} N, rotors {rotor:.1} N) at the take-off lean cos {:.4}: lower the load, add UAVs, \

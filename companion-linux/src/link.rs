@@ -1,0 +1,113 @@
+//! The companion's MAVLink link on Linux: a UDP socket or a serial port (docs/deploy.md).
+
+use std::io::{self, Read, Write};
+use std::net::{SocketAddr, UdpSocket};
+use std::time::Duration;
+
+/// Largest datagram or read chunk, bytes (a MAVLink 2 frame is at most 280).
+pub const READ_CHUNK: usize = 2048;
+
+/// A byte link to the autopilot and the team.
+pub trait Link {
+    /// Waits at most `timeout` for bytes; returns how many were read into `buf` (0: none).
+    ///
+    /// # Errors
+    /// The link failed for good.
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
+
+    /// Sends one complete MAVLink frame.
+    ///
+    /// # Errors
+    /// The link failed for good.
+    fn send(&mut self, frame: &[u8]) -> io::Result<()>;
+}
+
+/// MAVLink over UDP: one frame per datagram, to `remote`, or to whoever sent last when no
+/// remote is given (as PX4's and mavlink-router's UDP servers answer their clients).
+pub struct Udp {
+    socket: UdpSocket,
+    remote: Option<SocketAddr>,
+    fixed_remote: bool,
+}
+
+impl Udp {
+    /// Binds `bind`; sends to `remote` if given.
+    ///
+    /// # Errors
+    /// The address cannot be bound.
+    pub fn open(bind: SocketAddr, remote: Option<SocketAddr>) -> io::Result<Self> {
+        let socket = UdpSocket::bind(bind)?;
+        Ok(Self { socket, remote, fixed_remote: remote.is_some() })
+    }
+
+    /// The bound address (the port the OS chose for `:0`).
+    ///
+    /// # Errors
+    /// The socket has no local address.
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.socket.local_addr()
+    }
+}
+
+impl Link for Udp {
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        // A zero timeout means "block" to the OS: wait at least 1 us.
+        self.socket.set_read_timeout(Some(timeout.max(Duration::from_micros(1))))?;
+        match self.socket.recv_from(buf) {
+            Ok((n, from)) => {
+                if !self.fixed_remote {
+                    self.remote = Some(from);
+                }
+                Ok(n)
+            }
+            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => Ok(0),
+            // An ICMP "port unreachable" from an earlier send (the peer not up yet): not fatal.
+            Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        let Some(to) = self.remote else {
+            return Ok(()); // nobody to talk to yet
+        };
+        match self.socket.send_to(frame, to) {
+            Ok(_) => Ok(()),
+            // A peer that is not listening, or a full buffer: the frame is lost, as on a radio.
+            Err(e) if matches!(e.kind(), io::ErrorKind::ConnectionRefused | io::ErrorKind::WouldBlock) => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// MAVLink over a serial port (8N1, no flow control), e.g. a Raspberry Pi UART wired to PX4
+/// `TELEM2` or ArduPilot `SERIAL2`.
+pub struct Serial {
+    port: Box<dyn serialport::SerialPort>,
+}
+
+impl Serial {
+    /// Opens `path` at `baud`.
+    ///
+    /// # Errors
+    /// The port cannot be opened or configured.
+    pub fn open(path: &str, baud: u32) -> io::Result<Self> {
+        let port = serialport::new(path, baud).timeout(Duration::from_millis(1)).open().map_err(io::Error::from)?;
+        Ok(Self { port })
+    }
+}
+
+impl Link for Serial {
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        self.port.set_timeout(timeout.max(Duration::from_micros(100))).map_err(io::Error::from)?;
+        match self.port.read(buf) {
+            Ok(n) => Ok(n),
+            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        self.port.write_all(frame)
+    }
+}

@@ -1,0 +1,141 @@
+//! The companion on the wall clock: bytes from the link into [`Companion::on_bytes`], the two
+//! control steps at `VT_HL_HZ` and `VT_LL_HZ` (the firmware's Tickers; high level first when
+//! both are due), frames out. With `VT_LOCKSTEP = 1` the steps run on received own states
+//! instead, as in the firmware (a simulator driving the clock).
+
+use crate::link::{Link, READ_CHUNK};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+use vt_companion::{Companion, Io, Mode, Request};
+
+/// How long one wait for bytes may last when no step is due, ms (the stop flag is polled).
+const IDLE_WAIT_MS: u64 = 20;
+/// A step more than this many periods late is skipped, not caught up (a stalled process must
+/// not fire a burst of stale steps).
+const MAX_LATE_PERIODS: u32 = 5;
+
+/// Why the loop ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Exit {
+    /// The stop flag (Ctrl-C, SIGTERM): the team was told to hold.
+    Stopped,
+    /// `MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN` with `param1 = 2`.
+    Shutdown,
+    /// `MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN` with `param1 = 1`: start over as a fresh companion
+    /// (the flight MCU keeps no parameters across a reset either).
+    Reboot,
+}
+
+/// The board side of the companion on Linux: a monotonic clock and the outgoing frames.
+struct WallIo<'a> {
+    start: Instant,
+    out: &'a mut Vec<Vec<u8>>,
+}
+
+impl Io for WallIo<'_> {
+    fn now_ms(&self) -> u32 {
+        self.start.elapsed().as_millis() as u32
+    }
+
+    /// Microseconds (the Linux "cycle"; docs/deploy.md).
+    fn cycles(&self) -> u32 {
+        self.start.elapsed().as_micros() as u32
+    }
+
+    fn send(&mut self, frame: &[u8]) {
+        self.out.push(frame.to_vec());
+    }
+}
+
+/// A periodic deadline on the wall clock.
+struct Period {
+    next: Instant,
+    every: Duration,
+    hz: u32,
+}
+
+impl Period {
+    fn new(hz: u32, now: Instant) -> Self {
+        let every = Duration::from_secs_f64(1.0 / f64::from(hz.max(1)));
+        Self { next: now + every, every, hz }
+    }
+
+    /// True (and the deadline moved on) when the step is due at `now`.
+    fn due(&mut self, now: Instant) -> bool {
+        if now < self.next {
+            return false;
+        }
+        self.next += self.every;
+        if now > self.next + self.every * MAX_LATE_PERIODS {
+            self.next = now + self.every;
+        }
+        true
+    }
+}
+
+/// Runs `companion` on `link` until `stop` is set or a shutdown is requested; `on_mode` hears
+/// every mode change.
+///
+/// # Errors
+/// The link failed for good.
+pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool, mut on_mode: impl FnMut(Mode, u32)) -> std::io::Result<Exit> {
+    let start = Instant::now();
+    let mut out: Vec<Vec<u8>> = Vec::new();
+    let mut buf = vec![0u8; READ_CHUNK];
+    let mut mode = companion.mode();
+    let mut clocks: Option<(Period, Period)> = None;
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            // Tell the team to hold (a HEARTBEAT in Hold, followed by every fresh neighbour),
+            // then go: the autopilot's offboard failsafe takes over (docs/deploy.md).
+            companion.operator_hold(true, &mut WallIo { start, out: &mut out });
+            flush(link, &mut out)?;
+            return Ok(Exit::Stopped);
+        }
+        let now = Instant::now();
+        // The Tickers (re)start when the rates change, and never run in lockstep.
+        let rates = (companion.high_level_hz(), companion.low_level_hz());
+        if companion.lockstep() {
+            clocks = None;
+        } else if clocks.as_ref().is_none_or(|(h, l)| (h.hz, l.hz) != rates) {
+            clocks = Some((Period::new(rates.0, now), Period::new(rates.1, now)));
+        }
+        let wait = clocks.as_ref().map_or(Duration::from_millis(IDLE_WAIT_MS), |(h, l)| {
+            h.next.min(l.next).saturating_duration_since(now).min(Duration::from_millis(IDLE_WAIT_MS))
+        });
+        let n = link.recv(&mut buf, wait)?;
+        let mut io = WallIo { start, out: &mut out };
+        if n > 0 {
+            let exit = match companion.on_bytes(buf.get(..n).unwrap_or(&[]), &mut io) {
+                Some(Request::Shutdown) => Some(Exit::Shutdown),
+                Some(Request::Reboot) => Some(Exit::Reboot),
+                None => None,
+            };
+            if let Some(exit) = exit {
+                flush(link, &mut out)?;
+                return Ok(exit);
+            }
+        }
+        if let Some((hl, ll)) = clocks.as_mut() {
+            let now = Instant::now();
+            if hl.due(now) {
+                companion.high_level_step(&mut io);
+            }
+            if ll.due(now) {
+                companion.low_level_step(&mut io);
+            }
+        }
+        if companion.mode() != mode {
+            mode = companion.mode();
+            on_mode(mode, companion.hold_reasons().0.into());
+        }
+        flush(link, &mut out)?;
+    }
+}
+
+fn flush(link: &mut dyn Link, out: &mut Vec<Vec<u8>>) -> std::io::Result<()> {
+    for frame in out.drain(..) {
+        link.send(&frame)?;
+    }
+    Ok(())
+}
