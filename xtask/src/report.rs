@@ -43,10 +43,12 @@ const QP_OVER_CONTROLLER_N10_MIN: f64 = 10.0;
 /// "Per-UAV cost grows at most linearly in n": largest log-log slope between consecutive n,
 /// with 10 % allowance for timing noise.
 const SLOPE_MAX: f64 = 1.1;
-const REALTIME_10_MIN: f64 = 2_000.0;
-const REALTIME_100_MIN: f64 = 100.0;
-/// Issue 14: the 10-UAV mission on the rigid-body plant at >= 500 UAV-seconds per wall second.
-const RIGID_UAV_S_10_MIN: f64 = 500.0;
+/// Issue 26: the 10-UAV paper mission on the rigid-body plant at >= 500x real time on one core
+/// (5,000 UAV-seconds per wall second). Issue 14's 500 was read as UAV-s/s: the key and the bar
+/// are now the real-time factor.
+const RIGID_REALTIME_10_MIN: f64 = 500.0;
+/// The same bar in UAV-seconds per wall second (10 UAVs).
+const RIGID_UAV_S_10_MIN: f64 = 5_000.0;
 const FLASH_MAX_BYTES: f64 = 128.0 * 1024.0;
 const RAM_MAX_BYTES: f64 = 32.0 * 1024.0;
 /// Team sizes the MCU figures are measured for (the firmware's capacity is 32).
@@ -143,7 +145,8 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
             "allocation_ns": "criterion median of one clarabel solve of the n-cable tension allocation QP/SOCP (data update + solve), same bench run",
             "allocation_over_controller": "allocation_ns[n] / host_ns_per_uav_step[n]",
             "sil_realtime_factor": "simulated s / wall s of host-sim's mission loop (one thread), median over runs; point-mass UAVs and the paper's clamped cable",
-            "sil_realtime_factor_10uav_rigid": "UAV-seconds simulated per wall second (10 x simulated s / wall s), rigid-body UAVs and elastic cables, one thread, median over runs; sil_uav_seconds_per_s_10uav_point_mass: the same for point-mass UAVs, same bench run",
+            "sil_realtime_factor_10uav_rigid": "simulated s / wall s of the 10-UAV paper mission, rigid-body UAVs and elastic cables, one thread, median over runs (issue 26: >= 500)",
+            "sil_uav_seconds_per_s_10uav_rigid": "the same run in UAV-seconds per wall second (10 x simulated s / wall s; >= 5,000); sil_uav_seconds_per_s_10uav_point_mass: the same for point-mass UAVs",
             "plan_ms": "criterion median of one vt_plan::plan call incl. its work-space allocation (host-sim/benches/plan.rs): paper_map = the 11 paper obstacles, 500_obstacles = 25 seeded groves of 20 trunks over 100 m x 60 m, grid_1000 = a 1000 x 1000 cell grid incl. the distance transform",
             "firmware_flash_bytes": "ALLOC non-NOBITS sections of the release ELF (vector table, text, rodata, data initialisers)",
             "firmware_static_ram_bytes": "ALLOC+WRITE sections (data, bss, uninit); the stack is separate",
@@ -169,7 +172,8 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     doc.insert("sil_realtime_factor_10uav".into(), rt(&m10));
     doc.insert("sil_realtime_factor_100uav".into(), rt(&m100));
     let uav_s = |m: &Result<MissionBench, String>| m.as_ref().map_or(Value::Null, |m| json!(m.realtime_factor * m.n_uavs as f64));
-    doc.insert("sil_realtime_factor_10uav_rigid".into(), uav_s(&m10_rigid));
+    doc.insert("sil_realtime_factor_10uav_rigid".into(), rt(&m10_rigid));
+    doc.insert("sil_uav_seconds_per_s_10uav_rigid".into(), uav_s(&m10_rigid));
     doc.insert("sil_uav_seconds_per_s_10uav_point_mass".into(), uav_s(&m10));
     let mission_json = |m: &Result<MissionBench, String>| {
         m.as_ref().map_or(Value::Null, |m| json!({"runs": m.runs, "summary": m.summary}))
@@ -280,9 +284,8 @@ fn budgets(doc: &Map<String, Value>) -> Vec<Value> {
         budget("QP allocation / dissipative step, n = 10 (host, same run)", at(doc, "allocation_over_controller", "10"), QP_OVER_CONTROLLER_N10_MIN, false, "x"),
         budget("per-UAV step cost growth in n (log-log slope, host)", max_slope(doc, "host_ns_per_uav_step", &TEAM_SIZES), SLOPE_MAX, true, "slope"),
         budget("per-UAV step cost growth in n (log-log slope, MCU)", max_slope(doc, "mcu_instructions_per_uav_step", &MCU_SIZES), SLOPE_MAX, true, "slope"),
-        budget("10-UAV mission realtime factor (one core)", num(doc, "sil_realtime_factor_10uav"), REALTIME_10_MIN, false, "x"),
-        budget("100-UAV mission realtime factor", num(doc, "sil_realtime_factor_100uav"), REALTIME_100_MIN, false, "x"),
-        budget("10-UAV mission on the rigid-body plant, UAV-s per wall s (one core)", num(doc, "sil_realtime_factor_10uav_rigid"), RIGID_UAV_S_10_MIN, false, "UAV-s/s"),
+        budget("10-UAV paper mission on the rigid-body plant, real-time factor (one core)", num(doc, "sil_realtime_factor_10uav_rigid"), RIGID_REALTIME_10_MIN, false, "x"),
+        budget("10-UAV paper mission on the rigid-body plant, UAV-s per wall s (one core)", num(doc, "sil_uav_seconds_per_s_10uav_rigid"), RIGID_UAV_S_10_MIN, false, "UAV-s/s"),
     ];
     for board in BOARDS {
         let flash = at(doc, "firmware_flash_bytes", board);

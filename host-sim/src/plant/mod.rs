@@ -199,6 +199,8 @@ pub struct Plant {
     quads: Vec<crate::quadrotor::Quadrotor>,
     /// Last valid setpoint of each quadrotor, held when a setpoint is lost.
     rigid_targets: Vec<crate::quadrotor::AttitudeTarget>,
+    /// The setpoint each target was converted from (converted again only when it changes).
+    rigid_setpoints: Vec<Option<Setpoint>>,
 }
 
 #[inline]
@@ -315,6 +317,7 @@ impl Plant {
             ext_buf: Vec::new(),
             quads: Vec::new(),
             rigid_targets: Vec::new(),
+            rigid_setpoints: Vec::new(),
         };
         plant.last_forces = plant.cable_forces();
         plant.tensions_n = plant.last_forces.iter().map(|f| f.tension_n).collect();

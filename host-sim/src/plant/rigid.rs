@@ -57,6 +57,7 @@ impl Plant {
             .iter()
             .map(|q| AttitudeTarget { attitude: q.attitude(), thrust_norm: q.autopilot().target().thrust_norm })
             .collect();
+        self.rigid_setpoints = vec![None; quads.len()];
         self.quads = quads;
         self.mirror_quadrotors();
         self.last_forces = self.cable_forces();
@@ -95,10 +96,18 @@ impl Plant {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return;
         }
-        for (i, (t, q)) in self.rigid_targets.iter_mut().zip(&self.quads).enumerate() {
+        self.rigid_setpoints.resize(self.rigid_targets.len(), None);
+        for (i, ((t, q), last)) in self.rigid_targets.iter_mut().zip(&self.quads).zip(self.rigid_setpoints.iter_mut()).enumerate() {
             if motors_off.get(i).copied().unwrap_or(false) {
                 *t = AttitudeTarget { attitude: q.attitude(), thrust_norm: 0.0 };
+                *last = None;
             } else if let Some(sp) = setpoints.get(i) {
+                // Setpoints change at the low-level rate, the plant steps faster: convert each
+                // one once (the same target either way).
+                if *last == Some(*sp) {
+                    continue;
+                }
+                *last = Some(*sp);
                 if let (Some(attitude), Some(thrust_norm)) = (command::attitude_enu_flu(sp), command::collective(sp)) {
                     *t = AttitudeTarget { attitude, thrust_norm };
                 }
