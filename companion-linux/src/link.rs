@@ -22,22 +22,23 @@ pub trait Link {
     fn send(&mut self, frame: &[u8]) -> io::Result<()>;
 }
 
-/// MAVLink over UDP: one frame per datagram, to `remote`, or to whoever sent last when no
-/// remote is given (as PX4's and mavlink-router's UDP servers answer their clients).
+/// MAVLink over UDP: one frame per datagram, to every `remote` (the autopilot, the ground
+/// station: what a MAVLink router would fan out), or to whoever sent last when none is given
+/// (as PX4's and mavlink-router's UDP servers answer their clients).
 pub struct Udp {
     socket: UdpSocket,
-    remote: Option<SocketAddr>,
-    fixed_remote: bool,
+    remotes: Vec<SocketAddr>,
+    last_sender: Option<SocketAddr>,
 }
 
 impl Udp {
-    /// Binds `bind`; sends to `remote` if given.
+    /// Binds `bind`; sends to every address of `remotes`.
     ///
     /// # Errors
     /// The address cannot be bound.
-    pub fn open(bind: SocketAddr, remote: Option<SocketAddr>) -> io::Result<Self> {
+    pub fn open(bind: SocketAddr, remotes: Vec<SocketAddr>) -> io::Result<Self> {
         let socket = UdpSocket::bind(bind)?;
-        Ok(Self { socket, remote, fixed_remote: remote.is_some() })
+        Ok(Self { socket, remotes, last_sender: None })
     }
 
     /// The bound address (the port the OS chose for `:0`).
@@ -55,9 +56,7 @@ impl Link for Udp {
         self.socket.set_read_timeout(Some(timeout.max(Duration::from_micros(1))))?;
         match self.socket.recv_from(buf) {
             Ok((n, from)) => {
-                if !self.fixed_remote {
-                    self.remote = Some(from);
-                }
+                self.last_sender = Some(from);
                 Ok(n)
             }
             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => Ok(0),
@@ -68,15 +67,16 @@ impl Link for Udp {
     }
 
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        let Some(to) = self.remote else {
-            return Ok(()); // nobody to talk to yet
-        };
-        match self.socket.send_to(frame, to) {
-            Ok(_) => Ok(()),
-            // A peer that is not listening, or a full buffer: the frame is lost, as on a radio.
-            Err(e) if matches!(e.kind(), io::ErrorKind::ConnectionRefused | io::ErrorKind::WouldBlock) => Ok(()),
-            Err(e) => Err(e),
+        let to: &[SocketAddr] = if self.remotes.is_empty() { self.last_sender.as_slice() } else { &self.remotes };
+        for addr in to {
+            match self.socket.send_to(frame, addr) {
+                Ok(_) => {}
+                // A peer that is not listening, or a full buffer: the frame is lost, as on a radio.
+                Err(e) if matches!(e.kind(), io::ErrorKind::ConnectionRefused | io::ErrorKind::WouldBlock) => {}
+                Err(e) => return Err(e),
+            }
         }
+        Ok(())
     }
 }
 

@@ -23,9 +23,10 @@ struct Args {
     /// Listen for MAVLink on this UDP address, e.g. 0.0.0.0:14540.
     #[arg(long, value_name = "BIND:PORT", conflicts_with = "serial")]
     udp: Option<SocketAddr>,
-    /// Send to this UDP address (default: whoever sent last).
-    #[arg(long, value_name = "HOST:PORT", requires = "udp")]
-    remote: Option<SocketAddr>,
+    /// Send every frame to this UDP address (repeatable: the autopilot or simulator, the ground
+    /// station); default: whoever sent last.
+    #[arg(long = "remote", value_name = "HOST:PORT", requires = "udp")]
+    remotes: Vec<SocketAddr>,
     /// Serial device wired to the autopilot, e.g. /dev/ttyAMA0.
     #[arg(long, value_name = "DEV")]
     serial: Option<String>,
@@ -67,7 +68,7 @@ fn main() -> ExitCode {
         Err(e) => return bad(&e),
     };
     let mut link: Box<dyn Link> = match (&args.udp, &args.serial) {
-        (Some(bind), None) => match Udp::open(*bind, args.remote) {
+        (Some(bind), None) => match Udp::open(*bind, args.remotes.clone()) {
             Ok(u) => {
                 if !args.quiet {
                     eprintln!("vt-companion: MAVLink on udp {}", u.local_addr().map_or_else(|_| bind.to_string(), |a| a.to_string()));

@@ -84,6 +84,7 @@ pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool
     let mut buf = vec![0u8; READ_CHUNK];
     let mut mode = companion.mode();
     let mut clocks: Option<(Period, Period)> = None;
+    let mut last_beat = start.checked_sub(Duration::from_secs(1)).unwrap_or(start);
     loop {
         if stop.load(Ordering::Relaxed) {
             // Tell the team to hold (a HEARTBEAT in Hold, followed by every fresh neighbour),
@@ -124,6 +125,12 @@ pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool
             if ll.due(now) {
                 companion.low_level_step(&mut io);
             }
+        }
+        // Not flying: a heartbeat a second, as every MAVLink component (a simulator or a
+        // router learns where the companion is from it; flying, the steps send them).
+        if companion.flight().is_none() && last_beat.elapsed() >= Duration::from_secs(1) {
+            last_beat = Instant::now();
+            companion.heartbeat(&mut io);
         }
         if companion.mode() != mode {
             mode = companion.mode();

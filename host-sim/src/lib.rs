@@ -24,4 +24,5 @@ pub mod replay;
 pub mod report;
 pub mod scenario;
 pub mod sim;
+pub mod sitl;
 pub mod summary;

@@ -144,6 +144,49 @@ enum Cmd {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Fly the scenario with one `vt-companion` process per UAV over UDP (host-sim as the MAVLink
+    /// simulator, the ground station uploading and starting), in lockstep; fly the SIL twin
+    /// beside it and compare every command; write sitl_report.json, summary.json, plots.
+    Sitl {
+        /// Scenario TOML file (default: the paper's 10-UAV mission, built in).
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long, default_value = "out/sitl")]
+        out: PathBuf,
+        /// The `vt-companion` binary (default: $VT_COMPANION_BIN, else built with cargo).
+        #[arg(long)]
+        companion: Option<PathBuf>,
+        /// Physics: `host` (host-sim's plant). `rotorpy` is issue 26's next step and is refused.
+        #[arg(long, default_value = "host")]
+        plant: String,
+        /// High-level controller.
+        #[arg(long, value_enum, default_value = "dissipative")]
+        controller: Controller,
+    },
+    /// Be the MAVLink simulator: UAV `i` of the scenario on UDP port `PORT + i` (as PX4 SITL
+    /// instances), lockstep; companions connect to it, a ground station configures and starts
+    /// them (`host-sim gcs`); writes summary.json and plots at the end.
+    Serve {
+        /// Scenario TOML file (default: the paper's 10-UAV mission, built in).
+        scenario: Option<PathBuf>,
+        /// UDP port of UAV 0.
+        #[arg(long, default_value_t = 14560)]
+        port: u16,
+        /// Output directory.
+        #[arg(long, default_value = "out/serve")]
+        out: PathBuf,
+    },
+    /// Ground station: talk to a team of companions given as UDP endpoints.
+    Gcs {
+        /// The companions' addresses, UAV 0 first: HOST:PORT,HOST:PORT,...
+        #[arg(long, value_delimiter = ',', required = true)]
+        team: Vec<std::net::SocketAddr>,
+        /// Where the ground station listens (start the companions with `--remote` this).
+        #[arg(long, default_value = "127.0.0.1:14550")]
+        bind: std::net::SocketAddr,
+        #[command(subcommand)]
+        action: GcsCmd,
+    },
     /// Instruction counts of the firmware's control steps for 3, 10 and 30 UAVs under
     /// `qemu-system-arm -icount shift=0`; writes OUT/bench.json (docs/benchmarks.md).
     PilBench {
@@ -156,16 +199,35 @@ enum Cmd {
     },
 }
 
+/// What the ground station does.
+#[derive(Subcommand)]
+enum GcsCmd {
+    /// Upload the scenario's parameters (each echoed) and its tube to every companion.
+    Upload {
+        /// Scenario TOML file.
+        scenario: PathBuf,
+    },
+    /// MAV_CMD_MISSION_START to every companion; refusals printed verbatim.
+    Start,
+    /// The operator's hold (the team holds in the tube).
+    Hold,
+    /// Lift the hold (the team resumes FS_RESUME later).
+    Resume,
+    /// The companions stop commanding (the team is told to hold first); the autopilots' own
+    /// setpoint-loss action takes over (docs/deploy.md).
+    Abort,
+    /// Each UAV's mode, data ages, tension estimate and clearance, refreshed in place.
+    Status {
+        /// How long to show it, s.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+    },
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Cmd::Run { scenario, controller, f_max, out, seed, plant, mcap } => {
-            let kind = match controller {
-                Controller::Dissipative => ControllerKind::Dissipative,
-                Controller::Baseline => ControllerKind::Baseline,
-            };
-            run(scenario, kind, f_max, &out, seed, plant, mcap.as_deref())
-        }
+        Cmd::Run { scenario, controller, f_max, out, seed, plant, mcap } => run(scenario, controller_kind(controller), f_max, &out, seed, plant, mcap.as_deref()),
         Cmd::Compare { scenario, f_max, out, seed, plant, mcap } => compare(scenario, f_max, &out, seed, plant, mcap.as_deref()),
         Cmd::Sweep { scenario, runs, jobs, seed, out, replay_worst } => sweep(scenario, runs, jobs, seed, &out, replay_worst),
         Cmd::Pil { scenario, out, firmware, duration, plant, mcap } => {
@@ -178,7 +240,36 @@ fn main() -> ExitCode {
             host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration, plant.uav_model, plant.cable_model, mcap.as_deref())
         }
         Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
+        Cmd::Sitl { scenario, out, companion, plant, controller } => {
+            if plant != "host" {
+                eprintln!("error: --plant {plant}: only `host` (host-sim's plant) flies SITL in this version; RotorPy is issue 26's open point (docs/design.md)");
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+            let opts = RunOptions { controller: controller_kind(controller), record: true, ..RunOptions::default() };
+            host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, &opts)
+        }
+        Cmd::Serve { scenario, port, out } => host_sim::sitl::cli::serve(scenario.as_deref(), port, &out, &RunOptions::default()),
+        Cmd::Gcs { team, bind, action } => {
+            use host_sim::sitl::cli::GcsAction;
+            use host_sim::sitl::gcs::GcsCommand;
+            let action = match action {
+                GcsCmd::Upload { scenario } => GcsAction::Upload(scenario),
+                GcsCmd::Start => GcsAction::Start,
+                GcsCmd::Hold => GcsAction::Command(GcsCommand::Hold),
+                GcsCmd::Resume => GcsAction::Command(GcsCommand::Resume),
+                GcsCmd::Abort => GcsAction::Command(GcsCommand::Abort),
+                GcsCmd::Status { seconds } => GcsAction::Status(seconds),
+            };
+            host_sim::sitl::cli::gcs(&team, bind, &action, &RunOptions::default())
+        }
         Cmd::Plan { map, start, goal, team, out, plot } => plan(&map, start, goal, team.as_deref(), out.as_deref(), plot.as_deref()),
+    }
+}
+
+fn controller_kind(c: Controller) -> ControllerKind {
+    match c {
+        Controller::Dissipative => ControllerKind::Dissipative,
+        Controller::Baseline => ControllerKind::Baseline,
     }
 }
 

@@ -13,7 +13,7 @@ use mavlink::dialects::common::{
     AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavSeverity,
     MavState, MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
     HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, SYSTEM_TIME_DATA,
-    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
     STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
@@ -48,6 +48,12 @@ pub const NAME_CABLE_FORCE: &str = "FHAT_NED";
 pub const NAME_CYCLES: &str = "CYCLES";
 /// `NAMED_VALUE_INT.name` of the stack high-water mark, bytes.
 pub const NAME_STACK: &str = "STACK";
+/// `DEBUG_VECT.name` of the data ages, ms (x: own state, y: load, z: oldest team member; -1:
+/// never received), once per second.
+pub const NAME_AGES: &str = "AGES";
+/// `NAMED_VALUE_FLOAT.name` of the own centre's distance to the tube boundary, m (negative
+/// outside), once per second while a tube is loaded.
+pub const NAME_CLEARANCE: &str = "CLEAR";
 
 /// What the board provides.
 pub trait Io {
@@ -367,6 +373,12 @@ impl<'t> Companion<'t> {
             self.core.send_heartbeat_with(io, HoldReasons::OPERATOR);
         }
         true
+    }
+
+    /// A `HEARTBEAT` now (the 1 Hz heartbeat of a companion that is not flying: a simulator or
+    /// router learns where it is from it).
+    pub fn heartbeat(&mut self, io: &mut impl Io) {
+        self.core.send_heartbeat(io);
     }
 
     /// The last low-level setpoint (`SET_ATTITUDE_TARGET`), if any.
@@ -805,6 +817,27 @@ impl Core<'_> {
         );
         let stack = io.stack_used_bytes();
         self.send(io, &NAMED_VALUE_INT_DATA { time_boot_ms: self.clock_ms, value: stack as i32, name: NAME_STACK.into() });
+        if io.wants_frames() {
+            self.send_team_status(io);
+        }
+    }
+
+    /// The ground station's live status (docs/protocol.md): data ages and the own clearance.
+    fn send_team_status(&mut self, io: &mut impl Io) {
+        let (n, id) = (self.params.get_u32(Param::NUavs) as usize, self.params.get_u32(Param::Id) as usize);
+        let [own, load, team] = self.sources.ages_ms(self.clock_ms, n, id);
+        let time_usec = u64::from(self.clock_ms) * 1000;
+        self.send(io, &DEBUG_VECT_DATA { time_usec, x: own as f32, y: load as f32, z: team as f32, name: NAME_AGES.into() });
+        let clearance = match (self.tube(), self.sources.own) {
+            (Some(tube), Some(own)) => {
+                let q = own.value.pos_m.xy();
+                tube.locate(q, 0).map(|s| s.boundary_distance_m(q))
+            }
+            _ => None,
+        };
+        if let Some(value) = clearance {
+            self.send(io, &NAMED_VALUE_FLOAT_DATA { time_boot_ms: self.clock_ms, value, name: NAME_CLEARANCE.into() });
+        }
     }
 
     /// A refused `MISSION_START`: the reason as `STATUSTEXT` (headline, then the numbers) and
@@ -933,6 +966,18 @@ impl Core<'_> {
                 }
                 (Some(_), _) => MavResult::MAV_RESULT_DENIED,
                 (None, _) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            },
+            // Abort (docs/protocol.md): the companion stops commanding; the autopilot's own
+            // setpoint-loss action takes over (docs/deploy.md). The team is told to hold first.
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM if d.param1 == 0.0 => match self.flight.as_mut() {
+                Some(fl) => {
+                    fl.set_operator_hold(true);
+                    self.mode = Mode::Hold;
+                    self.send_heartbeat_with(io, HoldReasons::OPERATOR);
+                    self.flight = None;
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+                None => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
             },
             MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if d.param1 == REBOOT => {
                 self.request = Some(Request::Reboot);

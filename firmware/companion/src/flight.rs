@@ -154,6 +154,24 @@ impl Default for Sources {
 }
 
 impl Sources {
+    /// How old the own, the load's and the oldest team member's data are at `now_ms`, ms, for
+    /// telemetry (`-1`: never received); members `0..n` but `id`.
+    pub fn ages_ms(&self, now_ms: u32, n: usize, id: usize) -> [i32; 3] {
+        let age = |stamp: u32| i32::try_from(now_ms.wrapping_sub(stamp)).unwrap_or(i32::MAX);
+        let own = self.own.map_or(-1, |s| age(s.stamp_ms));
+        let load = self.load.map_or(-1, |s| age(s.stamp_ms));
+        let mut team = 0;
+        for (j, slot) in self.neighbours.iter().enumerate().take(n) {
+            if j != id {
+                team = match slot {
+                    Some(s) if team >= 0 => team.max(age(s.stamp_ms)),
+                    _ => -1,
+                };
+            }
+        }
+        [own, load, team]
+    }
+
     /// Nothing received yet.
     pub const fn new() -> Self {
         Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: MemberBits::EMPTY, survey: TakeoffSurvey::new(1) }

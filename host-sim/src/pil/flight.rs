@@ -90,7 +90,13 @@ pub struct PortTeam<'p, P: Port> {
     /// Per receiver, per sender: the team mode last relayed (the network relays a member's
     /// `HEARTBEAT` when the mode that came with its position changes).
     relayed: Vec<Vec<TeamMode>>,
+    /// Someone else starts the mission (a ground station, `host-sim sitl`): called once the
+    /// start tick has been delivered; the team then waits for every companion's `COMMAND_ACK`.
+    start_hook: Option<StartHook<'p>>,
 }
+
+/// What starts the companions when the team does not (see [`PortTeam::started_by`]).
+pub type StartHook<'p> = Box<dyn FnMut() -> Result<(), String> + 'p>;
 
 impl<'p, P: Port> PortTeam<'p, P> {
     /// A team over `ports`; `label` names it in errors (`SIL`, `PIL`).
@@ -109,7 +115,24 @@ impl<'p, P: Port> PortTeam<'p, P> {
             custom_mode: vec![0u32; n],
             last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
             relayed: vec![vec![TeamMode::Transport; n]; n],
+            start_hook: None,
         }
+    }
+
+    /// The companions were configured by someone else (a ground station) with `configs`: the
+    /// team sends no parameters and no tube.
+    #[must_use]
+    pub fn configured(mut self, configs: Vec<UavConfig>) -> Self {
+        self.configs = configs;
+        self
+    }
+
+    /// Someone else sends `MAV_CMD_MISSION_START` (`hook`, called after the start tick): the
+    /// team waits for each companion's acknowledgement (sent to every remote it has).
+    #[must_use]
+    pub fn started_by(mut self, hook: impl FnMut() -> Result<(), String> + 'p) -> Self {
+        self.start_hook = Some(Box::new(hook));
+        self
     }
 
     /// The same team flying the high-level law `kind` (`VT_CTRL`).
@@ -194,6 +217,29 @@ impl<P: Port> Team for PortTeam<'_, P> {
 
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
         self.configure_all(ls, start)?;
+        if let Some(mut hook) = self.start_hook.take() {
+            for i in 0..self.ports.len() {
+                let bytes = self.tick_frames(i, &start.tick);
+                self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
+            }
+            hook().map_err(|e| SimError(format!("{}: the start failed: {e}", self.label)))?;
+            for i in 0..self.ports.len() {
+                let mut texts = Vec::new();
+                let r = super::config::recv_until(&mut self.ports[i], 4096, |rx| match rx {
+                    Rx::CommandAck(c, r) if *c == mavlink::dialects::common::MavCmd::MAV_CMD_MISSION_START as u32 => Some(*r),
+                    Rx::StatusText(_, t) => {
+                        texts.push(t.clone());
+                        None
+                    }
+                    _ => None,
+                })
+                .map_err(|e| self.fail(i, e))?;
+                if r != 0 {
+                    return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r}): {}", texts.join("; "))));
+                }
+            }
+            return Ok(());
+        }
         for i in 0..self.ports.len() {
             let id = self.configs[i].system_id;
             let bytes = self.tick_frames(i, &start.tick);
@@ -276,7 +322,14 @@ pub fn fly<P: Port>(ls: &LoadedScenario, ports: &mut [P], opts: &RunOptions, lab
     if ports.is_empty() {
         return err("no companions");
     }
-    let mut team = PortTeam::new(ports, label).with_controller(opts.controller);
+    fly_team(ls, PortTeam::new(ports, label).with_controller(opts.controller), opts)
+}
+
+/// Flies the mission through the one mission loop with `team` (lockstep).
+///
+/// # Errors
+/// Configuration refused, a link failure, or a missing reply.
+pub fn fly_team<P: Port>(ls: &LoadedScenario, mut team: PortTeam<'_, P>, opts: &RunOptions) -> Result<FlightOutput, PilError> {
     let flown = mission::fly(ls, opts, &mut team).map_err(|e| PilError(e.0))?;
     Ok(FlightOutput {
         summary: flown.summary,

@@ -42,7 +42,7 @@ pub use bench::{bench, bench_scenario, BenchReport, StepCounts, BENCH_TEAM_SIZES
 pub use cli::{cli, cli_bench};
 pub use config::{configure, recv_until, start_mission, start_mission_with_reason, team_setup, team_setup_for, team_setup_with, TeamSetup, UavConfig};
 pub use crate::companion::{WireWaypoint, LOAD_COMPONENT_ID, LOAD_TIMEOUT_S, OWN_TIMEOUT_S, SYSID_BASE};
-pub use flight::{fly, CommandKind, CommandRecord, FlightOutput, PortTeam};
+pub use flight::{fly, fly_team, CommandKind, CommandRecord, FlightOutput, PortTeam, StartHook};
 pub use port::{build_firmware, decode_defmt, default_firmware_path, firmware_dir, qemu_available, Port, QemuOptions, QemuPort, SilPort};
 pub use report::{compare, run, write_report, CycleStats, Difference, PilOptions, PilReport};
 pub use wire::{local_position, Encoder, Encoders, Rx, TickFrames};
@@ -69,6 +69,6 @@ impl std::fmt::Display for PilError {
 
 impl std::error::Error for PilError {}
 
-fn err<T>(msg: impl Into<String>) -> Result<T, PilError> {
+pub(crate) fn err<T>(msg: impl Into<String>) -> Result<T, PilError> {
     Err(PilError(msg.into()))
 }

@@ -4,12 +4,12 @@
 use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
 use mavlink::dialects::common::{
     MavAutopilot, MavModeFlag, MavState, MavType, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
-    MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA,
+    MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA, NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA,
     SET_ATTITUDE_TARGET_DATA, STATUSTEXT_DATA, SYSTEM_TIME_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use nalgebra::Vector3;
-use vt_companion::companion::{NAME_CABLE_FORCE, NAME_CYCLES};
+use vt_companion::companion::{NAME_AGES, NAME_CABLE_FORCE, NAME_CLEARANCE, NAME_CYCLES};
 use vt_companion::COMPANION_COMPONENT_ID;
 
 type V3f = Vector3<f32>;
@@ -75,6 +75,10 @@ pub enum Rx {
     CommandAck(u32, u32),
     /// `NAMED_VALUE_INT`.
     NamedInt(String, i32),
+    /// `DEBUG_VECT` `AGES`: own, load and oldest team data age, ms (-1: never).
+    Ages([f32; 3]),
+    /// `NAMED_VALUE_FLOAT` `CLEAR`: the own centre's distance to the tube boundary, m.
+    Clearance(f32),
     /// `STATUSTEXT`: severity (`MAV_SEVERITY`) and text.
     StatusText(u32, String),
     /// Anything else (message id).
@@ -97,6 +101,7 @@ pub(crate) fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
             match d.name.to_str().unwrap_or("") {
                 n if n == NAME_CABLE_FORCE => Rx::CableForce([d.x, d.y, d.z]),
                 n if n == NAME_CYCLES => Rx::Cycles([d.x, d.y, d.z]),
+                n if n == NAME_AGES => Rx::Ages([d.x, d.y, d.z]),
                 _ => Rx::Other(id),
             }
         }
@@ -118,6 +123,13 @@ pub(crate) fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
         NAMED_VALUE_INT_DATA::ID => {
             let d = NAMED_VALUE_INT_DATA::deser(v2, payload).ok()?;
             Rx::NamedInt(d.name.to_str().unwrap_or("").to_string(), d.value)
+        }
+        NAMED_VALUE_FLOAT_DATA::ID => {
+            let d = NAMED_VALUE_FLOAT_DATA::deser(v2, payload).ok()?;
+            match d.name.to_str().unwrap_or("") {
+                n if n == NAME_CLEARANCE => Rx::Clearance(d.value),
+                _ => Rx::Other(id),
+            }
         }
         STATUSTEXT_DATA::ID => {
             let d = STATUSTEXT_DATA::deser(v2, payload).ok()?;
