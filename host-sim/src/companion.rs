@@ -16,9 +16,11 @@ use vt_dissipative::TrayParams;
 pub const SYSID_BASE: u8 = 1;
 /// Component id of the load tracker on every UAV (`VT_LOAD_COMP`, `MAV_COMP_ID_CAMERA`).
 pub const LOAD_COMPONENT_ID: u8 = 100;
-/// Own-state timeout the simulator configures (`FS_OWN_TMO`), s: ten low-level periods at
-/// 500 Hz.
+/// Own-state timeout the simulator configures in lockstep (`FS_OWN_TMO`), s: ten low-level
+/// periods at 500 Hz.
 pub const OWN_TIMEOUT_S: f32 = 0.02;
+/// Own-state timeout on the wall clock (`--realtime`, a real link), s: the firmware's default.
+pub const OWN_TIMEOUT_REALTIME_S: f32 = 0.1;
 /// Load-state timeout the simulator configures (`FS_LOAD_TMO`), s.
 pub const LOAD_TIMEOUT_S: f32 = 0.5;
 
@@ -106,7 +108,7 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::Lockstep, flag(lockstep)),
         (Param::HlHz, s.rates.high_level_hz as f32),
         (Param::LlHz, s.rates.low_level_hz as f32),
-        (Param::FsOwnTmo, OWN_TIMEOUT_S),
+        (Param::FsOwnTmo, if lockstep { OWN_TIMEOUT_S } else { OWN_TIMEOUT_REALTIME_S }),
         (Param::FsLoadTmo, LOAD_TIMEOUT_S),
         (Param::FsNbrTmo, AUTO),
         (Param::FsNbrAct, flag(s.failsafe.stale_neighbour == StaleNeighbour::Hold)),

@@ -159,6 +159,10 @@ enum Cmd {
         /// Physics: `host` (host-sim's plant). `rotorpy` is issue 26's next step and is refused.
         #[arg(long, default_value = "host")]
         plant: String,
+        /// On the wall clock: the companions' own Tickers (VT_LOCKSTEP = 0), the simulator
+        /// streaming states in real time; nothing bit-comparable, the mission must succeed.
+        #[arg(long)]
+        realtime: bool,
         /// High-level controller.
         #[arg(long, value_enum, default_value = "dissipative")]
         controller: Controller,
@@ -240,13 +244,13 @@ fn main() -> ExitCode {
             host_sim::pil::cli(scenario.as_deref(), &out, firmware, duration, plant.uav_model, plant.cable_model, mcap.as_deref())
         }
         Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
-        Cmd::Sitl { scenario, out, companion, plant, controller } => {
+        Cmd::Sitl { scenario, out, companion, plant, controller, realtime } => {
             if plant != "host" {
                 eprintln!("error: --plant {plant}: only `host` (host-sim's plant) flies SITL in this version; RotorPy is issue 26's open point (docs/design.md)");
                 return ExitCode::from(EXIT_BAD_INPUT);
             }
             let opts = RunOptions { controller: controller_kind(controller), record: true, ..RunOptions::default() };
-            host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, &opts)
+            host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, realtime, &opts)
         }
         Cmd::Serve { scenario, port, out } => host_sim::sitl::cli::serve(scenario.as_deref(), port, &out, &RunOptions::default()),
         Cmd::Gcs { team, bind, action } => {

@@ -142,6 +142,28 @@ impl<'p, P: Port> PortTeam<'p, P> {
         self
     }
 
+    /// The frames UAV `i`'s companion gets for `tick` (as [`Team::step`] sends them).
+    pub fn frames_for(&mut self, i: usize, tick: &Tick<'_>) -> Vec<u8> {
+        self.tick_frames(i, tick)
+    }
+
+    /// The ports.
+    pub fn ports_mut(&mut self) -> &mut [P] {
+        self.ports
+    }
+
+    /// Takes the start hook (a team that starts the companions its own way).
+    pub fn take_start_hook(&mut self) -> Option<StartHook<'p>> {
+        self.start_hook.take()
+    }
+
+    /// Records the last `HEARTBEAT.custom_mode` heard from UAV `i`.
+    pub fn note_heartbeat(&mut self, i: usize, custom_mode: u32) {
+        if let Some(m) = self.custom_mode.get_mut(i) {
+            *m = custom_mode;
+        }
+    }
+
     fn tick_frames(&mut self, i: usize, tick: &Tick<'_>) -> Vec<u8> {
         // Team failsafe: the neighbours' mode changes, as `HEARTBEAT`s of their companions.
         let mut beats = Vec::new();

@@ -17,6 +17,7 @@
 
 pub mod cli;
 pub mod gcs;
+pub mod realtime;
 pub mod udp;
 
 use crate::pil::{self, compare, CommandRecord, Difference, PilError, PortTeam, SilPort, UavConfig};
@@ -137,10 +138,10 @@ pub struct SitlReport {
     pub n_uavs: usize,
     /// `lockstep` or `realtime`.
     pub mode: String,
-    /// Commands compared with the SIL twin (lockstep).
+    /// Commands compared with the SIL twin (lockstep; 0 in real time).
     pub commands_compared: usize,
-    /// Every compared command equal bit for bit.
-    pub bit_exact: bool,
+    /// Every compared command equal bit for bit (`None` in real time: two clocks).
+    pub bit_exact: Option<bool>,
     /// Largest difference, if any.
     pub max_abs_diff: f64,
     /// The first difference.
@@ -207,7 +208,7 @@ pub fn sitl_lockstep(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Resu
         n_uavs: n,
         mode: "lockstep".into(),
         commands_compared: compared,
-        bit_exact: exact,
+        bit_exact: Some(exact),
         max_abs_diff: max_abs,
         first_difference: first,
         summary: flown.summary.clone(),
@@ -217,6 +218,64 @@ pub fn sitl_lockstep(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Resu
     };
     let out = RunOutput { summary: flown.summary, record: flown.record, scene: sim::scene(ls) };
     Ok((out, report, flown.commands))
+}
+
+/// Flies `ls` with one `vt-companion` process per UAV on the wall clock (`VT_LOCKSTEP = 0`:
+/// the companions' own Tickers), configured and started by the ground station.
+///
+/// # Errors
+/// A process or socket failed, a companion refused, or the start timed out.
+pub fn sitl_realtime(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Result<(RunOutput, SitlReport), PilError> {
+    let s = &ls.scenario;
+    let n = s.cables.lengths_m.len();
+    let loopback: SocketAddr = ([127, 0, 0, 1], 0).into();
+    let mut ports: Vec<UdpPort> = (0..n).map(|_| UdpPort::bind(loopback, None, LOCKSTEP_TIMEOUT)).collect::<Result<_, _>>()?;
+    let mut gcs = Gcs::bind(loopback, Vec::new())?;
+    let gcs_addr = gcs.local_addr()?;
+    let mut procs = Vec::with_capacity(n);
+    for port in &ports {
+        procs.push(CompanionProcess::spawn(bin, &[port.local_addr()?, gcs_addr])?);
+    }
+    for (port, p) in ports.iter_mut().zip(&procs) {
+        port.set_peer(p.addr);
+    }
+    gcs.set_endpoints(procs.iter().map(|p| p.addr).collect());
+    let rated = opts.f_max_n.unwrap_or(s.cables.rated_n);
+    let setup = pil::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, false)?;
+    gcs.upload(&setup.configs)?;
+    let ids: Vec<u8> = setup.configs.iter().map(|c| c.system_id).collect();
+    let wall = Instant::now();
+    let inner = PortTeam::new(&mut ports, "SITL").with_controller(opts.controller).configured(setup.configs).started_by(|| {
+        let results = gcs.start(&ids).map_err(|e| e.0)?;
+        match results.iter().enumerate().find(|(_, (r, _))| *r != 0) {
+            Some((i, (r, texts))) => Err(format!("UAV {i} refused the start (MAV_RESULT {r}): {}", texts.join("; "))),
+            None => Ok(()),
+        }
+    });
+    let mut team = realtime::RealtimeTeam::new(inner, n);
+    let flown = crate::mission::fly(ls, opts, &mut team).map_err(|e| PilError(e.0))?;
+    let wall_s = wall.elapsed().as_secs_f64();
+    eprintln!(
+        "real time: worst lag of the simulator behind the wall clock {:.1} ms; {} UAV-periods without a new setpoint",
+        1e3 * team.worst_lag_s,
+        team.stale_periods
+    );
+    drop(team);
+    let codes: Vec<Option<i32>> = procs.into_iter().map(|p| p.stop().0).collect();
+    let report = SitlReport {
+        scenario: s.name.clone(),
+        n_uavs: n,
+        mode: "realtime".into(),
+        commands_compared: 0,
+        bit_exact: None,
+        max_abs_diff: 0.0,
+        first_difference: None,
+        summary: flown.summary.clone(),
+        wall_time_s: [wall_s, 0.0],
+        lockstep_overhead: 0.0,
+        companion_exit_codes: codes,
+    };
+    Ok((RunOutput { summary: flown.summary, record: flown.record, scene: sim::scene(ls) }, report))
 }
 
 /// `sitl_report.json` into `dir`.

@@ -14,6 +14,8 @@ pub struct UdpPort {
     framer: Framer,
     pending: VecDeque<Rx>,
     timeout: Duration,
+    nonblocking: bool,
+    read_timeout: Option<Duration>,
 }
 
 impl UdpPort {
@@ -23,7 +25,7 @@ impl UdpPort {
     /// The address cannot be bound.
     pub fn bind(bind: SocketAddr, peer: Option<SocketAddr>, timeout: Duration) -> Result<Self, PilError> {
         let socket = UdpSocket::bind(bind).map_err(|e| PilError(format!("udp {bind}: {e}")))?;
-        Ok(Self { socket, peer, framer: Framer::new(), pending: VecDeque::new(), timeout })
+        Ok(Self { socket, peer, framer: Framer::new(), pending: VecDeque::new(), timeout, nonblocking: false, read_timeout: None })
     }
 
     /// The bound address.
@@ -52,7 +54,17 @@ impl UdpPort {
         if let Some(rx) = self.pending.pop_front() {
             return Ok(Some(rx));
         }
-        self.socket.set_read_timeout(Some(wait.max(Duration::from_micros(1)))).map_err(|e| PilError(e.to_string()))?;
+        // A zero wait must not block: the kernel rounds a read time-out up to a scheduler tick
+        // (4 ms), longer than the companions' 2 ms between setpoints.
+        let nonblocking = wait.is_zero();
+        if nonblocking != self.nonblocking {
+            self.socket.set_nonblocking(nonblocking).map_err(|e| PilError(e.to_string()))?;
+            self.nonblocking = nonblocking;
+        }
+        if !nonblocking && self.read_timeout != Some(wait) {
+            self.socket.set_read_timeout(Some(wait)).map_err(|e| PilError(e.to_string()))?;
+            self.read_timeout = Some(wait);
+        }
         let mut buf = [0u8; 4096];
         match self.socket.recv_from(&mut buf) {
             Ok((n, from)) => {
