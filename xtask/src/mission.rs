@@ -61,6 +61,22 @@ pub fn run(path: &Path, runs: usize, uav_model: Option<UavModel>) -> Result<Miss
     Ok(MissionBench { realtime_factor: median(&factors), runs: factors, n_uavs, summary })
 }
 
+/// `host-sim sitl`'s lockstep wall time over the SIL twin's on `path` (issue 26).
+///
+/// # Errors
+/// The scenario does not load, the companion cannot be built, or the flight failed or was not
+/// bit-exact.
+pub fn sitl_overhead(path: &Path) -> Result<f64, String> {
+    let ls = scenario::load(Some(path)).map_err(|e| e.to_string())?;
+    let bin = host_sim::sitl::companion_binary().map_err(|e| e.0)?;
+    let opts = RunOptions { progress: false, record: false, ..RunOptions::default() };
+    let (_, report, _) = host_sim::sitl::sitl_lockstep(&ls, &opts, &bin).map_err(|e| e.0)?;
+    if report.bit_exact != Some(true) {
+        return Err(format!("not bit-exact: {:?}", report.first_difference));
+    }
+    Ok(report.lockstep_overhead)
+}
+
 /// Median of a non-empty list (mean of the middle two for an even length); NaN when empty.
 pub fn median(xs: &[f64]) -> f64 {
     let mut v: Vec<f64> = xs.iter().copied().filter(|x| !x.is_nan()).collect();

@@ -94,6 +94,17 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
         let skipped = || Err("skipped (--skip missions)".to_string());
         (skipped(), skipped(), skipped())
     };
+    // Issue 26: the paper mission flown by ten vt-companion processes over UDP in lockstep,
+    // wall time over the SIL twin's.
+    let sitl_overhead: Result<f64, String> = if plan.missions {
+        eprintln!("      paper-10uav through host-sim sitl (10 vt-companion processes, lockstep) ...");
+        mission::sitl_overhead(&paths.root.join("scenarios/paper-10uav.toml"))
+    } else {
+        Err("skipped (--skip missions)".into())
+    };
+    if let Err(e) = &sitl_overhead {
+        notes.insert("sitl_lockstep_overhead".into(), format!("not measured: {e}"));
+    }
     for (key, m) in [("sil_realtime_factor_10uav", &m10), ("sil_realtime_factor_10uav_rigid", &m10_rigid), ("sil_realtime_factor_100uav", &m100)] {
         if let Err(e) = m {
             if plan.missions {
@@ -146,6 +157,7 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
             "allocation_over_controller": "allocation_ns[n] / host_ns_per_uav_step[n]",
             "sil_realtime_factor": "simulated s / wall s of host-sim's mission loop (one thread), median over runs; point-mass UAVs and the paper's clamped cable",
             "sil_realtime_factor_10uav_rigid": "simulated s / wall s of the 10-UAV paper mission, rigid-body UAVs and elastic cables, one thread, median over runs (issue 26: >= 500)",
+            "sitl_lockstep_overhead": "wall time of host-sim sitl (the paper mission, ten vt-companion processes over UDP, lockstep, bit-exact) over the SIL twin's wall time, same scenario, same run",
             "sil_uav_seconds_per_s_10uav_rigid": "the same run in UAV-seconds per wall second (10 x simulated s / wall s; >= 5,000); sil_uav_seconds_per_s_10uav_point_mass: the same for point-mass UAVs",
             "plan_ms": "criterion median of one vt_plan::plan call incl. its work-space allocation (host-sim/benches/plan.rs): paper_map = the 11 paper obstacles, 500_obstacles = 25 seeded groves of 20 trunks over 100 m x 60 m, grid_1000 = a 1000 x 1000 cell grid incl. the distance transform",
             "firmware_flash_bytes": "ALLOC non-NOBITS sections of the release ELF (vector table, text, rodata, data initialisers)",
@@ -174,6 +186,7 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     let uav_s = |m: &Result<MissionBench, String>| m.as_ref().map_or(Value::Null, |m| json!(m.realtime_factor * m.n_uavs as f64));
     doc.insert("sil_realtime_factor_10uav_rigid".into(), rt(&m10_rigid));
     doc.insert("sil_uav_seconds_per_s_10uav_rigid".into(), uav_s(&m10_rigid));
+    doc.insert("sitl_lockstep_overhead".into(), sitl_overhead.as_ref().map_or(Value::Null, |x| json!(x)));
     doc.insert("sil_uav_seconds_per_s_10uav_point_mass".into(), uav_s(&m10));
     let mission_json = |m: &Result<MissionBench, String>| {
         m.as_ref().map_or(Value::Null, |m| json!({"runs": m.runs, "summary": m.summary}))
