@@ -181,3 +181,78 @@ fn ground_station_uploads_starts_holds_resumes_aborts_and_shows_refusals_verbati
     let codes: Vec<Option<i32>> = procs.into_iter().map(|p| p.stop().0).collect();
     assert_eq!(codes, vec![Some(0); 3]);
 }
+
+/// A free run of `n` consecutive loopback UDP ports (checked by binding them), the first one.
+fn free_ports(n: u16) -> u16 {
+    let seed = 20_000 + (std::process::id() % 20_000) as u16;
+    (0..200u16)
+        .map(|k| seed.wrapping_add(k * 37) % 40_000 + 20_000)
+        .find(|&base| (0..n).all(|i| std::net::UdpSocket::bind(("127.0.0.1", base + i)).is_ok()))
+        .expect("free ports")
+}
+
+/// What a person does: `host-sim serve` in one terminal, a `vt-companion` per UAV, and
+/// `host-sim gcs ... upload` / `start` from another; the flight ends with the usual outputs.
+#[test]
+fn serve_and_the_gcs_command_fly_the_experiment_as_separate_programs() {
+    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let host_sim = env!("CARGO_BIN_EXE_host-sim");
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+    let out = std::env::temp_dir().join(format!("vt-serve-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let base = free_ports(3);
+    // Any other free port for the ground station (the OS's choice, released for it).
+    let gcs_port = std::iter::repeat_with(|| std::net::UdpSocket::bind("127.0.0.1:0").and_then(|s| s.local_addr()).unwrap().port())
+        .find(|p| !(base..base + 3).contains(p))
+        .unwrap();
+    let mut serve = std::process::Command::new(host_sim)
+        .args(["serve", scenario.to_str().unwrap(), "--port", &base.to_string(), "--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let lines = std::io::BufRead::lines(std::io::BufReader::new(serve.stderr.take().unwrap()));
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    std::thread::spawn(move || lines.map_while(Result::ok).for_each(|l| drop(tx.send(l))));
+    let wait_for = |needle: &str| {
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(60) {
+            if let Ok(l) = rx.recv_timeout(Duration::from_millis(100)) {
+                if l.contains(needle) {
+                    return;
+                }
+            }
+        }
+        panic!("serve never said {needle:?}");
+    };
+    wait_for("waiting for every companion to be configured");
+    let gcs_addr: SocketAddr = ([127, 0, 0, 1], gcs_port).into();
+    let bin = companion();
+    let procs: Vec<CompanionProcess> = (0..3).map(|i| CompanionProcess::spawn(&bin, &[([127, 0, 0, 1], base + i).into(), gcs_addr]).unwrap()).collect();
+    let team = procs.iter().map(|p| p.addr.to_string()).collect::<Vec<_>>().join(",");
+    let gcs = |args: &[&str]| {
+        let o = std::process::Command::new(host_sim).args(["gcs", "--team", &team, "--bind", &gcs_addr.to_string()]).args(args).output().unwrap();
+        (o.status.code(), String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr))
+    };
+    let (code, text) = gcs(&["upload", scenario.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(text.contains("tube accepted"), "{text}");
+    wait_for("waiting for MAV_CMD_MISSION_START");
+    let (code, text) = gcs(&["start"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert_eq!(text.matches("MISSION_START accepted").count(), 3, "{text}");
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = serve.try_wait().unwrap() {
+            break s;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "serve did not finish");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(status.code(), Some(0), "the mission succeeds");
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["success"], serde_json::Value::Bool(true));
+    let codes: Vec<Option<i32>> = procs.into_iter().map(|p| p.stop().0).collect();
+    assert_eq!(codes, vec![Some(0); 3]);
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -168,7 +168,7 @@ enum Cmd {
         controller: Controller,
     },
     /// Be the MAVLink simulator: UAV `i` of the scenario on UDP port `PORT + i` (as PX4 SITL
-    /// instances), lockstep; companions connect to it, a ground station configures and starts
+    /// instances), lockstep or on the wall clock; companions connect to it, a ground station configures and starts
     /// them (`host-sim gcs`); writes summary.json and plots at the end.
     Serve {
         /// Scenario TOML file (default: the paper's 10-UAV mission, built in).
@@ -176,6 +176,9 @@ enum Cmd {
         /// UDP port of UAV 0.
         #[arg(long, default_value_t = 14560)]
         port: u16,
+        /// On the wall clock (companions uploaded with `gcs upload --realtime`).
+        #[arg(long)]
+        realtime: bool,
         /// Output directory.
         #[arg(long, default_value = "out/serve")]
         out: PathBuf,
@@ -210,6 +213,9 @@ enum GcsCmd {
     Upload {
         /// Scenario TOML file.
         scenario: PathBuf,
+        /// For a flight on the wall clock (VT_LOCKSTEP = 0), not lockstep with a simulator.
+        #[arg(long)]
+        realtime: bool,
     },
     /// MAV_CMD_MISSION_START to every companion; refusals printed verbatim.
     Start,
@@ -252,12 +258,12 @@ fn main() -> ExitCode {
             let opts = RunOptions { controller: controller_kind(controller), record: true, ..RunOptions::default() };
             host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, realtime, &opts)
         }
-        Cmd::Serve { scenario, port, out } => host_sim::sitl::cli::serve(scenario.as_deref(), port, &out, &RunOptions::default()),
+        Cmd::Serve { scenario, port, realtime, out } => host_sim::sitl::cli::serve(scenario.as_deref(), port, realtime, &out, &RunOptions::default()),
         Cmd::Gcs { team, bind, action } => {
             use host_sim::sitl::cli::GcsAction;
             use host_sim::sitl::gcs::GcsCommand;
             let action = match action {
-                GcsCmd::Upload { scenario } => GcsAction::Upload(scenario),
+                GcsCmd::Upload { scenario, realtime } => GcsAction::Upload(scenario, realtime),
                 GcsCmd::Start => GcsAction::Start,
                 GcsCmd::Hold => GcsAction::Command(GcsCommand::Hold),
                 GcsCmd::Resume => GcsAction::Command(GcsCommand::Resume),
@@ -305,18 +311,10 @@ fn fly(ls: &scenario::LoadedScenario, kind: ControllerKind, f_max: Option<f64>, 
 }
 
 fn write(dir: &std::path::Path, out: &sim::RunOutput) -> Result<(), ExitCode> {
-    match host_sim::report::write_run(dir, out) {
-        Ok(files) => {
-            for f in files {
-                println!("  wrote {}", f.display());
-            }
-            Ok(())
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            Err(ExitCode::from(EXIT_FAILURE))
-        }
-    }
+    host_sim::report::write_run_listed(dir, out).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_FAILURE)
+    })
 }
 
 /// Writes the MCAP log of `runs` to `path` when asked (`--mcap`).

@@ -24,6 +24,17 @@ pub fn write_run(dir: &Path, out: &RunOutput) -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
+/// [`write_run`], listing each file written on stdout (`  wrote PATH`), as the commands do.
+///
+/// # Errors
+/// As [`write_run`].
+pub fn write_run_listed(dir: &Path, out: &RunOutput) -> Result<(), String> {
+    for f in write_run(dir, out)? {
+        println!("  wrote {}", f.display());
+    }
+    Ok(())
+}
+
 /// The trajectory as CSV: one row per record sample.
 pub fn trajectory_csv(r: &RunRecord) -> String {
     let n = r.uav_pos_m.first().map_or(0, Vec::len);

@@ -4,7 +4,7 @@
 use super::gcs::{status_table, Gcs, GcsCommand};
 use super::udp::UdpPort;
 use super::{companion_binary, sitl_lockstep, sitl_realtime, write_report};
-use crate::pil::{self, PortTeam};
+use crate::pil::{self, PilError, PortTeam};
 use crate::scenario::{self, LoadedScenario};
 use crate::sim::{self, RunOptions, RunOutput};
 use std::net::SocketAddr;
@@ -20,18 +20,10 @@ fn load(path: Option<&Path>) -> Result<LoadedScenario, ExitCode> {
 }
 
 fn write_outputs(out: &Path, run: &RunOutput) -> Result<(), ExitCode> {
-    match crate::report::write_run(out, run) {
-        Ok(files) => {
-            for f in files {
-                println!("  wrote {}", f.display());
-            }
-            Ok(())
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            Err(ExitCode::from(1))
-        }
-    }
+    crate::report::write_run_listed(out, run).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(1)
+    })
 }
 
 /// `host-sim sitl [SCENARIO] [--out DIR] [--companion BIN]`: the scenario flown by one
@@ -88,7 +80,7 @@ pub fn sitl(scenario: Option<&Path>, out: &Path, companion: Option<PathBuf>, rea
 /// (their heartbeat); the simulator waits until every one is configured (`Ready`, from a ground
 /// station), flies the pre-flight, waits for the ground station's `MISSION_START`, then flies and
 /// writes the usual outputs.
-pub fn serve(scenario: Option<&Path>, base_port: u16, out: &Path, opts: &RunOptions) -> ExitCode {
+pub fn serve(scenario: Option<&Path>, base_port: u16, realtime: bool, out: &Path, opts: &RunOptions) -> ExitCode {
     let ls = match load(scenario) {
         Ok(ls) => ls,
         Err(c) => return c,
@@ -125,7 +117,7 @@ pub fn serve(scenario: Option<&Path>, base_port: u16, out: &Path, opts: &RunOpti
         }
     }
     let rated = opts.f_max_n.unwrap_or(ls.scenario.cables.rated_n);
-    let setup = match pil::team_setup_for(&ls, opts.controller, sim::takeoff(&ls.scenario, &ls.tube, rated), rated, true) {
+    let setup = match pil::team_setup_for(&ls, opts.controller, sim::takeoff(&ls.scenario, &ls.tube, rated), rated, !realtime) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -136,14 +128,20 @@ pub fn serve(scenario: Option<&Path>, base_port: u16, out: &Path, opts: &RunOpti
         eprintln!("pre-flight flown: waiting for MAV_CMD_MISSION_START from the ground station (host-sim gcs ... start) ...");
         Ok(())
     });
-    let flown = match pil::fly_team(&ls, team, opts) {
+    let flown = if realtime {
+        let mut rt = super::realtime::RealtimeTeam::new(team, n).with_start_timeout(patience);
+        crate::mission::fly(&ls, opts, &mut rt).map(|f| (f.summary, f.record)).map_err(|e| PilError(e.0))
+    } else {
+        pil::fly_team(&ls, team, opts).map(|f| (f.summary, f.record))
+    };
+    let (summary, record) = match flown {
         Ok(f) => f,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(1);
         }
     };
-    let run = RunOutput { summary: flown.summary, record: flown.record, scene: sim::scene(&ls) };
+    let run = RunOutput { summary, record, scene: sim::scene(&ls) };
     println!("{}", run.summary.table());
     if let Err(c) = write_outputs(out, &run) {
         return c;
@@ -154,8 +152,9 @@ pub fn serve(scenario: Option<&Path>, base_port: u16, out: &Path, opts: &RunOpti
 /// What `host-sim gcs` does.
 #[derive(Debug, Clone)]
 pub enum GcsAction {
-    /// Upload a scenario's parameters and tube.
-    Upload(PathBuf),
+    /// Upload a scenario's parameters and tube (`true`: for a flight on the wall clock,
+    /// `VT_LOCKSTEP = 0`; else lockstep with a simulator).
+    Upload(PathBuf, bool),
     /// `MAV_CMD_MISSION_START`.
     Start,
     /// A team command.
@@ -178,7 +177,7 @@ pub fn gcs(team: &[SocketAddr], bind: SocketAddr, action: &GcsAction, opts: &Run
         }
     };
     let result = match action {
-        GcsAction::Upload(path) => {
+        GcsAction::Upload(path, realtime) => {
             let ls = match load(Some(path)) {
                 Ok(ls) => ls,
                 Err(c) => return c,
@@ -188,7 +187,7 @@ pub fn gcs(team: &[SocketAddr], bind: SocketAddr, action: &GcsAction, opts: &Run
                 return ExitCode::from(2);
             }
             let rated = opts.f_max_n.unwrap_or(ls.scenario.cables.rated_n);
-            pil::team_setup_for(&ls, opts.controller, sim::takeoff(&ls.scenario, &ls.tube, rated), rated, true)
+            pil::team_setup_for(&ls, opts.controller, sim::takeoff(&ls.scenario, &ls.tube, rated), rated, !*realtime)
                 .and_then(|s| g.upload(&s.configs))
                 .map(|()| println!("uploaded {} to {} companions: parameters echoed, tube accepted", ls.source_name, team.len()))
         }

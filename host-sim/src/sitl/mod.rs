@@ -156,6 +156,59 @@ pub struct SitlReport {
     pub companion_exit_codes: Vec<Option<i32>>,
 }
 
+/// The processes and sockets of one SITL flight, the companions configured by the ground
+/// station: the simulator's UAV ports and the ground station's socket first (the companions
+/// send to both, as a MAVLink router would fan out), then one `vt-companion` per UAV, then the
+/// upload.
+struct Launch {
+    ports: Vec<UdpPort>,
+    gcs: Gcs,
+    procs: Vec<CompanionProcess>,
+    configs: Vec<UavConfig>,
+}
+
+impl Launch {
+    fn new(ls: &LoadedScenario, opts: &RunOptions, bin: &Path, lockstep: bool) -> Result<Self, PilError> {
+        let s = &ls.scenario;
+        let n = s.cables.lengths_m.len();
+        let loopback: SocketAddr = ([127, 0, 0, 1], 0).into();
+        let mut ports: Vec<UdpPort> = (0..n).map(|_| UdpPort::bind(loopback, None, LOCKSTEP_TIMEOUT)).collect::<Result<_, _>>()?;
+        let mut gcs = Gcs::bind(loopback, Vec::new())?;
+        let gcs_addr = gcs.local_addr()?;
+        let mut procs = Vec::with_capacity(n);
+        for port in &ports {
+            procs.push(CompanionProcess::spawn(bin, &[port.local_addr()?, gcs_addr])?);
+        }
+        for (port, p) in ports.iter_mut().zip(&procs) {
+            port.set_peer(p.addr);
+        }
+        gcs.set_endpoints(procs.iter().map(|p| p.addr).collect());
+        // The ground station uploads the scenario's parameters and the tube.
+        let rated = opts.f_max_n.unwrap_or(s.cables.rated_n);
+        let setup = pil::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, lockstep)?;
+        gcs.upload(&setup.configs)?;
+        Ok(Self { ports, gcs, procs, configs: setup.configs })
+    }
+
+    /// The team over the simulator's ports, started by the ground station after the pre-flight.
+    fn team<'a>(&'a mut self, opts: &RunOptions) -> PortTeam<'a, UdpPort> {
+        let ids: Vec<u8> = self.configs.iter().map(|c| c.system_id).collect();
+        let gcs = &mut self.gcs;
+        PortTeam::new(&mut self.ports, "SITL").with_controller(opts.controller).configured(self.configs.clone()).started_by(move || {
+            let results = gcs.start(&ids).map_err(|e| e.0)?;
+            match results.iter().enumerate().find(|(_, (r, _))| *r != 0) {
+                Some((i, (r, texts))) => Err(format!("UAV {i} refused the start (MAV_RESULT {r}): {}", texts.join("; "))),
+                None => Ok(()),
+            }
+        })
+    }
+
+    /// Ctrl-C to every companion: their exit codes.
+    fn stop(self) -> Vec<Option<i32>> {
+        self.procs.into_iter().map(|p| p.stop().0).collect()
+    }
+}
+
 /// Flies `ls` with one `vt-companion` process per UAV behind `host-sim`'s UDP ports, in
 /// lockstep, configured and started by the ground station; flies the SIL twin too and compares
 /// every command.
@@ -165,37 +218,11 @@ pub struct SitlReport {
 pub fn sitl_lockstep(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Result<(RunOutput, SitlReport, Vec<CommandRecord>), PilError> {
     let s = &ls.scenario;
     let n = s.cables.lengths_m.len();
-    let loopback: SocketAddr = ([127, 0, 0, 1], 0).into();
-    // The simulator's UAV ports and the ground station's socket first: the companions send to
-    // both (as a MAVLink router would fan out).
-    let mut ports: Vec<UdpPort> = (0..n).map(|_| UdpPort::bind(loopback, None, LOCKSTEP_TIMEOUT)).collect::<Result<_, _>>()?;
-    let mut gcs = Gcs::bind(loopback, Vec::new())?;
-    let gcs_addr = gcs.local_addr()?;
-    let mut procs = Vec::with_capacity(n);
-    for port in &ports {
-        procs.push(CompanionProcess::spawn(bin, &[port.local_addr()?, gcs_addr])?);
-    }
-    for (port, p) in ports.iter_mut().zip(&procs) {
-        port.set_peer(p.addr);
-    }
-    gcs.set_endpoints(procs.iter().map(|p| p.addr).collect());
-    // The ground station uploads the scenario's parameters (VT_LOCKSTEP = 1) and the tube.
-    let rated = opts.f_max_n.unwrap_or(s.cables.rated_n);
-    let setup = pil::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, true)?;
-    gcs.upload(&setup.configs)?;
-    let configs: Vec<UavConfig> = setup.configs.clone();
-    let ids: Vec<u8> = configs.iter().map(|c| c.system_id).collect();
+    let mut launch = Launch::new(ls, opts, bin, true)?;
     let wall = Instant::now();
-    let team = PortTeam::new(&mut ports, "SITL").with_controller(opts.controller).configured(configs).started_by(|| {
-        let results = gcs.start(&ids).map_err(|e| e.0)?;
-        match results.iter().enumerate().find(|(_, (r, _))| *r != 0) {
-            Some((i, (r, texts))) => Err(format!("UAV {i} refused the start (MAV_RESULT {r}): {}", texts.join("; "))),
-            None => Ok(()),
-        }
-    });
-    let flown = pil::fly_team(ls, team, opts)?;
+    let flown = pil::fly_team(ls, launch.team(opts), opts)?;
     let sitl_wall = wall.elapsed().as_secs_f64();
-    let codes: Vec<Option<i32>> = procs.into_iter().map(|p| p.stop().0).collect();
+    let codes = launch.stop();
     // The SIL twin: the same companions in process, the same bytes.
     let wall = Instant::now();
     let mut twins: Vec<SilPort> = (0..n).map(|_| SilPort::new()).collect();
@@ -228,31 +255,9 @@ pub fn sitl_lockstep(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Resu
 pub fn sitl_realtime(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Result<(RunOutput, SitlReport), PilError> {
     let s = &ls.scenario;
     let n = s.cables.lengths_m.len();
-    let loopback: SocketAddr = ([127, 0, 0, 1], 0).into();
-    let mut ports: Vec<UdpPort> = (0..n).map(|_| UdpPort::bind(loopback, None, LOCKSTEP_TIMEOUT)).collect::<Result<_, _>>()?;
-    let mut gcs = Gcs::bind(loopback, Vec::new())?;
-    let gcs_addr = gcs.local_addr()?;
-    let mut procs = Vec::with_capacity(n);
-    for port in &ports {
-        procs.push(CompanionProcess::spawn(bin, &[port.local_addr()?, gcs_addr])?);
-    }
-    for (port, p) in ports.iter_mut().zip(&procs) {
-        port.set_peer(p.addr);
-    }
-    gcs.set_endpoints(procs.iter().map(|p| p.addr).collect());
-    let rated = opts.f_max_n.unwrap_or(s.cables.rated_n);
-    let setup = pil::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, false)?;
-    gcs.upload(&setup.configs)?;
-    let ids: Vec<u8> = setup.configs.iter().map(|c| c.system_id).collect();
+    let mut launch = Launch::new(ls, opts, bin, false)?;
     let wall = Instant::now();
-    let inner = PortTeam::new(&mut ports, "SITL").with_controller(opts.controller).configured(setup.configs).started_by(|| {
-        let results = gcs.start(&ids).map_err(|e| e.0)?;
-        match results.iter().enumerate().find(|(_, (r, _))| *r != 0) {
-            Some((i, (r, texts))) => Err(format!("UAV {i} refused the start (MAV_RESULT {r}): {}", texts.join("; "))),
-            None => Ok(()),
-        }
-    });
-    let mut team = realtime::RealtimeTeam::new(inner, n);
+    let mut team = realtime::RealtimeTeam::new(launch.team(opts), n);
     let flown = crate::mission::fly(ls, opts, &mut team).map_err(|e| PilError(e.0))?;
     let wall_s = wall.elapsed().as_secs_f64();
     eprintln!(
@@ -261,7 +266,7 @@ pub fn sitl_realtime(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Resu
         team.stale_periods
     );
     drop(team);
-    let codes: Vec<Option<i32>> = procs.into_iter().map(|p| p.stop().0).collect();
+    let codes = launch.stop();
     let report = SitlReport {
         scenario: s.name.clone(),
         n_uavs: n,

@@ -14,8 +14,9 @@ use nalgebra::Vector3;
 use std::time::{Duration, Instant};
 use vt_companion::AUTOPILOT_COMPONENT_ID;
 
-/// How long the start waits for every companion's acknowledgement and first setpoint.
-const START_TIMEOUT: Duration = Duration::from_secs(10);
+/// How long the start waits for every companion's acknowledgement and first setpoint, when a
+/// program starts them (`host-sim sitl`).
+pub const START_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// The companions behind UDP ports, on the wall clock.
 pub struct RealtimeTeam<'p> {
@@ -28,12 +29,28 @@ pub struct RealtimeTeam<'p> {
     pub stale_periods: u64,
     /// The worst lag of the simulator behind the wall clock, s.
     pub worst_lag_s: f64,
+    start_timeout: Duration,
 }
 
 impl<'p> RealtimeTeam<'p> {
     /// Wraps a configured team whose start hook starts the companions.
     pub fn new(inner: PortTeam<'p, UdpPort>, n: usize) -> Self {
-        Self { inner, anchor: None, latest: vec![None; n], clock: (0..n).map(|_| Encoder::default()).collect(), stale_periods: 0, worst_lag_s: 0.0 }
+        Self {
+            inner,
+            anchor: None,
+            latest: vec![None; n],
+            clock: (0..n).map(|_| Encoder::default()).collect(),
+            stale_periods: 0,
+            worst_lag_s: 0.0,
+            start_timeout: START_TIMEOUT,
+        }
+    }
+
+    /// Waits this long for the start (a person at a ground station: minutes).
+    #[must_use]
+    pub fn with_start_timeout(mut self, t: Duration) -> Self {
+        self.start_timeout = t;
+        self
     }
 
     /// Sends every companion its share of `tick`, then `SYSTEM_TIME` at high-level ticks.
@@ -97,7 +114,7 @@ impl Team for RealtimeTeam<'_> {
         let t0 = Instant::now();
         let mut acked = vec![false; self.latest.len()];
         while !(acked.iter().all(|a| *a) && self.latest.iter().all(Option::is_some)) {
-            if t0.elapsed() > START_TIMEOUT {
+            if t0.elapsed() > self.start_timeout {
                 return Err(SimError(format!("realtime start: acknowledged {acked:?}, first setpoints {:?}", self.latest.iter().map(Option::is_some).collect::<Vec<_>>())));
             }
             self.send(&start.tick, &ids)?;
