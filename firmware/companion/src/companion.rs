@@ -10,23 +10,24 @@
 //! dropped; nothing on the wire reaches the controllers unchecked.
 
 use mavlink::dialects::common::{
-    AttitudeTargetTypemask, MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavModeFlag, MavParamType, MavResult, MavSeverity,
-    MavState, MavSysStatusSensor, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
-    HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, SYSTEM_TIME_DATA,
-    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA, NAMED_VALUE_INT_DATA, PARAM_REQUEST_LIST_DATA,
-    PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA,
-    STATUSTEXT_DATA, SYS_STATUS_DATA,
+    AttitudeTargetTypemask, MavCmd, MavFrame, MavMissionResult, MavResult, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
+    DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, PARAM_REQUEST_LIST_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
+    POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, SYSTEM_TIME_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use vt_dissipative::TeamMode;
 
-use crate::flight::{Flight, HoldReasons, Setpoint, Sources, Stamped, StartError, State};
+use crate::flight::{Flight, HoldReasons, Setpoint, Sources, StartError};
 use crate::framer::{Frame, Framer, LinkCounters};
-use crate::frames::{enu_from_ned, finite3, ned_from_enu};
+use crate::frames::ned_from_enu;
 use crate::mission::{Item, MissionResult, MissionUpload, UploadReply};
 use crate::Vec3;
 use crate::params::{self, Param, ParamError, Params};
 use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
+
+mod inputs;
+mod telemetry;
 
 /// Largest accepted position magnitude per axis, m (anything beyond is a corrupt value).
 pub const POSITION_LIMIT_M: f32 = 1.0e5;
@@ -539,146 +540,6 @@ impl Core<'_> {
         }
     }
 
-    /// `LOCAL_POSITION_NED`: its sender by the frame's ids, then [`Self::position`].
-    fn on_local_position(&mut self, f: &Frame<'_>, d: &LOCAL_POSITION_NED_DATA, io: &mut impl Io) {
-        let own_sys = self.own_system_id();
-        let from = if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
-            Source::Own
-        } else if f.system_id == own_sys && u32::from(f.component_id) == self.params.get_u32(Param::LoadComp) {
-            Source::Load
-        } else if f.component_id == AUTOPILOT_COMPONENT_ID {
-            Source::Member(u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize)
-        } else {
-            return self.ignored();
-        };
-        self.position(from, enu_from_ned(d.x, d.y, d.z), enu_from_ned(d.vx, d.vy, d.vz), d.time_boot_ms, io);
-    }
-
-    fn position(&mut self, from: Source, pos: Vec3, vel: Vec3, time_boot_ms: u32, io: &mut impl Io) {
-        let within = |v: &Vec3, lim: f32| finite3(v) && v.iter().all(|c| c.abs() <= lim);
-        if !(within(&pos, POSITION_LIMIT_M) && within(&vel, VELOCITY_LIMIT_MPS)) {
-            return self.bad_value();
-        }
-        let lockstep = self.params.get_u32(Param::Lockstep) == 1;
-        // Receipt stamp (freshness): lockstep, the host's simulated time (the SYSTEM_TIME that
-        // opened this period, else the message's own time); else the board's clock at receipt.
-        let stamp_ms = match (lockstep, self.lockstep_now_ms) {
-            (true, Some(now)) => now,
-            (true, None) => time_boot_ms,
-            (false, _) => io.now_ms(),
-        };
-        // Sample time on the companion's clock (delay compensation, vt_cfo::prediction): the
-        // autopilot's `time_boot_ms` shifted by the SYSTEM_TIME offset; unknown offset: receipt.
-        let offset = if lockstep { Some(0) } else { self.autopilot_offset_ms };
-        let sample_ms = offset.map_or(stamp_ms, |o| time_boot_ms.wrapping_add(o));
-        let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
-        // Before the mission: the take-off survey averages every position (docs/design.md,
-        // "Take-off survey"); a new `VT_CAL_N` restarts it.
-        let surveying = self.flight.is_none();
-        if surveying {
-            let window = self.params.get_u32(Param::CalN);
-            if self.sources.survey.window() != window {
-                self.sources.survey.reset(window);
-            }
-        }
-        match from {
-            Source::Own => {
-                // The own state closes the period.
-                self.lockstep_now_ms = None;
-                if lockstep && self.flight.is_some() {
-                    self.clock_ms = stamp_ms;
-                    self.lockstep_tick(state, io);
-                } else {
-                    self.sources.own = Some(state);
-                    if surveying {
-                        self.sources.survey.push_own(&pos);
-                    }
-                    if lockstep {
-                        self.clock_ms = stamp_ms;
-                    }
-                }
-            }
-            Source::Load => {
-                self.sources.load = Some(state);
-                if surveying {
-                    self.sources.survey.push_load(&pos);
-                }
-            }
-            Source::Member(j) => {
-                let n = self.params.get_u32(Param::NUavs) as usize;
-                match self.sources.neighbours.get_mut(j) {
-                    Some(slot) if j < n => {
-                        *slot = Some(Stamped { value: pos, stamp_ms });
-                        if surveying {
-                            self.sources.survey.push_member(j, &pos);
-                        }
-                    }
-                    _ => self.ignored(),
-                }
-            }
-        }
-    }
-
-    /// A team member's companion announces its mode (`custom_mode` low byte): remember whether
-    /// it holds (docs/protocol.md, "Team failsafe"). Other heartbeats are ignored silently.
-    fn on_heartbeat(&mut self, f: &Frame<'_>, d: &HEARTBEAT_DATA) {
-        if f.component_id != COMPANION_COMPONENT_ID || f.system_id == self.own_system_id() {
-            return;
-        }
-        let j = u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize;
-        self.member_heartbeat(j, d.custom_mode);
-    }
-
-    fn member_heartbeat(&mut self, j: usize, custom_mode: u32) {
-        let n = self.params.get_u32(Param::NUavs) as usize;
-        if j < n && j != self.params.get_u32(Param::Id) as usize {
-            self.sources.neighbour_hold.set(j, custom_mode & 0xFF == Mode::Hold as u32);
-        }
-    }
-
-    /// `SYSTEM_TIME` from the own autopilot. Lockstep: it opens a period at the simulated time
-    /// `time_boot_ms` (the period's measurements may be older: sensor latency) and the own state
-    /// closes it; a second `SYSTEM_TIME` at the same time closes it without an own state (the
-    /// own feed is silent this period: one low-level period with the data held, which age and
-    /// go stale after `FS_OWN_TMO`). Else the offset between the board's clock and the
-    /// autopilot's `time_boot_ms` (the message's own transport delay is taken as negligible;
-    /// docs/protocol.md).
-    fn on_system_time(&mut self, f: &Frame<'_>, d: &SYSTEM_TIME_DATA, io: &mut impl Io) {
-        if !(f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
-            return self.ignored();
-        }
-        self.system_time(d.time_boot_ms, io);
-    }
-
-    fn system_time(&mut self, time_boot_ms: u32, io: &mut impl Io) {
-        if self.params.get_u32(Param::Lockstep) != 1 {
-            self.autopilot_offset_ms = Some(io.now_ms().wrapping_sub(time_boot_ms));
-        } else if self.lockstep_now_ms != Some(time_boot_ms) {
-            self.lockstep_now_ms = Some(time_boot_ms);
-        } else {
-            self.lockstep_now_ms = None;
-            self.clock_ms = time_boot_ms;
-            if self.flight.is_some() {
-                if self.flight.as_ref().is_some_and(Flight::high_level_due) {
-                    self.high_level(io);
-                }
-                self.low_level(io);
-            }
-        }
-    }
-
-    /// Lockstep: the own state `own` closes one low-level period. The high level runs first
-    /// when due, with the data held before this message (the last sample, as host-sim's
-    /// controllers read their latest sensor snapshot); then `own` is taken and the low level
-    /// runs with its velocity.
-    fn lockstep_tick(&mut self, own: Stamped<State>, io: &mut impl Io) {
-        if self.flight.as_ref().is_some_and(Flight::high_level_due) {
-            self.high_level(io);
-        }
-        self.sources.own = Some(own);
-        self.low_level(io);
-    }
-
     fn high_level(&mut self, io: &mut impl Io) {
         let now = self.clock_ms;
         if let (Some(fl), Some(tube)) = (self.flight.as_mut(), self.tube_ok.then_some(&*self.tube)) {
@@ -766,101 +627,6 @@ impl Core<'_> {
             log!(info, "mode {} -> {} (hold reasons {=u8:#x})", self.mode, new, self.flight.as_ref().map_or(0, |f| f.hold_reasons().0));
             self.mode = new;
         }
-    }
-
-    fn send_heartbeat(&mut self, io: &mut impl Io) {
-        let reasons = self.flight.as_ref().map_or(0, |f| f.hold_reasons().0);
-        self.send_heartbeat_with(io, reasons);
-    }
-
-    fn send_heartbeat_with(&mut self, io: &mut impl Io, reasons: u8) {
-        self.beacon = u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16);
-        let system_status = match self.mode {
-            Mode::Unconfigured | Mode::Ready => MavState::MAV_STATE_STANDBY,
-            Mode::Transport => MavState::MAV_STATE_ACTIVE,
-            Mode::Hold | Mode::TeamHold => MavState::MAV_STATE_CRITICAL,
-        };
-        self.send(
-            io,
-            &HEARTBEAT_DATA {
-                custom_mode: self.beacon,
-                mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
-                autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-                base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                system_status,
-                mavlink_version: 3,
-            },
-        );
-    }
-
-    fn send_status(&mut self, io: &mut impl Io) {
-        self.send_heartbeat(io);
-        let c = self.link;
-        let sat = |x: u32| x.min(u32::from(u16::MAX)) as u16;
-        self.send(
-            io,
-            &SYS_STATUS_DATA {
-                onboard_control_sensors_present: MavSysStatusSensor::empty(),
-                onboard_control_sensors_enabled: MavSysStatusSensor::empty(),
-                onboard_control_sensors_health: MavSysStatusSensor::empty(),
-                load: 0,
-                voltage_battery: u16::MAX,
-                current_battery: -1,
-                drop_rate_comm: 0,
-                errors_comm: sat(c.crc_errors.wrapping_add(c.framing_errors)),
-                errors_count1: sat(c.unknown_ids),
-                errors_count2: sat(self.values.bad_values),
-                errors_count3: sat(c.overruns),
-                errors_count4: sat(c.bytes_discarded),
-                battery_remaining: -1,
-            },
-        );
-        let stack = io.stack_used_bytes();
-        self.send(io, &NAMED_VALUE_INT_DATA { time_boot_ms: self.clock_ms, value: stack as i32, name: NAME_STACK.into() });
-        if io.wants_frames() {
-            self.send_team_status(io);
-        }
-    }
-
-    /// The ground station's live status (docs/protocol.md): data ages and the own clearance.
-    fn send_team_status(&mut self, io: &mut impl Io) {
-        let (n, id) = (self.params.get_u32(Param::NUavs) as usize, self.params.get_u32(Param::Id) as usize);
-        let [own, load, team] = self.sources.ages_ms(self.clock_ms, n, id);
-        let time_usec = u64::from(self.clock_ms) * 1000;
-        self.send(io, &DEBUG_VECT_DATA { time_usec, x: own as f32, y: load as f32, z: team as f32, name: NAME_AGES.into() });
-        let clearance = match (self.tube(), self.sources.own) {
-            (Some(tube), Some(own)) => {
-                let q = own.value.pos_m.xy();
-                tube.locate(q, 0).map(|s| s.boundary_distance_m(q))
-            }
-            _ => None,
-        };
-        if let Some(value) = clearance {
-            self.send(io, &NAMED_VALUE_FLOAT_DATA { time_boot_ms: self.clock_ms, value, name: NAME_CLEARANCE.into() });
-        }
-    }
-
-    /// A refused `MISSION_START`: the reason as `STATUSTEXT` (headline, then the numbers) and
-    /// at once in a `HEARTBEAT` (refusal code in `custom_mode` bits 16..23), before the
-    /// `COMMAND_ACK`.
-    fn refused(&mut self, e: &StartError, io: &mut impl Io) {
-        self.refusal = e.code();
-        let (head, detail) = e.lines();
-        for line in core::iter::once(head).chain(detail) {
-            self.send(io, &STATUSTEXT_DATA { severity: MavSeverity::MAV_SEVERITY_ERROR, text: line.bytes().into() });
-        }
-        self.send_status(io);
-    }
-
-    fn send_param(&mut self, io: &mut impl Io, p: Param) {
-        let msg = PARAM_VALUE_DATA {
-            param_value: self.params.get(p),
-            param_count: params::COUNT as u16,
-            param_index: p as u16,
-            param_id: p.info().name.into(),
-            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
-        };
-        self.send(io, &msg);
     }
 
     fn on_param_set(&mut self, _f: &Frame<'_>, d: &PARAM_SET_DATA, io: &mut impl Io) {

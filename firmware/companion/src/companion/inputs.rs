@@ -1,0 +1,155 @@
+//! What the companion receives outside the configuration: position reports (own autopilot,
+//! load tracker, team members), the own autopilot's clock (`SYSTEM_TIME`, which in lockstep
+//! opens and closes the low-level periods) and the team members' modes (`HEARTBEAT`). The frame
+//! handlers map ids; the typed entry points below them are what SIL calls directly.
+
+use mavlink::dialects::common::{HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, SYSTEM_TIME_DATA};
+
+use super::{Core, Io, Mode, Source, POSITION_LIMIT_M, VELOCITY_LIMIT_MPS};
+use crate::flight::{Flight, Stamped, State};
+use crate::framer::Frame;
+use crate::frames::{enu_from_ned, finite3};
+use crate::params::Param;
+use crate::{Vec3, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
+
+impl Core<'_> {
+    /// `LOCAL_POSITION_NED`: its sender by the frame's ids, then [`Self::position`].
+    pub(super) fn on_local_position(&mut self, f: &Frame<'_>, d: &LOCAL_POSITION_NED_DATA, io: &mut impl Io) {
+        let own_sys = self.own_system_id();
+        let from = if f.system_id == own_sys && f.component_id == AUTOPILOT_COMPONENT_ID {
+            Source::Own
+        } else if f.system_id == own_sys && u32::from(f.component_id) == self.params.get_u32(Param::LoadComp) {
+            Source::Load
+        } else if f.component_id == AUTOPILOT_COMPONENT_ID {
+            Source::Member(u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize)
+        } else {
+            return self.ignored();
+        };
+        self.position(from, enu_from_ned(d.x, d.y, d.z), enu_from_ned(d.vx, d.vy, d.vz), d.time_boot_ms, io);
+    }
+
+    pub(super) fn position(&mut self, from: Source, pos: Vec3, vel: Vec3, time_boot_ms: u32, io: &mut impl Io) {
+        let within = |v: &Vec3, lim: f32| finite3(v) && v.iter().all(|c| c.abs() <= lim);
+        if !(within(&pos, POSITION_LIMIT_M) && within(&vel, VELOCITY_LIMIT_MPS)) {
+            return self.bad_value();
+        }
+        let lockstep = self.params.get_u32(Param::Lockstep) == 1;
+        // Receipt stamp (freshness): lockstep, the host's simulated time (the SYSTEM_TIME that
+        // opened this period, else the message's own time); else the board's clock at receipt.
+        let stamp_ms = match (lockstep, self.lockstep_now_ms) {
+            (true, Some(now)) => now,
+            (true, None) => time_boot_ms,
+            (false, _) => io.now_ms(),
+        };
+        // Sample time on the companion's clock (delay compensation, vt_cfo::prediction): the
+        // autopilot's `time_boot_ms` shifted by the SYSTEM_TIME offset; unknown offset: receipt.
+        let offset = if lockstep { Some(0) } else { self.autopilot_offset_ms };
+        let sample_ms = offset.map_or(stamp_ms, |o| time_boot_ms.wrapping_add(o));
+        let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
+        // Before the mission: the take-off survey averages every position (docs/design.md,
+        // "Take-off survey"); a new `VT_CAL_N` restarts it.
+        let surveying = self.flight.is_none();
+        if surveying {
+            let window = self.params.get_u32(Param::CalN);
+            if self.sources.survey.window() != window {
+                self.sources.survey.reset(window);
+            }
+        }
+        match from {
+            Source::Own => {
+                // The own state closes the period.
+                self.lockstep_now_ms = None;
+                if lockstep && self.flight.is_some() {
+                    self.clock_ms = stamp_ms;
+                    self.lockstep_tick(state, io);
+                } else {
+                    self.sources.own = Some(state);
+                    if surveying {
+                        self.sources.survey.push_own(&pos);
+                    }
+                    if lockstep {
+                        self.clock_ms = stamp_ms;
+                    }
+                }
+            }
+            Source::Load => {
+                self.sources.load = Some(state);
+                if surveying {
+                    self.sources.survey.push_load(&pos);
+                }
+            }
+            Source::Member(j) => {
+                let n = self.params.get_u32(Param::NUavs) as usize;
+                match self.sources.neighbours.get_mut(j) {
+                    Some(slot) if j < n => {
+                        *slot = Some(Stamped { value: pos, stamp_ms });
+                        if surveying {
+                            self.sources.survey.push_member(j, &pos);
+                        }
+                    }
+                    _ => self.ignored(),
+                }
+            }
+        }
+    }
+
+    /// A team member's companion announces its mode (`custom_mode` low byte): remember whether
+    /// it holds (docs/protocol.md, "Team failsafe"). Other heartbeats are ignored silently.
+    pub(super) fn on_heartbeat(&mut self, f: &Frame<'_>, d: &HEARTBEAT_DATA) {
+        if f.component_id != COMPANION_COMPONENT_ID || f.system_id == self.own_system_id() {
+            return;
+        }
+        let j = u32::from(f.system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize;
+        self.member_heartbeat(j, d.custom_mode);
+    }
+
+    pub(super) fn member_heartbeat(&mut self, j: usize, custom_mode: u32) {
+        let n = self.params.get_u32(Param::NUavs) as usize;
+        if j < n && j != self.params.get_u32(Param::Id) as usize {
+            self.sources.neighbour_hold.set(j, custom_mode & 0xFF == Mode::Hold as u32);
+        }
+    }
+
+    /// `SYSTEM_TIME` from the own autopilot. Lockstep: it opens a period at the simulated time
+    /// `time_boot_ms` (the period's measurements may be older: sensor latency) and the own state
+    /// closes it; a second `SYSTEM_TIME` at the same time closes it without an own state (the
+    /// own feed is silent this period: one low-level period with the data held, which age and
+    /// go stale after `FS_OWN_TMO`). Else the offset between the board's clock and the
+    /// autopilot's `time_boot_ms` (the message's own transport delay is taken as negligible;
+    /// docs/protocol.md).
+    pub(super) fn on_system_time(&mut self, f: &Frame<'_>, d: &SYSTEM_TIME_DATA, io: &mut impl Io) {
+        if !(f.system_id == self.own_system_id() && f.component_id == AUTOPILOT_COMPONENT_ID) {
+            return self.ignored();
+        }
+        self.system_time(d.time_boot_ms, io);
+    }
+
+    pub(super) fn system_time(&mut self, time_boot_ms: u32, io: &mut impl Io) {
+        if self.params.get_u32(Param::Lockstep) != 1 {
+            self.autopilot_offset_ms = Some(io.now_ms().wrapping_sub(time_boot_ms));
+        } else if self.lockstep_now_ms != Some(time_boot_ms) {
+            self.lockstep_now_ms = Some(time_boot_ms);
+        } else {
+            self.lockstep_now_ms = None;
+            self.clock_ms = time_boot_ms;
+            if self.flight.is_some() {
+                if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+                    self.high_level(io);
+                }
+                self.low_level(io);
+            }
+        }
+    }
+
+    /// Lockstep: the own state `own` closes one low-level period. The high level runs first
+    /// when due, with the data held before this message (the last sample, as host-sim's
+    /// controllers read their latest sensor snapshot); then `own` is taken and the low level
+    /// runs with its velocity.
+    pub(super) fn lockstep_tick(&mut self, own: Stamped<State>, io: &mut impl Io) {
+        if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+            self.high_level(io);
+        }
+        self.sources.own = Some(own);
+        self.low_level(io);
+    }
+}
