@@ -44,15 +44,23 @@ impl WireWaypoint {
     }
 }
 
-/// `v` (m) on the mission protocol's 0.1 mm grid, as the companion reconstructs it
-/// (`x as f32 / 1e4`, vt_companion::mission): the nearest grid value, as `f32`, in `f64`.
-/// Values beyond the `i32` range are returned unchanged ([`tube_waypoints`] refuses them).
-pub fn on_wire_grid_m(v: f64) -> f64 {
+/// `v` (m) in the mission protocol's units of 0.1 mm (`MISSION_ITEM_INT.x`, `.y`): the nearest
+/// count, `None` beyond the `i32` range or for a non-finite `v`.
+fn wire_units(v: f64) -> Option<i32> {
     let x = (v * 1e4).round();
-    if x.abs() > f64::from(i32::MAX) || !x.is_finite() {
-        return v;
-    }
-    f64::from(x as i32 as f32 / vt_companion::mission::LOCAL_SCALE_PER_M)
+    (x.is_finite() && x.abs() <= f64::from(i32::MAX)).then_some(x as i32)
+}
+
+/// A count of 0.1 mm back in metres, as the companion computes it (`vt_companion::mission`).
+fn metres_from_wire(x: i32) -> f32 {
+    x as f32 / vt_companion::mission::LOCAL_SCALE_PER_M
+}
+
+/// `v` (m) on the mission protocol's 0.1 mm grid, as the companion reconstructs it: the
+/// nearest grid value, as `f32`, in `f64`. Values beyond the `i32` range are returned unchanged
+/// ([`tube_waypoints`] refuses them).
+pub fn on_wire_grid_m(v: f64) -> f64 {
+    wire_units(v).map_or(v, |x| f64::from(metres_from_wire(x)))
 }
 
 /// The scenario's tube as the mission protocol carries it.
@@ -64,13 +72,12 @@ pub fn tube_waypoints(s: &Scenario) -> Result<Vec<WireWaypoint>, SimError> {
     let mut out = Vec::with_capacity(s.tube.waypoints.len());
     for (k, w) in s.tube.waypoints.iter().enumerate() {
         let (east, north, wl, wr) = (w[0], w[1], w[2], w[3]);
-        let q = |v: f64| (v * 1e4).round();
-        let (x, y) = (q(north), q(east));
-        // The companion computes `x as f32 / 1e4`; it must equal the scenario's value as f32.
-        if (x as f32 / 1e4) != north as f32 || (y as f32 / 1e4) != east as f32 || x.abs() > f64::from(i32::MAX) || y.abs() > f64::from(i32::MAX) {
+        // What the companion rebuilds must equal the scenario's value as f32.
+        let exact = |v: f64| wire_units(v).filter(|&x| metres_from_wire(x) == v as f32);
+        let (Some(x), Some(y)) = (exact(north), exact(east)) else {
             return Err(SimError(format!("tube waypoint {k}: not representable in 0.1 mm units without changing its f32 value")));
-        }
-        out.push(WireWaypoint { x: x as i32, y: y as i32, w_left_m: wl as f32, w_right_m: wr as f32 });
+        };
+        out.push(WireWaypoint { x, y, w_left_m: wl as f32, w_right_m: wr as f32 });
     }
     Ok(out)
 }

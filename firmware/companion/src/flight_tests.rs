@@ -59,6 +59,20 @@ fn measurements(nb: &[Option<Vec3>]) -> Measurements<'_> {
     Measurements { own_pos_m: uav_pos(0), load_pos_m: load_pos(), load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: Some(Vec3::zeros()) }
 }
 
+/// Five quiet high-level steps after the last alarm (`FS_RESUME` = 0.1 s): team hold, flown
+/// as the reference's, then transport at the fifth.
+fn quiet_steps_resume(fl: &mut Flight, r: &mut DissipativeController<MAX_UAVS>, p: &Params, t: &CompanionTube, mut now: u32) {
+    let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
+    for k in 0..5 {
+        now += HL_MS;
+        let v = fl.high_level(t, &sources(now), now);
+        let expect = if k < 4 { TeamMode::TeamHold } else { TeamMode::Transport };
+        assert_eq!(fl.team_mode(), expect, "quiet step {k}");
+        r.set_team_hold(k < 4);
+        assert_eq!(v, r.update(t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "quiet step {k}");
+    }
+}
+
 #[test]
 fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_after_fs_resume() {
     let (p, t) = (params(1.0), tube());
@@ -86,14 +100,7 @@ fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_aft
         assert!(v.x.abs() < 0.05, "no progress in team hold: {v:?}");
     }
     // The hold flag clears: team hold for FS_RESUME = 5 quiet steps, then transport again.
-    for k in 0..5 {
-        now += HL_MS;
-        let v = fl.high_level(&t, &sources(now), now);
-        let expect = if k < 4 { TeamMode::TeamHold } else { TeamMode::Transport };
-        assert_eq!(fl.team_mode(), expect, "quiet step {k}");
-        r.set_team_hold(k < 4);
-        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "quiet step {k}");
-    }
+    quiet_steps_resume(&mut fl, &mut r, &p, &t, now);
     assert!(fl.velocity_command_mps().x > 0.1, "advancing again");
 }
 
@@ -116,14 +123,7 @@ fn the_operators_hold_is_broadcast_flown_as_the_team_hold_and_lifted_after_fs_re
         assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "the controller's team hold");
     }
     fl.set_operator_hold(false);
-    for k in 0..5 {
-        now += HL_MS;
-        let v = fl.high_level(&t, &sources(now), now);
-        let expect = if k < 4 { TeamMode::TeamHold } else { TeamMode::Transport };
-        assert_eq!(fl.team_mode(), expect, "quiet step {k}");
-        r.set_team_hold(k < 4);
-        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "quiet step {k}");
-    }
+    quiet_steps_resume(&mut fl, &mut r, &p, &t, now);
     assert!(fl.hold_reasons().is_clear());
 }
 

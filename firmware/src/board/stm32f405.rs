@@ -128,7 +128,14 @@ pub fn init() -> Board {
     uc.baudrate = BAUD;
     let uart = match Uart::new(p.USART1, p.PA10, p.PA9, p.DMA2_CH7, p.DMA2_CH2, Irqs, uc) {
         Ok(u) => u,
-        Err(_) => defmt::panic!("USART1 configuration rejected"),
+        // Unreachable with the clock tree above: `Uart::new` refuses only a baud rate outside
+        // what APB2 (84 MHz, 16x oversampling: up to 5.25 MBd) can divide to, and BAUD is
+        // 921 600. Should a change make it reachable, the board resets (a defined state, the
+        // watchdog's too) instead of panicking.
+        Err(_) => {
+            defmt::error!("USART1 configuration rejected: reset");
+            reboot()
+        }
     };
     let (tx, rx) = uart.split();
     let rx = rx.into_ring_buffered(RX_BUF.init([0; RX_RING]));

@@ -24,8 +24,12 @@ pub struct RealtimeTeam<'p> {
     /// Wall instant of simulated time `anchor.1` (ms).
     anchor: Option<(Instant, u32)>,
     latest: Vec<Option<Setpoint>>,
+    /// Per UAV: a setpoint arrived since the last period (reused buffer).
+    arrived: Vec<bool>,
+    /// Each UAV's system id (`VT_SYSID_BASE + i`, as the companions are configured).
+    sysids: Vec<u8>,
     clock: Vec<Encoder>,
-    /// Low-level periods in which a UAV's setpoint had not changed (none arrived in time).
+    /// Low-level periods in which no new setpoint had arrived from a UAV.
     pub stale_periods: u64,
     /// The worst lag of the simulator behind the wall clock, s.
     pub worst_lag_s: f64,
@@ -39,6 +43,8 @@ impl<'p> RealtimeTeam<'p> {
             inner,
             anchor: None,
             latest: vec![None; n],
+            arrived: vec![false; n],
+            sysids: (0..n).map(|i| crate::companion::SYSID_BASE.saturating_add(i.min(255) as u8)).collect(),
             clock: (0..n).map(|_| Encoder::default()).collect(),
             stale_periods: 0,
             worst_lag_s: 0.0,
@@ -54,12 +60,12 @@ impl<'p> RealtimeTeam<'p> {
     }
 
     /// Sends every companion its share of `tick`, then `SYSTEM_TIME` at high-level ticks.
-    fn send(&mut self, tick: &Tick<'_>, sysids: &[u8]) -> Result<(), SimError> {
+    fn send(&mut self, tick: &Tick<'_>) -> Result<(), SimError> {
         for i in 0..self.latest.len() {
             let mut bytes = self.inner.frames_for(i, tick);
             if tick.high_level {
                 let st = SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: tick.time_ms };
-                bytes.extend(self.clock[i].frame(sysids.get(i).copied().unwrap_or(0), AUTOPILOT_COMPONENT_ID, &st));
+                bytes.extend(self.clock[i].frame(self.sysids.get(i).copied().unwrap_or(0), AUTOPILOT_COMPONENT_ID, &st));
             }
             use crate::pil::Port;
             self.inner.ports_mut()[i].send(&bytes).map_err(|e| SimError(format!("UAV {i}: {e}")))?;
@@ -85,7 +91,10 @@ impl<'p> RealtimeTeam<'p> {
             loop {
                 let rx = self.inner.ports_mut()[i].poll(Duration::ZERO).map_err(|e| SimError(e.0))?;
                 match rx {
-                    Some(Rx::Setpoint { q, thrust, .. }) => self.latest[i] = Some(Setpoint { q_ned: q, thrust }),
+                    Some(Rx::Setpoint { q, thrust, .. }) => {
+                        self.latest[i] = Some(Setpoint { q_ned: q, thrust });
+                        self.arrived[i] = true;
+                    }
                     Some(Rx::Heartbeat(m)) => self.inner.note_heartbeat(i, m),
                     Some(_) => {}
                     None => break,
@@ -97,16 +106,14 @@ impl<'p> RealtimeTeam<'p> {
 }
 
 impl Team for RealtimeTeam<'_> {
-    fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
-        let ids = sysids(ls);
-        self.send(&at.tick, &ids)?;
+    fn preflight(&mut self, _ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+        self.send(&at.tick)?;
         self.pace(at.tick.time_ms);
         self.drain()
     }
 
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
-        let ids = sysids(ls);
-        self.send(&start.tick, &ids)?;
+    fn start(&mut self, _ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+        self.send(&start.tick)?;
         let mut hook = self.inner.take_start_hook().ok_or_else(|| SimError("realtime: nobody starts the companions".into()))?;
         hook().map_err(|e| SimError(format!("the start failed: {e}")))?;
         // Acknowledgements and a first setpoint from each, the states kept fresh meanwhile
@@ -117,7 +124,7 @@ impl Team for RealtimeTeam<'_> {
             if t0.elapsed() > self.start_timeout {
                 return Err(SimError(format!("realtime start: acknowledged {acked:?}, first setpoints {:?}", self.latest.iter().map(Option::is_some).collect::<Vec<_>>())));
             }
-            self.send(&start.tick, &ids)?;
+            self.send(&start.tick)?;
             std::thread::sleep(Duration::from_millis(2));
             for (i, a) in acked.iter_mut().enumerate() {
                 while let Some(rx) = self.inner.ports_mut()[i].poll(Duration::ZERO).map_err(|e| SimError(e.0))? {
@@ -140,16 +147,15 @@ impl Team for RealtimeTeam<'_> {
     }
 
     fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {
-        let ids: Vec<u8> = (0..self.latest.len()).map(|i| crate::companion::SYSID_BASE.saturating_add(i as u8)).collect();
-        self.send(tick, &ids)?;
+        self.send(tick)?;
         self.pace(tick.time_ms);
-        let before: Vec<Option<Setpoint>> = self.latest.clone();
+        self.arrived.iter_mut().for_each(|a| *a = false);
         self.drain()?;
-        for ((o, l), b) in out.iter_mut().zip(&self.latest).zip(&before) {
+        for ((o, l), a) in out.iter_mut().zip(&self.latest).zip(&self.arrived) {
             if let Some(sp) = l {
                 *o = *sp;
             }
-            self.stale_periods += u64::from(l == b);
+            self.stale_periods += u64::from(!a);
         }
         Ok(())
     }
@@ -163,8 +169,4 @@ impl Team for RealtimeTeam<'_> {
     }
 
     fn controller_outputs(&self, _vel_cmd_mps: &mut [Vector3<f32>], _f_hat_n: &mut [Vector3<f32>]) {}
-}
-
-fn sysids(ls: &LoadedScenario) -> Vec<u8> {
-    (0..ls.scenario.cables.lengths_m.len()).map(|i| crate::companion::SYSID_BASE.saturating_add(i as u8)).collect()
 }
