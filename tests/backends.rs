@@ -1,6 +1,6 @@
-//! One mission loop, three backends (issue 14): the crates called directly (`CrateTeam`, what
-//! `sim::run` flies) and the companion twin (`pil::fly` over in-process `SilPort`s, MAVLink v2
-//! on the wire) fly the same scenario on the same plant. Both hand the plant the attitude +
+//! One mission loop, three backends (issue 14): the companions called directly without framing
+//! (`CompanionTeam`, what `sim::run` flies; issue 26) and the companion twin (`pil::fly` over
+//! in-process `SilPort`s, MAVLink v2 on the wire) fly the same scenario on the same plant. Both hand the plant the attitude +
 //! normalised thrust the firmware sends, the companion runs the same crates with the same
 //! parameters, and the high level of both reads the last own sample (the firmware's lockstep
 //! order), so the two must agree command for command, bit for bit. (The third backend, the

@@ -63,12 +63,6 @@ pub const RIGID_BODY_ACTUATOR_LAG_S: f64 = 0.05;
 /// noise only with it; the point mass keeps none).
 pub const RIGID_BODY_COMMAND_FILTER_S: f64 = 0.02;
 
-/// Largest fraction of the thrust limit the velocity loop keeps for the horizontal part on the
-/// `rigid_body` plant unless `[velocity_loop.rigid_body]` says otherwise; less where the
-/// airframe needs more to hold its weight plus its rated cable pull (`sim::horizontal_reserve`;
-/// docs/design.md, "Overload in flight": measured against 0 .. 0.5 on the nominal and overload
-/// campaigns).
-pub const RIGID_BODY_HORIZONTAL_RESERVE: f64 = 0.5;
 
 /// Default breaking strength over rated capacity of the elastic cable: a deliberately modest
 /// design factor (lifting slings are rated at 5:1 to 7:1 of their breaking strength), so that

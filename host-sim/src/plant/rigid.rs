@@ -31,7 +31,7 @@ use crate::quadrotor::{AttitudeTarget, QuadError, Quadrotor};
 const TRIM_PASSES: usize = 3;
 
 /// Heading of every UAV at take-off, ENU: north, what the firmware holds at its default
-/// `VL_YAW = 0` (NED yaw 0) and what `mission::CrateTeam` commands.
+/// `VL_YAW = 0` (NED yaw 0), the value `companion::params_for` sends.
 const HEADING_ENU: Vector3<f64> = Vector3::new(0.0, 1.0, 0.0);
 
 impl Plant {

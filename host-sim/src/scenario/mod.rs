@@ -533,8 +533,9 @@ impl VelocityLoopSpec {
 
     /// Horizontal thrust reserve the scenario sets for UAV model `model`:
     /// `horizontal_reserve` for `point_mass`; `[velocity_loop.rigid_body] horizontal_reserve`
-    /// for `rigid_body`, `None` when left to the airframe's default
-    /// ([`crate::sim::horizontal_reserve`]; docs/design.md, "Overload in flight").
+    /// for `rigid_body`, `None` when left to the airframe's default (sent as `VL_H_RES = -1`,
+    /// derived aboard: `vt_companion::Params::horizontal_reserve`; docs/design.md, "Overload in
+    /// flight").
     #[must_use]
     pub fn horizontal_reserve(&self, model: UavModel) -> Option<f64> {
         match model {
