@@ -23,6 +23,7 @@ pub mod record;
 pub mod replay;
 pub mod report;
 pub mod scenario;
+pub mod score;
 pub mod sim;
 pub mod sitl;
 pub mod summary;

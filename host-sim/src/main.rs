@@ -167,6 +167,21 @@ enum Cmd {
         #[arg(long, value_enum, default_value = "dissipative")]
         controller: Controller,
     },
+    /// Score a trajectory flown elsewhere (a `trajectory.csv` in host-sim's format, e.g. from
+    /// RotorPy) against a scenario: the same metrics, floors and summary.json as a host-sim
+    /// flight, plus plots and replay; exit 1 when the mission failed.
+    Score {
+        /// The trajectory CSV (host-sim's `trajectory.csv` columns; extra columns are ignored).
+        trajectory: PathBuf,
+        /// Scenario TOML file it flew (default: the paper's 10-UAV mission, built in).
+        scenario: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long, default_value = "out/score")]
+        out: PathBuf,
+        /// What flew it, for summary.json `plant`.
+        #[arg(long, default_value = "external", value_parser = ["external", "rotorpy", "host"])]
+        plant: String,
+    },
     /// Be the MAVLink simulator: UAV `i` of the scenario on UDP port `PORT + i` (as PX4 SITL
     /// instances), lockstep or on the wall clock; companions connect to it, a ground station configures and starts
     /// them (`host-sim gcs`); writes summary.json and plots at the end.
@@ -258,6 +273,7 @@ fn main() -> ExitCode {
             let opts = RunOptions { controller: controller_kind(controller), record: true, ..RunOptions::default() };
             host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, realtime, &opts)
         }
+        Cmd::Score { trajectory, scenario, out, plant } => score(&trajectory, scenario.as_deref(), &out, &plant),
         Cmd::Serve { scenario, port, realtime, out } => host_sim::sitl::cli::serve(scenario.as_deref(), port, realtime, &out, &RunOptions::default()),
         Cmd::Gcs { team, bind, action } => {
             use host_sim::sitl::cli::GcsAction;
@@ -524,4 +540,35 @@ fn write_plan_plot(ls: &scenario::LoadedScenario, out: &std::path::Path) -> Resu
     })?;
     println!("  wrote {}", path.display());
     Ok(())
+}
+
+/// `host-sim score`: exit 2 on bad input (file:line:column), 1 when the mission failed.
+fn score(trajectory: &std::path::Path, scenario: Option<&std::path::Path>, out: &std::path::Path, plant: &str) -> ExitCode {
+    let ls = match scenario::load(scenario) {
+        Ok(ls) => ls,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let plant = match plant {
+        "rotorpy" => "rotorpy",
+        "host" => "host",
+        _ => "external",
+    };
+    let from = host_sim::score::Provenance { plant, uav_model: "external", cable_model: "external", controller: ControllerKind::Dissipative, wall_s: 0.0 };
+    let (summary, record) = match host_sim::score::score_file(trajectory, &ls, &from) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let run = sim::RunOutput { summary, record, scene: sim::scene(&ls) };
+    println!("{}", run.summary.table());
+    if let Err(e) = host_sim::report::write_run_listed(out, &run) {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_FAILURE);
+    }
+    if run.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) }
 }

@@ -1,7 +1,6 @@
 //! Mission metrics: safety distances, tensions, load altitude, formation; the `summary.json`
 //! criteria. Filled by the mission loop ([`crate::mission`]) at the rates it documents.
 
-use crate::plant::Plant;
 use crate::scenario::{Scenario, SimTube};
 use crate::sim::ControllerKind;
 use crate::summary::{CableBreak, Summary};
@@ -14,11 +13,12 @@ fn v3f(v: &V3) -> Vector3<f32> {
     Vector3::new(v.x as f32, v.y as f32, v.z as f32)
 }
 
-/// RMS over UAV node pairs of |current - rest length|, nodes by the tray projection.
-pub fn formation_error<const N: usize>(plant: &Plant, formation: &Formation<N>, tray: &TrayParams) -> f64 {
+/// RMS over UAV node pairs of |current - rest length|, nodes by the tray projection (UAV
+/// and load positions, m).
+pub fn formation_error<const N: usize>(uav_pos_m: &[V3], load_pos_m: &V3, formation: &Formation<N>, tray: &TrayParams) -> f64 {
     use vt_dissipative::springs::NodeId;
-    let load = v3f(&plant.load.pos_m);
-    let nodes: Vec<_> = plant.uavs.iter().map(|u| tray.project(&v3f(&u.pos_m), &load).0).collect();
+    let load = v3f(load_pos_m);
+    let nodes: Vec<_> = uav_pos_m.iter().map(|u| tray.project(&v3f(u), &load).0).collect();
     let (mut sum, mut count) = (0.0f64, 0usize);
     for i in 0..nodes.len() {
         for j in i + 1..nodes.len() {
@@ -96,12 +96,13 @@ impl Metrics {
         }
     }
 
-    /// Safety distances at one instant; UAVs that lost thrust (fallen) are left out.
-    pub(crate) fn geometry(&mut self, t: f64, plant: &Plant, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
+    /// Safety distances at one instant (UAV and load positions, m); UAVs that lost thrust
+    /// (fallen) are left out.
+    pub(crate) fn geometry(&mut self, t: f64, uav_pos_m: &[V3], load_pos_m: &V3, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
         let xy = |v: &V3| vt_tube::Vec2::new(v.x as f32, v.y as f32);
         let mut ub = f64::INFINITY;
-        for ((u, h), _) in plant.uavs.iter().zip(uav_hints.iter_mut()).zip(lost.iter()).filter(|(_, l)| !**l) {
-            let q = xy(&u.pos_m);
+        for ((u, h), _) in uav_pos_m.iter().zip(uav_hints.iter_mut()).zip(lost.iter()).filter(|(_, l)| !**l) {
+            let q = xy(u);
             match tube.locate(q, *h) {
                 Some(sec) => {
                     *h = sec.segment;
@@ -110,7 +111,7 @@ impl Metrics {
                 None => ub = f64::NEG_INFINITY,
             }
         }
-        let ql = xy(&plant.load.pos_m);
+        let ql = xy(load_pos_m);
         let lb = match tube.locate(ql, *load_hint) {
             Some(sec) => {
                 *load_hint = sec.segment;
@@ -125,7 +126,7 @@ impl Metrics {
         for i in 0..self.n {
             for j in i + 1..self.n {
                 if !lost[i] && !lost[j] {
-                    uu = uu.min((plant.uavs[i].pos_m - plant.uavs[j].pos_m).norm());
+                    uu = uu.min((uav_pos_m[i] - uav_pos_m[j]).norm());
                 }
             }
         }
@@ -136,7 +137,7 @@ impl Metrics {
         self.min_load_boundary = self.min_load_boundary.min(lb);
         self.min_uav_uav = self.min_uav_uav.min(uu);
         if t >= self.settle_s {
-            self.max_alt_err = self.max_alt_err.max((plant.load.pos_m.z - self.alt_ref).abs());
+            self.max_alt_err = self.max_alt_err.max((load_pos_m.z - self.alt_ref).abs());
         }
     }
 
@@ -245,6 +246,7 @@ impl Metrics {
             true_load_mass_kg: s.load.plant_mass_kg(),
             nonfinite: self.nonfinite,
             invalid_commands: self.invalid_commands,
+            plant: "host".into(),
             uav_model: uav_model.into(),
             cable_model: cable_model.into(),
             rated_n: self.rated,

@@ -60,6 +60,9 @@ pub struct Summary {
     pub nonfinite: bool,
     /// High-level commands that fell back to hold (invalid input or non-finite synthesis).
     pub invalid_commands: u64,
+    /// Whose physics flew the mission: `host` (host-sim's plant) or `rotorpy` (RotorPy behind
+    /// `host-sim sitl --plant rotorpy`, scored with `host-sim score`; docs/plant.md).
+    pub plant: String,
     /// UAV model of the plant (`rigid_body` or `point_mass`, docs/plant.md).
     pub uav_model: String,
     /// Cable model of the plant (`elastic` or `paper_clamp`, docs/plant.md).
@@ -101,7 +104,7 @@ impl Summary {
             ("min UAV-boundary", format!("{:.3} m", self.min_uav_boundary_m)),
             ("min load-boundary", format!("{:.3} m", self.min_load_boundary_m)),
             ("min UAV-UAV", format!("{:.3} m", self.min_uav_uav_m)),
-            ("plant", format!("{} UAVs, {} cables", self.uav_model, self.cable_model)),
+            ("plant", format!("{}: {} UAVs, {} cables", self.plant, self.uav_model, self.cable_model)),
             ("max / mean tension", format!("{:.1} / {:.1} N (rated {:.0} N)", self.max_tension_n, self.mean_tension_n, self.rated_n)),
             ("time above rated", format!("{:.1} %  (cables broken: {})", 100.0 * self.time_above_rated_fraction, self.cables_broken)),
             ("tension std/mean", format!("{:.3}", self.tension_cv_mean)),

@@ -69,6 +69,8 @@ pub struct World<'a> {
     own_stalled: Vec<bool>,
     no_stall: Vec<bool>,
     uav_hints: Vec<usize>,
+    /// Scratch: the UAV positions the safety metrics read, m.
+    uav_pos_scratch: Vec<V3>,
     load_hint: usize,
     dt: f64,
     ll_every: u64,
@@ -181,6 +183,7 @@ impl<'a> World<'a> {
             own_stalled: vec![false; n],
             no_stall: vec![false; n],
             uav_hints: vec![0; n],
+            uav_pos_scratch: Vec::with_capacity(n),
             load_hint: 0,
             dt: 1.0 / f64::from(r.plant_hz),
             ll_every: u64::from(r.plant_hz / r.low_level_hz),
@@ -419,7 +422,9 @@ impl<'a> World<'a> {
     pub fn advance(&mut self, setpoints: &[Setpoint]) {
         let t = self.step as f64 * self.dt;
         if self.step.is_multiple_of(self.hl_every) {
-            self.metrics.geometry(t, &self.plant, &self.ls.tube, &mut self.uav_hints, &mut self.load_hint, &self.motors_off);
+            self.uav_pos_scratch.clear();
+            self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
+            self.metrics.geometry(t, &self.uav_pos_scratch, &self.plant.load.pos_m, &self.ls.tube, &mut self.uav_hints, &mut self.load_hint, &self.motors_off);
             if self.metrics.arrived && self.arrival_step.is_none() {
                 self.arrival_step = Some(self.step);
             }
@@ -506,7 +511,10 @@ impl<'a> World<'a> {
             seed: self.seed,
             sim_s: self.step as f64 * self.dt,
             wall_s,
-            formation_error: self.formation.as_ref().map_or(f64::NAN, |f| formation_error(&self.plant, f, &sim::tray(s))),
+            formation_error: self.formation.as_ref().map_or(f64::NAN, |f| {
+                let pos: Vec<V3> = self.plant.uavs.iter().map(|u| u.pos_m).collect();
+                formation_error(&pos, &self.plant.load.pos_m, f, &sim::tray(s))
+            }),
             capacity_margin: self.takeoff.capacity_margin,
             completion: self.arrival_step.map(|a| a as f64 * self.dt),
             shortened: self.shortened,
