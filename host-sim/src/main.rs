@@ -156,8 +156,9 @@ enum Cmd {
         /// The `vt-companion` binary (default: $VT_COMPANION_BIN, else built with cargo).
         #[arg(long)]
         companion: Option<PathBuf>,
-        /// Physics: `host` (host-sim's plant). `rotorpy` is issue 26's next step and is refused.
-        #[arg(long, default_value = "host")]
+        /// Physics: `host` (host-sim's plant) or `rotorpy` (RotorPy, a Python simulator; needs a
+        /// Python with `rotorpy` and `pymavlink`, see docs/plant.md; lockstep only).
+        #[arg(long, default_value = "host", value_parser = ["host", "rotorpy"])]
         plant: String,
         /// On the wall clock: the companions' own Tickers (VT_LOCKSTEP = 0), the simulator
         /// streaming states in real time; nothing bit-comparable, the mission must succeed.
@@ -266,12 +267,10 @@ fn main() -> ExitCode {
         }
         Cmd::PilBench { out, firmware } => host_sim::pil::cli_bench(&out, firmware),
         Cmd::Sitl { scenario, out, companion, plant, controller, realtime } => {
-            if plant != "host" {
-                eprintln!("error: --plant {plant}: only `host` (host-sim's plant) flies SITL in this version; RotorPy is issue 26's open point (docs/design.md)");
-                return ExitCode::from(EXIT_BAD_INPUT);
-            }
+            use host_sim::sitl::cli::SitlPlant;
+            let plant = if plant == "rotorpy" { SitlPlant::RotorPy } else { SitlPlant::Host };
             let opts = RunOptions { controller: controller_kind(controller), record: true, ..RunOptions::default() };
-            host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, realtime, &opts)
+            host_sim::sitl::cli::sitl(scenario.as_deref(), &out, companion, realtime, plant, &opts)
         }
         Cmd::Score { trajectory, scenario, out, plant } => score(&trajectory, scenario.as_deref(), &out, &plant),
         Cmd::Serve { scenario, port, realtime, out } => host_sim::sitl::cli::serve(scenario.as_deref(), port, realtime, &out, &RunOptions::default()),

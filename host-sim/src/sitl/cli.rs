@@ -26,14 +26,34 @@ fn write_outputs(out: &Path, run: &RunOutput) -> Result<(), ExitCode> {
     })
 }
 
-/// `host-sim sitl [SCENARIO] [--out DIR] [--companion BIN]`: the scenario flown by one
-/// `vt-companion` process per UAV over UDP, uploaded and started by the ground station, in
-/// lockstep; the SIL twin flown beside it and every command compared (`sitl_report.json`).
-pub fn sitl(scenario: Option<&Path>, out: &Path, companion: Option<PathBuf>, realtime: bool, opts: &RunOptions) -> ExitCode {
+/// Whose physics a SITL flight flies on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SitlPlant {
+    /// host-sim's own plant behind its UDP ports.
+    Host,
+    /// RotorPy (`host-sim/rotorpy/vt_rotorpy.py`), scored by host-sim.
+    RotorPy,
+}
+
+/// `host-sim sitl [SCENARIO] [--out DIR] [--companion BIN] [--plant host|rotorpy]`: the
+/// scenario flown by one `vt-companion` process per UAV over UDP, uploaded and started by the
+/// ground station, in lockstep; on host-sim's plant the SIL twin is flown beside it and every
+/// command compared (`sitl_report.json`).
+pub fn sitl(scenario: Option<&Path>, out: &Path, companion: Option<PathBuf>, realtime: bool, plant: SitlPlant, opts: &RunOptions) -> ExitCode {
     let ls = match load(scenario) {
         Ok(ls) => ls,
         Err(c) => return c,
     };
+    if plant == SitlPlant::RotorPy {
+        if realtime {
+            eprintln!("error: --plant rotorpy flies in lockstep only (RotorPy runs slower than real time)");
+            return ExitCode::from(2);
+        }
+        if let Some(why) = super::rotorpy::unsupported(&ls) {
+            eprintln!("error: {why}");
+            return ExitCode::from(2);
+        }
+    }
     let bin = match companion.map_or_else(companion_binary, Ok) {
         Ok(b) => b,
         Err(e) => {
@@ -41,9 +61,17 @@ pub fn sitl(scenario: Option<&Path>, out: &Path, companion: Option<PathBuf>, rea
             return ExitCode::from(1);
         }
     };
-    let mode = if realtime { "real time" } else { "lockstep" };
+    let mode = match (plant, realtime) {
+        (SitlPlant::RotorPy, _) => "lockstep on RotorPy",
+        (SitlPlant::Host, true) => "real time",
+        (SitlPlant::Host, false) => "lockstep",
+    };
     eprintln!("flying {} with {} vt-companion processes ({}) in {mode} ...", ls.source_name, ls.scenario.cables.lengths_m.len(), bin.display());
-    let flown = if realtime { sitl_realtime(&ls, opts, &bin) } else { sitl_lockstep(&ls, opts, &bin).map(|(r, rep, _)| (r, rep)) };
+    let flown = match (plant, realtime) {
+        (SitlPlant::RotorPy, _) => super::rotorpy::sitl_rotorpy(&ls, opts, &bin, out),
+        (SitlPlant::Host, true) => sitl_realtime(&ls, opts, &bin),
+        (SitlPlant::Host, false) => sitl_lockstep(&ls, opts, &bin).map(|(r, rep, _)| (r, rep)),
+    };
     let (run, report) = match flown {
         Ok(r) => r,
         Err(e) => {

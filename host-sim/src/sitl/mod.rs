@@ -18,6 +18,7 @@
 pub mod cli;
 pub mod gcs;
 pub mod realtime;
+pub mod rotorpy;
 pub mod udp;
 
 use crate::pil::{self, compare, CommandRecord, Difference, PilError, PortTeam, SilPort, UavConfig};
