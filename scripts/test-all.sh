@@ -31,6 +31,19 @@ if ! command -v chromium >/dev/null 2>&1; then
 fi
 chromium --version 2>/dev/null | head -n 1
 
+echo "== RotorPy (the plant of host-sim sitl --plant rotorpy, tests/rotorpy.rs): a Python venv in target/"
+venv=target/rotorpy-venv
+if ! { [ -x "$venv/bin/python" ] && "$venv/bin/python" -c "import rotorpy, pymavlink" 2>/dev/null; }; then
+  if ! command -v python3 >/dev/null 2>&1 || ! python3 -c "import venv, ensurepip" 2>/dev/null; then
+    as_root apt-get update -qq
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3 python3-venv
+  fi
+  rm -rf "$venv"
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install -q --disable-pip-version-check -r host-sim/rotorpy/requirements.txt
+fi
+"$venv/bin/pip" show rotorpy pymavlink | grep -E '^(Name|Version)' | paste - - 
+
 echo "== the controller crates build for the flight MCU (no_std, no alloc)"
 cargo build --release --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -p vt-plan
 
@@ -53,4 +66,4 @@ host_triple=$(rustc -vV | sed -n 's/^host: //p')
 (cd firmware && cargo test --release -p vt-companion --features std --target "$host_triple")
 
 echo "== tests (unit, property, doc, closed-loop acceptance, link fuzz, PIL in QEMU, replay in Chromium, MCAP)"
-VT_REQUIRE_QEMU=1 VT_REQUIRE_CHROMIUM=1 cargo test --workspace --release
+VT_REQUIRE_QEMU=1 VT_REQUIRE_CHROMIUM=1 VT_REQUIRE_ROTORPY=1 cargo test --workspace --release

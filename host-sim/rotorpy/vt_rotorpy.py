@@ -28,7 +28,6 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 from rotorpy.vehicles.multirotor import Multirotor
-from scipy.spatial.transform import Rotation
 
 AUTOPILOT_COMPONENT = 1
 COMPANION_COMPONENT = 191
@@ -93,8 +92,11 @@ class CarryingMultirotor(Multirotor):
     plant step. The force enters RotorPy's dynamics at the hook (force and moment) inside the
     derivative, so the integrator sees the cable stiffen as the UAV moves."""
 
-    def __init__(self, params, state, attach, cable):
-        super().__init__(params, state, control_abstraction="cmd_ctatt", aero=True, enable_ground=False)
+    def __init__(self, params, state, attach, cable, dt):
+        # RotorPy's own integrator (scipy RK45, adaptive, its default tolerances), trying the
+        # whole plant step first rather than guessing an initial step on every call.
+        super().__init__(params, state, control_abstraction="cmd_ctatt", aero=True, enable_ground=False,
+                         integrator_kwargs={"method": "RK45", "first_step": dt})
         self.attach = np.asarray(attach, dtype=float)
         self.rest_m, self.k, self.c = cable
         self.broken = False
@@ -102,8 +104,8 @@ class CarryingMultirotor(Multirotor):
         self.load_v = np.zeros(3)
 
     def hook(self, x, v, q, w):
-        r = Rotation.from_quat(q).as_matrix()
-        return x + r @ self.attach, v + r @ np.cross(w, self.attach), r
+        r = rotation(q)
+        return x + r @ self.attach, v + r @ cross(w, self.attach), r
 
     def tension(self, p, v):
         """Tension (N) and unit vector load -> hook of the cable with its hook at `p`, `v`."""
@@ -124,8 +126,25 @@ class CarryingMultirotor(Multirotor):
         if tension > 0.0:
             f = -tension * u
             s_dot[3:6] += f / self.mass
-            s_dot[10:13] += self.inv_inertia @ np.cross(self.attach, r.T @ f)
+            s_dot[10:13] += self.inv_inertia @ cross(self.attach, r.T @ f)
         return s_dot
+
+
+def rotation(q):
+    """Rotation matrix of a quaternion `[x, y, z, w]` (normalised here, as scipy's `Rotation`
+    does; written out because the derivative calls it on every evaluation)."""
+    x, y, z, w = (float(c) for c in q)
+    k = 2.0 / (x * x + y * y + z * z + w * w)
+    return np.array([
+        [1.0 - k * (y * y + z * z), k * (x * y - z * w), k * (x * z + y * w)],
+        [k * (x * y + z * w), 1.0 - k * (x * x + z * z), k * (y * z - x * w)],
+        [k * (x * z - y * w), k * (y * z + x * w), 1.0 - k * (x * x + y * y)],
+    ])
+
+
+def cross(a, b):
+    """`a x b` of two 3-vectors (numpy's `cross` costs microseconds of argument handling)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def q_enu_xyzw(q_ned):
@@ -239,7 +258,8 @@ class Plant:
                 "x": np.array(x, dtype=float), "v": np.zeros(3), "q": self.level.copy(),
                 "w": np.zeros(3), "wind": np.zeros(3), "rotor_speeds": np.zeros(4),
             }
-            u = CarryingMultirotor(params, state, a["attach_body_m"], (c["lengths_m"][i], c["stiffness_n_per_m"][i], c["damping_ns_per_m"]))
+            u = CarryingMultirotor(params, state, a["attach_body_m"], (c["lengths_m"][i], c["stiffness_n_per_m"][i], c["damping_ns_per_m"]),
+                                   1.0 / cfg["rates"]["plant_hz"])
             self.uavs.append(u)
             self.states.append(state)
         self.load_x = np.array(cfg["start"]["load_pos_m"], dtype=float)

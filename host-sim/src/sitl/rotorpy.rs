@@ -95,7 +95,9 @@ fn config(ls: &LoadedScenario, rated_n: f64, trajectory: &Path) -> serde_json::V
         "scenario": s.name,
         "system_ids": (0..n).map(|i| crate::companion::SYSID_BASE.saturating_add(i as u8)).collect::<Vec<u8>>(),
         "load_component": crate::companion::LOAD_COMPONENT_ID,
-        "rates": { "plant_hz": r.plant_hz, "low_level_hz": r.low_level_hz, "high_level_hz": r.high_level_hz },
+        // RotorPy's adaptive integrator takes one plant step per low-level period: the
+        // setpoints are held over it anyway, and the cable acts inside its derivative.
+        "rates": { "plant_hz": r.low_level_hz, "low_level_hz": r.low_level_hz, "high_level_hz": r.high_level_hz },
         "preflight_periods": boot_steps / ll_every,
         "time_limit_s": s.mission.time_limit_s,
         "post_arrival_s": s.mission.post_arrival_s,
