@@ -40,7 +40,7 @@ if ! { [ -x "$venv/bin/python" ] && "$venv/bin/python" -c "import rotorpy, pymav
   fi
   rm -rf "$venv"
   python3 -m venv "$venv"
-  "$venv/bin/pip" install -q --disable-pip-version-check -r host-sim/rotorpy/requirements.txt
+  "$venv/bin/pip" install -q --disable-pip-version-check -r vt-sim/rotorpy/requirements.txt
 fi
 "$venv/bin/pip" show rotorpy pymavlink | grep -E '^(Name|Version)' | paste - - 
 

@@ -1,6 +1,6 @@
 //! Same scenario and seed give the same bits; a different seed changes a seeded run.
 
-use host_sim::report::trajectory_csv;
+use host_sim::record::trajectory_csv;
 use host_sim::scenario;
 use host_sim::sim::{self, RunOptions};
 

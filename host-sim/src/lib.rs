@@ -1,29 +1,21 @@
-//! Software-in-the-loop simulator for the virtual-tube cooperative-transport controller:
-//! the f64 plant of REFERENCE §1, the crates' controllers (one instance per UAV), scenarios,
-//! metrics and reports. A thin composition: no control law lives here.
+//! host-sim: the command line, reports, plots, replay, MCAP logs, campaigns and
+//! processor-in-the-loop (QEMU) around the simulation library [`vt_sim`] (scenario, world,
+//! plant, link, metrics, the mission loop, the MAVLink transport), whose modules are
+//! re-exported here under their own names.
 #![forbid(unsafe_code)]
 
-pub mod cable;
+pub use vt_sim::{cable, companion, disturbance, link, lockstep, map, metrics, mission, models, plan, plant, quadrotor, record, scenario, score, sim, summary};
+
 pub mod campaign;
-pub mod companion;
-pub mod disturbance;
-pub mod link;
-pub mod metrics;
-pub mod mission;
-pub mod models;
 pub mod mcap_log;
-pub mod map;
 pub mod pil;
-pub mod plan;
 pub mod plan_plot;
-pub mod plant;
-pub mod quadrotor;
 pub mod plots;
-pub mod record;
 pub mod replay;
 pub mod report;
-pub mod scenario;
-pub mod score;
-pub mod sim;
-pub mod sitl;
-pub mod summary;
+
+/// host-sim as a MAVLink simulator ([`vt_sim::sitl`]) and its command line.
+pub mod sitl {
+    pub use vt_sim::sitl::*;
+    pub mod cli;
+}

@@ -9,9 +9,10 @@ use serde::Serialize;
 use std::path::Path;
 use vt_companion::COMPANION_COMPONENT_ID;
 use vt_dissipative::MAX_UAVS;
-use super::flight::*;
-use super::port::*;
-use super::wire::*;
+use vt_sim::lockstep::flight::*;
+use super::qemu::*;
+use vt_sim::lockstep::port::*;
+use vt_sim::lockstep::wire::*;
 use super::{err, PilError, GCS_COMPONENT_ID, GCS_SYSTEM_ID, SYSID_BASE};
 
 /// Team sizes the instruction counts are measured for.

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use super::bench::*;
-use super::port::*;
+use super::qemu::*;
 use super::report::*;
 
 /// `host-sim pil [SCENARIO] [--out DIR] [--firmware ELF] [--duration S]`: flies the scenario

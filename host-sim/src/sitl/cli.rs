@@ -31,7 +31,7 @@ fn write_outputs(out: &Path, run: &RunOutput) -> Result<(), ExitCode> {
 pub enum SitlPlant {
     /// host-sim's own plant behind its UDP ports.
     Host,
-    /// RotorPy (`host-sim/rotorpy/vt_rotorpy.py`), scored by host-sim.
+    /// RotorPy (`vt-sim/rotorpy/vt_rotorpy.py`), scored by host-sim.
     RotorPy,
 }
 

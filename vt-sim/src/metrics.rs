@@ -31,6 +31,22 @@ pub fn formation_error<const N: usize>(uav_pos_m: &[V3], load_pos_m: &V3, format
     if count == 0 { 0.0 } else { (sum / count as f64).sqrt() }
 }
 
+/// Where each body was last found along the tube: the segment hints of `Tube::locate`.
+#[derive(Debug, Clone, Default)]
+pub struct TubeHints {
+    /// Per UAV.
+    pub uav: Vec<usize>,
+    /// The load.
+    pub load: usize,
+}
+
+impl TubeHints {
+    /// Hints for `n` UAVs, all at the tube's start.
+    pub fn new(n: usize) -> Self {
+        Self { uav: vec![0; n], load: 0 }
+    }
+}
+
 /// Running metrics of a mission.
 pub struct Metrics {
     n: usize,
@@ -98,7 +114,8 @@ impl Metrics {
 
     /// Safety distances at one instant (UAV and load positions, m); UAVs that lost thrust
     /// (fallen) are left out.
-    pub(crate) fn geometry(&mut self, t: f64, uav_pos_m: &[V3], load_pos_m: &V3, tube: &SimTube, uav_hints: &mut [usize], load_hint: &mut usize, lost: &[bool]) {
+    pub(crate) fn geometry(&mut self, t: f64, uav_pos_m: &[V3], load_pos_m: &V3, tube: &SimTube, hints: &mut TubeHints, lost: &[bool]) {
+        let TubeHints { uav: uav_hints, load: load_hint } = hints;
         let xy = |v: &V3| vt_tube::Vec2::new(v.x as f32, v.y as f32);
         let mut ub = f64::INFINITY;
         for ((u, h), _) in uav_pos_m.iter().zip(uav_hints.iter_mut()).zip(lost.iter()).filter(|(_, l)| !**l) {

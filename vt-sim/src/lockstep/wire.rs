@@ -85,7 +85,8 @@ pub enum Rx {
     Other(u32),
 }
 
-pub(crate) fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
+/// The companion message `id` with `payload`, decoded (`None`: malformed).
+pub fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
     let v2 = MavlinkVersion::V2;
     Some(match id {
         SET_ATTITUDE_TARGET_DATA::ID => {

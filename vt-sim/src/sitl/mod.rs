@@ -5,7 +5,7 @@
 //! # Lockstep (default)
 //! The companions run with `VT_LOCKSTEP = 1`: each UAV's port sends, per low-level period, the
 //! autopilot's `SYSTEM_TIME` when needed, the load tracker's and the team's states (high level
-//! due) and the own `LOCAL_POSITION_NED` (pil::TickFrames, docs/protocol.md), and waits for the
+//! due) and the own `LOCAL_POSITION_NED` (lockstep::TickFrames, docs/protocol.md), and waits for the
 //! `SET_ATTITUDE_TARGET` of that period before the plant steps: simulated time never depends on
 //! the wall clock, so the commands equal the SIL twin's bit for bit ([`SitlReport`]).
 //!
@@ -15,13 +15,12 @@
 //! fourth plant or a fourth transport needs no change to `mission::fly` (docs/design.md, "One
 //! flight logic").
 
-pub mod cli;
 pub mod gcs;
 pub mod realtime;
 pub mod rotorpy;
 pub mod udp;
 
-use crate::pil::{self, compare, CommandRecord, Difference, PilError, PortTeam, SilPort, UavConfig};
+use crate::lockstep::{self, compare, CommandRecord, Difference, PilError, PortTeam, SilPort, UavConfig};
 use crate::scenario::LoadedScenario;
 use crate::sim::{self, RunOptions, RunOutput};
 use crate::summary::Summary;
@@ -186,7 +185,7 @@ impl Launch {
         gcs.set_endpoints(procs.iter().map(|p| p.addr).collect());
         // The ground station uploads the scenario's parameters and the tube.
         let rated = opts.f_max_n.unwrap_or(s.cables.rated_n);
-        let setup = pil::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, lockstep)?;
+        let setup = lockstep::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, lockstep)?;
         gcs.upload(&setup.configs)?;
         Ok(Self { ports, gcs, procs, configs: setup.configs })
     }
@@ -221,13 +220,13 @@ pub fn sitl_lockstep(ls: &LoadedScenario, opts: &RunOptions, bin: &Path) -> Resu
     let n = s.cables.lengths_m.len();
     let mut launch = Launch::new(ls, opts, bin, true)?;
     let wall = Instant::now();
-    let flown = pil::fly_team(ls, launch.team(opts), opts)?;
+    let flown = lockstep::fly_team(ls, launch.team(opts), opts)?;
     let sitl_wall = wall.elapsed().as_secs_f64();
     let codes = launch.stop();
     // The SIL twin: the same companions in process, the same bytes.
     let wall = Instant::now();
     let mut twins: Vec<SilPort> = (0..n).map(|_| SilPort::new()).collect();
-    let twin = pil::fly(ls, &mut twins, opts, "twin")?;
+    let twin = lockstep::fly(ls, &mut twins, opts, "twin")?;
     let sil_wall = wall.elapsed().as_secs_f64();
     let dt = 1.0 / f64::from(s.rates.plant_hz);
     let (compared, max_abs, exact, first) = compare(&twin.commands, &flown.commands, dt);

@@ -3,8 +3,8 @@
 //! and shows each UAV's status. One UDP socket (bind it where the companions send:
 //! `vt-companion --remote`), the replies told apart by their sender.
 
-use crate::pil::{configure, recv_until, start_mission_with_reason, Encoder, PilError, Port, Rx, UavConfig};
-use crate::pil::{GCS_COMPONENT_ID, GCS_SYSTEM_ID};
+use crate::lockstep::{configure, recv_until, start_mission_with_reason, Encoder, PilError, Port, Rx, UavConfig};
+use crate::lockstep::{GCS_COMPONENT_ID, GCS_SYSTEM_ID};
 use mavlink::dialects::common::{MavCmd, COMMAND_LONG_DATA};
 use std::collections::VecDeque;
 use std::net::{SocketAddr, UdpSocket};
@@ -101,7 +101,7 @@ impl Gcs {
                 for &b in buf.get(..n).unwrap_or(&[]) {
                     self.framers[i].push(b);
                     while let Some(f) = self.framers[i].next_frame() {
-                        if let Some(rx) = crate::pil::wire::decode(f.message_id, f.payload) {
+                        if let Some(rx) = crate::lockstep::wire::decode(f.message_id, f.payload) {
                             note(&mut self.status[i], &rx);
                             // The queue feeds request/reply exchanges; the streams are status only.
                             if !matches!(rx, Rx::Setpoint { .. } | Rx::VelocityTarget { .. } | Rx::CableForce(_) | Rx::Cycles(_)) {

@@ -3,7 +3,7 @@
 //!
 //! Every backend flies `vt_companion`'s logic with the parameters [`params_for`] makes: the SIL
 //! team sets them directly ([`crate::mission::CompanionTeam`]), the twin and the firmware in
-//! QEMU receive them as `PARAM_SET` ([`crate::pil::configure`]). What the companion can derive
+//! QEMU receive them as `PARAM_SET` ([`crate::lockstep::configure`]). What the companion can derive
 //! from its own parameters (the horizontal reserve, `VT_Z_MIN`, `VT_CABLE_LMAX`, `VL_T_MIN`,
 //! `FS_NBR_TMO`) is sent as [`AUTO`] and derived aboard (`vt_companion::params`).
 

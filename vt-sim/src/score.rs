@@ -1,5 +1,5 @@
 //! Scoring a trajectory flown elsewhere (`host-sim score TRAJECTORY.csv SCENARIO`, issue 26):
-//! the rows of a `trajectory.csv` in host-sim's own format ([`crate::report::trajectory_csv`])
+//! the rows of a `trajectory.csv` in host-sim's own format ([`crate::record::trajectory_csv`])
 //! pass through the same [`Metrics`] as a host-sim flight, so another simulator's flight (RotorPy,
 //! `host-sim sitl --plant rotorpy`) is judged by the same floors and summary keys.
 //!
@@ -10,7 +10,7 @@
 //! breaking strength; the formation error at the end is measured against the formation of the
 //! first row (the take-off).
 
-use crate::metrics::{formation_error, FlightEnd, Metrics};
+use crate::metrics::{formation_error, FlightEnd, Metrics, TubeHints};
 use crate::record::RunRecord;
 use crate::scenario::{LoadedScenario, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind};
@@ -162,7 +162,7 @@ pub fn score_text(text: &str, source: &str, ls: &LoadedScenario, from: &Provenan
         ..RunRecord::default()
     };
     let record_dt = 1.0 / f64::from(s.rates.record_hz.max(1));
-    let (mut uav_hints, mut load_hint, lost) = (vec![0usize; n], 0usize, vec![false; n]);
+    let (mut hints, lost) = (TubeHints::new(n), vec![false; n]);
     let mut broken = vec![false; n];
     let mut first: Option<Row> = None;
     let mut last: Option<Row> = None;
@@ -183,7 +183,7 @@ pub fn score_text(text: &str, source: &str, ls: &LoadedScenario, from: &Provenan
             break;
         }
         let t = row.time_s;
-        metrics.geometry(t, &row.uav_pos_m, &row.load_pos_m, &ls.tube, &mut uav_hints, &mut load_hint, &lost);
+        metrics.geometry(t, &row.uav_pos_m, &row.load_pos_m, &ls.tube, &mut hints, &lost);
         if metrics.arrived && completion.is_none() {
             completion = Some(t);
         }
@@ -253,7 +253,7 @@ fn push_record(rec: &mut RunRecord, row: &Row, m: &Metrics) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::trajectory_csv;
+    use crate::record::trajectory_csv;
     use crate::sim::{run, RunOptions};
 
     fn from() -> Provenance {

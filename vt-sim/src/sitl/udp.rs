@@ -1,7 +1,7 @@
 //! One MAVLink endpoint over UDP as a [`Port`]: the simulator's side of a UAV (`host-sim serve`,
 //! as a PX4 SITL instance's UDP port) or the ground station's side of a companion.
 
-use crate::pil::{err, PilError, Port, Rx};
+use crate::lockstep::{err, PilError, Port, Rx};
 use std::collections::VecDeque;
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
@@ -74,7 +74,7 @@ impl UdpPort {
                 for &b in buf.get(..n).unwrap_or(&[]) {
                     self.framer.push(b);
                     while let Some(f) = self.framer.next_frame() {
-                        if let Some(rx) = crate::pil::wire::decode(f.message_id, f.payload) {
+                        if let Some(rx) = crate::lockstep::wire::decode(f.message_id, f.payload) {
                             self.pending.push_back(rx);
                         }
                     }

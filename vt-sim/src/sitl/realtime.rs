@@ -6,7 +6,7 @@
 
 use super::udp::UdpPort;
 use crate::mission::{Setpoint, Team, TeamStart, Tick};
-use crate::pil::{Encoder, PortTeam, Rx};
+use crate::lockstep::{Encoder, PortTeam, Rx};
 use crate::scenario::LoadedScenario;
 use crate::sim::SimError;
 use mavlink::dialects::common::{MavCmd, SYSTEM_TIME_DATA};
@@ -67,7 +67,7 @@ impl<'p> RealtimeTeam<'p> {
                 let st = SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: tick.time_ms };
                 bytes.extend(self.clock[i].frame(self.sysids.get(i).copied().unwrap_or(0), AUTOPILOT_COMPONENT_ID, &st));
             }
-            use crate::pil::Port;
+            use crate::lockstep::Port;
             self.inner.ports_mut()[i].send(&bytes).map_err(|e| SimError(format!("UAV {i}: {e}")))?;
         }
         Ok(())

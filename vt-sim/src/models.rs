@@ -5,9 +5,9 @@
 use serde::{Deserialize, Serialize};
 
 /// UAV model of the plant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum), value(rename_all = "snake_case"))]
 #[serde(rename_all = "snake_case")]
-#[value(rename_all = "snake_case")]
 pub enum UavModel {
     /// 6-DOF quadrotor behind a PX4-style attitude/rate autopilot (docs/plant.md).
     #[default]
@@ -28,9 +28,9 @@ impl UavModel {
 }
 
 /// Cable model of the plant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum), value(rename_all = "snake_case"))]
 #[serde(rename_all = "snake_case")]
-#[value(rename_all = "snake_case")]
 pub enum CableModel {
     /// Tension-only spring-damper with no cap: tension above `rated_n` is reported, above
     /// `breaking_n` the cable snaps.

@@ -6,7 +6,7 @@
 //! period) and answers with what the firmware sends its autopilot: one [`Setpoint`]
 //! (`SET_ATTITUDE_TARGET`: FRD-to-NED quaternion and normalised collective) per UAV. The other
 //! backends, the same companion fed MAVLink bytes (SIL twin) and the firmware in QEMU (PIL), live
-//! in [`crate::pil`]; all three run one flight logic (docs/design.md, "One flight logic").
+//! in [`crate::lockstep`]; all three run one flight logic (docs/design.md, "One flight logic").
 
 use crate::companion::{params_for, tube_waypoints, HostCompanion};
 use crate::scenario::LoadedScenario;

@@ -3,7 +3,7 @@
 //!
 //! host-sim is only the ground station and the referee here: it writes the plant's
 //! configuration (`rotorpy_config.json`: the airframe it sizes, the take-off state, cables,
-//! wind, the tube's samples for the stop), starts `host-sim/rotorpy/vt_rotorpy.py` (the plant,
+//! wind, the tube's samples for the stop), starts `vt-sim/rotorpy/vt_rotorpy.py` (the plant,
 //! speaking the lockstep MAVLink protocol of `host-sim serve` through pymavlink) and one
 //! `vt-companion` per UAV, uploads the scenario and starts the mission with its ground station,
 //! and scores the trajectory the plant writes with [`crate::score`]. docs/plant.md sets the
@@ -11,7 +11,7 @@
 
 use super::gcs::Gcs;
 use super::{CompanionProcess, SitlReport};
-use crate::pil::{self, PilError};
+use crate::lockstep::{self, PilError};
 use crate::quadrotor::QuadParams;
 use crate::scenario::LoadedScenario;
 use crate::score::{score_file, Provenance};
@@ -233,7 +233,7 @@ pub fn sitl_rotorpy(ls: &LoadedScenario, opts: &RunOptions, bin: &Path, out: &Pa
     let gcs_addr = gcs.local_addr()?;
     let procs = ports.iter().map(|p| CompanionProcess::spawn(bin, &[*p, gcs_addr])).collect::<Result<Vec<_>, _>>()?;
     gcs.set_endpoints(procs.iter().map(|p| p.addr).collect());
-    let setup = pil::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, true)?;
+    let setup = lockstep::team_setup_for(ls, opts.controller, sim::takeoff(s, &ls.tube, rated), rated, true)?;
     gcs.upload(&setup.configs)?;
     plant.say("FLY")?;
     let start = plant.line()?;

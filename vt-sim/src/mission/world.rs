@@ -5,7 +5,7 @@
 use super::team::{Meas, Setpoint, TeamStart, Tick};
 use crate::disturbance::{ParameterDraw, Sensors, Wind};
 use crate::link::Link;
-use crate::metrics::{formation_error, FlightEnd, Metrics};
+use crate::metrics::{formation_error, FlightEnd, Metrics, TubeHints};
 use crate::models::{CableModel, UavModel};
 use crate::plant::Plant;
 use crate::record::{EventKind, RecordEvent, RunRecord, MODE_HOLD, MODE_TRANSPORT};
@@ -68,10 +68,10 @@ pub struct World<'a> {
     /// Per UAV, its own state did not reach its companion this period.
     own_stalled: Vec<bool>,
     no_stall: Vec<bool>,
-    uav_hints: Vec<usize>,
+    /// Where each body was last found along the tube.
+    hints: TubeHints,
     /// Scratch: the UAV positions the safety metrics read, m.
     uav_pos_scratch: Vec<V3>,
-    load_hint: usize,
     dt: f64,
     ll_every: u64,
     hl_every: u64,
@@ -182,9 +182,8 @@ impl<'a> World<'a> {
             stall_until: vec![None; n],
             own_stalled: vec![false; n],
             no_stall: vec![false; n],
-            uav_hints: vec![0; n],
+            hints: TubeHints::new(n),
             uav_pos_scratch: Vec::with_capacity(n),
-            load_hint: 0,
             dt: 1.0 / f64::from(r.plant_hz),
             ll_every: u64::from(r.plant_hz / r.low_level_hz),
             hl_every,
@@ -424,7 +423,7 @@ impl<'a> World<'a> {
         if self.step.is_multiple_of(self.hl_every) {
             self.uav_pos_scratch.clear();
             self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
-            self.metrics.geometry(t, &self.uav_pos_scratch, &self.plant.load.pos_m, &self.ls.tube, &mut self.uav_hints, &mut self.load_hint, &self.motors_off);
+            self.metrics.geometry(t, &self.uav_pos_scratch, &self.plant.load.pos_m, &self.ls.tube, &mut self.hints, &self.motors_off);
             if self.metrics.arrived && self.arrival_step.is_none() {
                 self.arrival_step = Some(self.step);
             }

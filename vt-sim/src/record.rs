@@ -140,3 +140,33 @@ impl RunRecord {
         if self.rated_n > 0.0 { self.rated_n } else { self.f_max_n }
     }
 }
+
+/// The trajectory as CSV: one row per record sample (`trajectory.csv`; the format
+/// [`crate::score`] reads).
+pub fn trajectory_csv(r: &RunRecord) -> String {
+    use std::fmt::Write as _;
+    let n = r.uav_pos_m.first().map_or(0, Vec::len);
+    let mut s = String::from("time_s");
+    for i in 0..n {
+        for c in ["x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "thrust_n", "tension_n"] {
+            let _ = write!(s, ",uav{i}_{c}");
+        }
+    }
+    s.push_str(",load_x_m,load_y_m,load_z_m,load_vx_mps,load_vy_mps,load_vz_mps,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m\n");
+    for k in 0..r.time_s.len() {
+        let _ = write!(s, "{}", r.time_s[k]);
+        for i in 0..n {
+            let p = r.uav_pos_m[k][i];
+            let v = r.uav_vel_mps[k][i];
+            let _ = write!(s, ",{},{},{},{},{},{},{},{}", p[0], p[1], p[2], v[0], v[1], v[2], r.thrust_n[k][i], r.tension_n[k][i]);
+        }
+        let p = r.load_pos_m[k];
+        let v = r.load_vel_mps[k];
+        let _ = writeln!(
+            s,
+            ",{},{},{},{},{},{},{},{},{}",
+            p[0], p[1], p[2], v[0], v[1], v[2], r.min_uav_boundary_m[k], r.min_load_boundary_m[k], r.min_uav_uav_m[k]
+        );
+    }
+    s
+}

@@ -220,7 +220,7 @@ pub fn run(ls: &LoadedScenario, opts: &RunOptions) -> Result<RunOutput, SimError
 }
 
 /// A progress bar on stderr when it is a terminal and `enabled`, with `template`.
-pub(crate) fn progress_bar(enabled: bool, len: u64, template: &str) -> Option<indicatif::ProgressBar> {
+pub fn progress_bar(enabled: bool, len: u64, template: &str) -> Option<indicatif::ProgressBar> {
     use std::io::IsTerminal;
     if !enabled || !std::io::stderr().is_terminal() {
         return None;
