@@ -36,6 +36,21 @@ struct PlantArgs {
     cable_model: Option<CableModel>,
 }
 
+/// `host-sim sweep merge`.
+#[derive(Subcommand)]
+enum SweepCmd {
+    /// Combine the shard directories of one campaign (each written by `sweep --shard K/N`) into
+    /// the sweep.csv, sweep.json and plots one unsharded run writes.
+    Merge {
+        /// The shards' output directories (each holds shard.json), in any order.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(long, default_value = "out/sweep")]
+        out: PathBuf,
+    },
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Fly one mission and write summary.json, trajectory.csv and plots.
@@ -81,8 +96,12 @@ enum Cmd {
     },
     /// Fly many seeded runs (a scenario or a campaign under scenarios/campaigns/) in parallel
     /// and write sweep.csv, sweep.json (success rate, percentiles) and, for campaigns with
-    /// levels, success_rate_vs_level.png.
+    /// levels, success_rate_vs_level.png. `--shard K/N` flies one slice (shard.json);
+    /// `sweep merge DIR...` combines the slices into what one run writes (docs/robustness.md).
+    #[command(args_conflicts_with_subcommands = true)]
     Sweep {
+        #[command(subcommand)]
+        merge: Option<SweepCmd>,
         /// Scenario or campaign TOML file (default: the built-in paper scenario).
         scenario: Option<PathBuf>,
         /// Runs per level (default: the campaign's `runs`, else 20).
@@ -101,6 +120,10 @@ enum Cmd {
         /// recording on and write its summary, plots and replay.html into OUT/worst.
         #[arg(long)]
         replay_worst: bool,
+        /// Fly only the K-th of N disjoint slices of the runs (1 <= K <= N) and write
+        /// OUT/shard.json for `sweep merge`.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<host_sim::campaign::ShardSpec>,
     },
     /// Processor-in-the-loop: fly the mission with each UAV's controller in its own QEMU
     /// (the `qemu` firmware over MAVLink) and SIL with host twins; compare every command and
@@ -255,7 +278,8 @@ fn main() -> ExitCode {
     match cli.command {
         Cmd::Run { scenario, controller, f_max, out, seed, plant, mcap } => run(scenario, controller_kind(controller), f_max, &out, seed, plant, mcap.as_deref()),
         Cmd::Compare { scenario, f_max, out, seed, plant, mcap } => compare(scenario, f_max, &out, seed, plant, mcap.as_deref()),
-        Cmd::Sweep { scenario, runs, jobs, seed, out, replay_worst } => sweep(scenario, runs, jobs, seed, &out, replay_worst),
+        Cmd::Sweep { merge: Some(SweepCmd::Merge { dirs, out }), .. } => sweep_merge(&dirs, &out),
+        Cmd::Sweep { merge: None, scenario, runs, jobs, seed, out, replay_worst, shard } => sweep(scenario, runs, jobs, seed, &out, replay_worst, shard),
         Cmd::Pil { scenario, out, firmware, duration, plant, mcap } => {
             if let Some(d) = duration {
                 if !(d.is_finite() && d > 0.0) {
@@ -388,7 +412,7 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
     result.unwrap_or_else(|c| c)
 }
 
-fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path, replay_worst: bool) -> ExitCode {
+fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path, replay_worst: bool, shard: Option<host_sim::campaign::ShardSpec>) -> ExitCode {
     use host_sim::campaign;
     let c = match campaign::load(path.as_deref()) {
         Ok(c) => c,
@@ -406,6 +430,32 @@ fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: 
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     eprintln!("sweep {}: {} level(s) x {runs} runs from seed {seed} on {jobs} threads ...", c.name, c.levels.len());
     let wall = std::time::Instant::now();
+    if let Some(spec) = shard {
+        if replay_worst {
+            eprintln!("error: --replay-worst needs every run: give it to `sweep merge`'s campaign instead, or fly unsharded");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+        let rows = match campaign::fly_shard(&c, runs, seed, jobs, true, Some(spec)) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+        };
+        let n = rows.len();
+        let file = campaign::ShardFile::new(&c, runs, seed, spec, rows);
+        let path = out.join("shard.json");
+        let written = std::fs::create_dir_all(out)
+            .map_err(|e| e.to_string())
+            .and_then(|()| serde_json::to_string(&file).map_err(|e| e.to_string()))
+            .and_then(|t| std::fs::write(&path, t + "\n").map_err(|e| e.to_string()));
+        if let Err(e) = written {
+            eprintln!("error: {}: {e}", path.display());
+            return ExitCode::from(EXIT_FAILURE);
+        }
+        println!("shard {}/{}: {n} runs in {:.1} s\n  wrote {}", spec.index, spec.count, wall.elapsed().as_secs_f64(), path.display());
+        return ExitCode::SUCCESS;
+    }
     let rows = match campaign::fly(&c, runs, seed, jobs, true) {
         Ok(r) => r,
         Err(e) => {
@@ -418,22 +468,7 @@ fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: 
         eprintln!("error: {e}");
         return ExitCode::from(EXIT_FAILURE);
     }
-    println!("{} runs, {} successes ({:.1} %) in {:.1} s", rep.runs, rep.successes, 100.0 * rep.success_rate, wall.elapsed().as_secs_f64());
-    for l in &rep.levels {
-        let lv = l.level.map_or_else(|| "-".to_string(), |v| format!("{v}"));
-        let worst = |k: &str, hi: bool| l.percentiles.get(k).map_or(f64::NAN, |p| if hi { p.max } else { p.min });
-        println!(
-            "  level {lv:>6}: {:>4}/{:<4} success {:>5.1} %  worst UAV-bnd {:.2} m  worst UAV-UAV {:.2} m  worst load alt err {:.2} m{}",
-            l.successes,
-            l.runs,
-            100.0 * l.success_rate,
-            worst("min_uav_boundary_m", false),
-            worst("min_uav_uav_m", false),
-            worst("max_load_altitude_error_m", true),
-            if l.failure_reasons.is_empty() { String::new() } else { format!("  failures: {:?}", l.failure_reasons) }
-        );
-    }
-    println!("  wrote {}", out.display());
+    print_sweep(&rep, wall.elapsed().as_secs_f64(), out);
     if replay_worst {
         if let Some(w) = campaign::worst(&rows) {
             let lv = w.level.map_or_else(String::new, |v| format!(" at level {v}"));
@@ -570,4 +605,54 @@ fn score(trajectory: &std::path::Path, scenario: Option<&std::path::Path>, out: 
         return ExitCode::from(EXIT_FAILURE);
     }
     if run.summary.success { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILURE) }
+}
+
+/// The sweep's table on stdout (one line per level).
+fn print_sweep(rep: &host_sim::campaign::SweepReport, wall_s: f64, out: &std::path::Path) {
+    println!("{} runs, {} successes ({:.1} %) in {:.1} s", rep.runs, rep.successes, 100.0 * rep.success_rate, wall_s);
+    for l in &rep.levels {
+        let lv = l.level.map_or_else(|| "-".to_string(), |v| format!("{v}"));
+        let worst = |k: &str, hi: bool| l.percentiles.get(k).map_or(f64::NAN, |p| if hi { p.max } else { p.min });
+        println!(
+            "  level {lv:>6}: {:>4}/{:<4} success {:>5.1} %  worst UAV-bnd {:.2} m  worst UAV-UAV {:.2} m  worst load alt err {:.2} m{}",
+            l.successes,
+            l.runs,
+            100.0 * l.success_rate,
+            worst("min_uav_boundary_m", false),
+            worst("min_uav_uav_m", false),
+            worst("max_load_altitude_error_m", true),
+            if l.failure_reasons.is_empty() { String::new() } else { format!("  failures: {:?}", l.failure_reasons) }
+        );
+    }
+    println!("  wrote {}", out.display());
+}
+
+/// `host-sim sweep merge DIR... --out OUT`: exit 2 when the shards are not one whole campaign.
+fn sweep_merge(dirs: &[PathBuf], out: &std::path::Path) -> ExitCode {
+    use host_sim::campaign;
+    let wall = std::time::Instant::now();
+    let mut shards = Vec::with_capacity(dirs.len());
+    for d in dirs {
+        match campaign::ShardFile::read(d) {
+            Ok(s) => shards.push((d.join("shard.json").display().to_string(), s)),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+        }
+    }
+    let m = match campaign::merge(&shards) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let rep = campaign::report_for(&m.campaign, m.level_key.as_deref(), &m.levels, m.first_seed, &m.rows);
+    if let Err(e) = write_sweep(out, &m.rows, &rep) {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_FAILURE);
+    }
+    print_sweep(&rep, wall.elapsed().as_secs_f64(), out);
+    ExitCode::SUCCESS
 }

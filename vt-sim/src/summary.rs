@@ -1,9 +1,10 @@
 //! Mission metrics and the `summary.json` contract.
 
-use serde::Serialize;
+use serde::{Deserialize, Deserializer, Serialize};
 
-/// The run summary written to `summary.json` (a contract other tools read).
-#[derive(Debug, Clone, Serialize, PartialEq)]
+/// The run summary written to `summary.json` (a contract other tools read; read back by
+/// `host-sim sweep merge`, where a non-finite number, written as `null`, reads as NaN).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Summary {
     /// Scenario name.
     pub scenario: String,
@@ -20,41 +21,58 @@ pub struct Summary {
     /// Time the load reached the end terminal, s (`null` if never).
     pub completion_time_s: Option<f64>,
     /// Minimum UAV distance to the tube boundary (horizontal), m.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub min_uav_boundary_m: f64,
     /// Minimum load distance to the tube boundary (horizontal), m.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub min_load_boundary_m: f64,
     /// Minimum UAV-UAV distance (3-D), m.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub min_uav_uav_m: f64,
     /// Maximum cable tension, N.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub max_tension_n: f64,
     /// Mean cable tension over time and cables, N.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub mean_tension_n: f64,
     /// Time-mean of std/mean over taut cables.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub tension_cv_mean: f64,
     /// Fraction of cable-time spent at the `f_max` cap.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub time_at_cap_fraction: f64,
     /// Maximum load altitude error after take-off settling, m.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub max_load_altitude_error_m: f64,
     /// Maximum thrust over thrust limit.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub max_thrust_fraction: f64,
     /// RMS over UAV node pairs of |current - rest length| at the end of the run, m.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub formation_error_end_m: f64,
     /// Vertical capacity of the capped cables at the take-off lean over the load's weight.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub capacity_margin: f64,
     /// Simulated time, s.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub sim_time_s: f64,
     /// Wall-clock time of the simulation loop, s.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub wall_time_s: f64,
     /// Simulated seconds per wall second.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub realtime_factor: f64,
     /// Number of UAVs.
     pub n_uavs: usize,
     /// Cable capacity, N.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub f_max_n: f64,
     /// Load mass, kg (as declared to the controllers: the scenario's `load.mass_kg`).
+    #[serde(deserialize_with = "f64_or_nan")]
     pub load_mass_kg: f64,
     /// Load mass the plant flew, kg, before disturbance draws (`load.true_mass_kg`, else the
     /// declared mass; issue 15).
+    #[serde(deserialize_with = "f64_or_nan")]
     pub true_load_mass_kg: f64,
     /// A non-finite value appeared in the plant state.
     pub nonfinite: bool,
@@ -68,8 +86,10 @@ pub struct Summary {
     /// Cable model of the plant (`elastic` or `paper_clamp`, docs/plant.md).
     pub cable_model: String,
     /// Rated cable capacity, N (the paper's per-UAV `f_max`).
+    #[serde(deserialize_with = "f64_or_nan")]
     pub rated_n: f64,
     /// Fraction of cable-time with the tension above `rated_n` (0 for `paper_clamp`, which caps it).
+    #[serde(deserialize_with = "f64_or_nan")]
     pub time_above_rated_fraction: f64,
     /// Cables that broke (tension above `breaking_n`; an injected `cable_snap` fault is not counted).
     pub cables_broken: usize,
@@ -80,15 +100,18 @@ pub struct Summary {
 }
 
 /// One cable that broke in flight.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct CableBreak {
     /// Index of the cable (= its UAV).
     pub uav: usize,
     /// Simulated time of the break, s.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub time_s: f64,
     /// Tension that broke it, N.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub tension_n: f64,
     /// Its breaking strength, N.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub breaking_n: f64,
 }
 
@@ -127,4 +150,10 @@ impl Summary {
         let w = self.table_rows().iter().map(|r| r.0.len()).max().unwrap_or(0);
         self.table_rows().iter().map(|(k, v)| format!("  {k:<w$}  {v}\n")).collect()
     }
+}
+
+/// A number of `summary.json`: JSON has no NaN or infinity, so serde_json writes them as
+/// `null`; `null` reads back as NaN (the sweep statistics skip non-finite values either way).
+fn f64_or_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }

@@ -442,9 +442,10 @@ fn one() -> f64 {
     1.0
 }
 
-/// Baseline controller parameters (REFERENCE §2; published values by default).
+/// Baseline controller parameters (REFERENCE §2; published values by default, field by field:
+/// a table that sets one field keeps the others' defaults).
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct BaselineSpec {
     /// Passing gain, m/s.
     pub k1: f64,
@@ -566,9 +567,10 @@ fn one_u32() -> u32 {
     1
 }
 
-/// Link model for neighbour positions.
+/// Link model for neighbour positions (every field has its default: a table that sets one
+/// field keeps the others', issue 29).
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct LinkSpec {
     /// Delivery delay, s (rounded to high-level periods).
     pub delay_s: f64,

@@ -11,8 +11,11 @@ use crate::scenario::{self, LoadedScenario, ScenarioError};
 use crate::sim::{self, RunOptions};
 use crate::summary::Summary;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+pub mod shard;
+pub use shard::{merge, ShardFile, ShardSpec};
 
 /// Keys of a campaign file that are not scenario fields.
 const CAMPAIGN_KEYS: [&str; 4] = ["base", "runs", "seed", "levels"];
@@ -37,10 +40,10 @@ fn err(source: &str, field: Option<&str>, message: String) -> ScenarioError {
 }
 
 /// Deep-merges `over` into `base` (tables merge; anything else replaces).
-fn merge(base: &mut toml::Table, over: &toml::Table) {
+fn merge_tables(base: &mut toml::Table, over: &toml::Table) {
     for (k, v) in over {
         match (base.get_mut(k), v) {
-            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge_tables(b, o),
             _ => {
                 base.insert(k.clone(), v.clone());
             }
@@ -137,7 +140,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
             bt.remove("plan");
         }
     }
-    merge(&mut merged, &over);
+    merge_tables(&mut merged, &over);
     let runs = match table.get("runs") {
         None => 20,
         Some(v) => v.as_integer().filter(|r| *r > 0).ok_or_else(|| err(&name, Some("runs"), "must be an integer > 0".into()))? as usize,
@@ -180,7 +183,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
 }
 
 /// One run's row of `sweep.csv`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Row {
     /// Disturbance level (if the campaign has levels).
     pub level: Option<f64>,
@@ -194,18 +197,33 @@ pub struct Row {
 /// # Errors
 /// A crate rejecting the scenario (as for a single run).
 pub fn fly(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool) -> Result<Vec<Row>, String> {
-    let work: Vec<(usize, u64)> = (0..c.levels.len()).flat_map(|l| (0..runs as u64).map(move |k| (l, seed + k))).collect();
+    Ok(fly_shard(c, runs, seed, jobs, progress, None)?.into_iter().map(|(_, r)| r).collect())
+}
+
+/// The campaign's work in (level, seed) order: level index and seed of every run; run `i` of
+/// the list is the campaign's run number `i` (what [`ShardSpec`] slices).
+pub fn work(levels: usize, runs: usize, seed: u64) -> Vec<(usize, u64)> {
+    (0..levels).flat_map(|l| (0..runs as u64).map(move |k| (l, seed + k))).collect()
+}
+
+/// [`fly`] for one shard of the work (`None`: all of it): each row with its run number.
+///
+/// # Errors
+/// As [`fly`].
+pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bool, shard: Option<ShardSpec>) -> Result<Vec<(usize, Row)>, String> {
+    let work: Vec<(usize, (usize, u64))> =
+        work(c.levels.len(), runs, seed).into_iter().enumerate().filter(|(i, _)| shard.is_none_or(|s| s.owns(*i))).collect();
     let bar = sim::progress_bar(progress, work.len() as u64, "sweep [{bar:40}] {pos}/{len} runs {elapsed}");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs.max(1)).build().map_err(|e| e.to_string())?;
-    let rows: Result<Vec<Row>, String> = pool.install(|| {
+    let rows: Result<Vec<(usize, Row)>, String> = pool.install(|| {
         work.par_iter()
-            .map(|&(l, s)| {
+            .map(|&(i, (l, s))| {
                 let (level, ls) = &c.levels[l];
                 let out = sim::run(ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?;
                 if let Some(b) = &bar {
                     b.inc(1);
                 }
-                Ok(Row { level: *level, summary: out.summary })
+                Ok((i, Row { level: *level, summary: out.summary }))
             })
             .collect()
     });
@@ -346,16 +364,18 @@ fn level_stats(level: Option<f64>, rows: &[&Row]) -> LevelStats {
 
 /// Aggregates the rows.
 pub fn report(c: &Campaign, first_seed: u64, rows: &[Row]) -> SweepReport {
+    let levels: Vec<Option<f64>> = c.levels.iter().map(|(lv, _)| *lv).collect();
+    report_for(&c.name, c.level_key.as_deref(), &levels, first_seed, rows)
+}
+
+/// [`report`] from the campaign's identity alone (what `sweep merge` has).
+pub fn report_for(name: &str, level_key: Option<&str>, level_values: &[Option<f64>], first_seed: u64, rows: &[Row]) -> SweepReport {
     let all: Vec<&Row> = rows.iter().collect();
     let total = level_stats(None, &all);
-    let levels = c
-        .levels
-        .iter()
-        .map(|(lv, _)| level_stats(*lv, &rows.iter().filter(|r| r.level == *lv).collect::<Vec<_>>()))
-        .collect();
+    let levels = level_values.iter().map(|lv| level_stats(*lv, &rows.iter().filter(|r| r.level == *lv).collect::<Vec<_>>())).collect();
     SweepReport {
-        scenario: c.name.clone(),
-        level_key: c.level_key.clone(),
+        scenario: name.to_string(),
+        level_key: level_key.map(str::to_string),
         first_seed,
         runs: total.runs,
         successes: total.successes,
@@ -434,7 +454,7 @@ mod tests {
     fn merge_overrides_nested_tables() {
         let mut a: toml::Table = toml::from_str("[x]\na = 1\nb = 2\n[y]\nc = 3").unwrap();
         let b: toml::Table = toml::from_str("[x]\nb = 5\n[z]\nd = 1").unwrap();
-        merge(&mut a, &b);
+        merge_tables(&mut a, &b);
         assert_eq!(a["x"]["a"].as_integer(), Some(1));
         assert_eq!(a["x"]["b"].as_integer(), Some(5));
         assert_eq!(a["z"]["d"].as_integer(), Some(1));
@@ -444,5 +464,30 @@ mod tests {
         assert!(set_dotted(&mut f, "faults.0.uav", 3.0));
         assert_eq!(f["faults"][0]["uav"].as_integer(), Some(3));
         assert!(!set_dotted(&mut f, "faults.5.uav", 3.0));
+    }
+
+    #[test]
+    fn a_campaign_overrides_one_field_of_a_table_its_base_lacks() {
+        // Issue 29: `[link] drop_probability` over experiment-3uav.toml (no `[link]`) failed
+        // with "missing field `delay_s`". Every field of an optional table has its default.
+        let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+        let base_text = std::fs::read_to_string(&base).unwrap();
+        assert!(!base_text.contains("[link]") && !base_text.contains("[baseline]"), "the base must lack both tables");
+        let dir = std::env::temp_dir().join(format!("vt-campaign-merge-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("drops.toml");
+        let text = format!("base = {:?}\nruns = 2\n[link]\ndrop_probability = 0.1\n[baseline]\nk1 = 1.5\n", base.display().to_string());
+        std::fs::write(&file, text).unwrap();
+        let c = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+        let s = &c.levels[0].1.scenario;
+        assert_eq!(s.link.drop_probability, 0.1);
+        assert_eq!(s.link.delay_s, 0.0, "absent: its documented default");
+        assert_eq!(s.link.stale_timeout_s, 0.5, "absent: its documented default");
+        assert_eq!(s.baseline.k1, 1.5);
+        assert_eq!((s.baseline.k2, s.baseline.v_max_mps), (1.0, 3.0), "absent: the published values");
+        // A plain scenario file with a partial table parses the same way.
+        let partial = crate::scenario::parse(&(base_text + "\n[link]\ndelay_s = 0.04\n"), "partial.toml").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((partial.scenario.link.delay_s, partial.scenario.link.drop_probability), (0.04, 0.0));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
