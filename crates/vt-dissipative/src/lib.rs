@@ -36,6 +36,7 @@ mod status;
 pub mod team_hold;
 pub mod tray;
 pub mod vertical;
+pub mod wind;
 
 pub use baseline::{BaselineController, BaselineParams};
 pub use capacity::{CapacityParams, CapacityPlan, FormationScale};
@@ -49,6 +50,7 @@ pub use survey::{PositionMean, TakeoffSurvey};
 pub use team_hold::{TeamHoldSupervisor, TeamMode};
 pub use tray::TrayParams;
 pub use vertical::VerticalParams;
+pub use wind::{WindCapacity, WindError, WindLimit, WindParams};
 
 /// 2-D vector (tray plane), m or m/s.
 pub type Vec2 = nalgebra::Vector2<f32>;

@@ -1,0 +1,335 @@
+//! Wind capacity: the steady wind a team can hold while still making progress along the tube,
+//! as the payload capacity law ([`crate::feasibility`]) is for weight (issue 29; docs/design.md,
+//! "Wind capacity").
+//!
+//! Worst case: the wind blows straight against the passing direction and the team flies at the
+//! progress speed `v_p` into it, so every body sees the airspeed `V = w + v_p`. In steady flight
+//! each of the `n` UAVs holds, along its thrust:
+//! - vertically, its weight and its share of the load's: `F_z = m_u g + m_L g / n`;
+//! - horizontally, its own drag `D_u(V) = c_q V^2 + c_l V` (quadratic body drag, linear rotor
+//!   drag), its share of the load's drag `D_L(V) / n = rho C_dA_L V^2 / (2 n)` (the cables pass
+//!   it up), and, in the worst orientation, its cable's lean `(m_L g / n) tan(theta)`, which the
+//!   formation's springs hold apart (it cancels over the team, not per UAV).
+//!
+//! The thrust is bounded in magnitude by `F_max` and in tilt by `alpha`, so the horizontal force
+//! a UAV can give is `H = min(F_z tan(alpha), sqrt(F_max^2 - F_z^2))`; the cable's rating bounds
+//! the load drag it passes: `sqrt(T_z^2 + (T_z tan(theta) + D_L/n)^2) <= T_rated`,
+//! `T_z = m_L g / n`. The largest airspeed meeting both is the capacity `V_max`; the steady wind
+//! the team can hold is `V_max - v_p`, and the mission may start when the declared (or
+//! estimated) wind plus a gust margin is below it.
+//!
+//! `no_std`, no allocation; evaluated once, before take-off.
+
+use crate::calibration::GRAVITY_MPS2;
+use core::fmt;
+
+/// Air density at sea level, 15 degC (ISA), kg/m^3.
+pub const AIR_DENSITY_KG_M3: f32 = 1.225;
+
+/// What the law needs (SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindParams {
+    /// Team size `n`.
+    pub n_uavs: usize,
+    /// Mass of one UAV `m_u`, kg.
+    pub uav_mass_kg: f32,
+    /// Largest thrust of one UAV `F_max`, N.
+    pub thrust_max_n: f32,
+    /// Largest tilt of the thrust from vertical `alpha`, rad, in `(0, pi/2)`.
+    pub tilt_max_rad: f32,
+    /// Quadratic horizontal drag of one UAV `c_q`, N/(m/s)^2 (`rho C_dA / 2`), >= 0.
+    pub uav_drag_quad_n_per_mps2: f32,
+    /// Linear horizontal drag of one UAV `c_l` (rotor H-force at hover), N/(m/s), >= 0.
+    pub uav_drag_lin_n_per_mps: f32,
+    /// Load mass `m_L`, kg.
+    pub load_mass_kg: f32,
+    /// Drag area of the load `C_dA_L`, m^2, >= 0.
+    pub load_drag_area_m2: f32,
+    /// Rated tension of one cable `T_rated`, N.
+    pub cable_rated_n: f32,
+    /// The formation's cable lean, cos of the angle from vertical, in `(0, 1]`.
+    pub cos_lean: f32,
+    /// Ground speed the team must keep into the wind to make progress `v_p`, m/s, >= 0.
+    pub progress_mps: f32,
+}
+
+/// Which limit sets the capacity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WindLimit {
+    /// The UAV's tilt limit.
+    Tilt,
+    /// The UAV's total thrust.
+    Thrust,
+    /// The cable's rating (the load's drag it passes).
+    Cable,
+}
+
+/// The capacity of a team against wind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindCapacity {
+    /// Largest airspeed the team holds, m/s (`V_max`).
+    pub airspeed_max_mps: f32,
+    /// Largest steady wind against the passing direction with progress, m/s
+    /// (`V_max - v_p`, never negative).
+    pub steady_wind_max_mps: f32,
+    /// Horizontal force one UAV can give at full load, N (`H`).
+    pub horizontal_n: f32,
+    /// What binds.
+    pub limit: WindLimit,
+}
+
+/// Why the team refuses to fly in a wind, or cannot be assessed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WindError {
+    /// A parameter is NaN, infinite or out of range; names it.
+    InvalidParameter(&'static str),
+    /// The wind (plus the gust margin) is above what the team holds.
+    TooStrong {
+        /// Wind to hold: steady plus the gust margin, m/s.
+        wind_mps: f32,
+        /// The team's steady-wind capacity, m/s.
+        capacity_mps: f32,
+        /// What binds.
+        limit: WindLimit,
+    },
+}
+
+impl fmt::Display for WindError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::InvalidParameter(name) => write!(f, "invalid wind parameter `{name}`"),
+            Self::TooStrong { wind_mps, capacity_mps, limit } => write!(
+                f,
+                "the team cannot hold the tube in this wind: wind {wind_mps:.1} m/s (with gust margin), capacity {capacity_mps:.1} m/s ({} limit)",
+                match limit {
+                    WindLimit::Tilt => "tilt",
+                    WindLimit::Thrust => "thrust",
+                    WindLimit::Cable => "cable",
+                }
+            ),
+        }
+    }
+}
+
+impl core::error::Error for WindError {}
+
+impl WindParams {
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`WindError::InvalidParameter`] naming the field.
+    pub fn validate(&self) -> Result<(), WindError> {
+        let pos = |x: f32| x.is_finite() && x > 0.0;
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let checks: [(bool, &'static str); 11] = [
+            (self.n_uavs > 0, "wind.n_uavs"),
+            (pos(self.uav_mass_kg), "wind.uav_mass_kg"),
+            (pos(self.thrust_max_n), "wind.thrust_max_n"),
+            (self.tilt_max_rad > 0.0 && self.tilt_max_rad < core::f32::consts::FRAC_PI_2, "wind.tilt_max_rad"),
+            (nonneg(self.uav_drag_quad_n_per_mps2), "wind.uav_drag_quad_n_per_mps2"),
+            (nonneg(self.uav_drag_lin_n_per_mps), "wind.uav_drag_lin_n_per_mps"),
+            (pos(self.load_mass_kg), "wind.load_mass_kg"),
+            (nonneg(self.load_drag_area_m2), "wind.load_drag_area_m2"),
+            (pos(self.cable_rated_n), "wind.cable_rated_n"),
+            (self.cos_lean > 0.0 && self.cos_lean <= 1.0, "wind.cos_lean"),
+            (nonneg(self.progress_mps), "wind.progress_mps"),
+        ];
+        for (ok, name) in checks {
+            if !ok {
+                return Err(WindError::InvalidParameter(name));
+            }
+        }
+        if self.uav_drag_quad_n_per_mps2 + self.uav_drag_lin_n_per_mps + self.load_drag_area_m2 <= 0.0 {
+            return Err(WindError::InvalidParameter("wind.drag (all zero: no wind can push the team)"));
+        }
+        Ok(())
+    }
+}
+
+/// Largest `V >= 0` with `a V^2 + b V <= c` (`a, b >= 0`, not both 0); 0 when `c <= 0`.
+fn largest_speed(a: f32, b: f32, c: f32) -> f32 {
+    if c <= 0.0 {
+        return 0.0;
+    }
+    if a <= 0.0 {
+        return if b > 0.0 { c / b } else { f32::INFINITY };
+    }
+    // Citardauq form: no cancellation when b^2 >> 4ac.
+    2.0 * c / (b + vt_fpu::sqrt(b * b + 4.0 * a * c))
+}
+
+/// The team's wind capacity (module docs).
+///
+/// # Errors
+/// An invalid parameter.
+pub fn capacity(p: &WindParams) -> Result<WindCapacity, WindError> {
+    p.validate()?;
+    let n = p.n_uavs as f32;
+    let share_n = p.load_mass_kg * GRAVITY_MPS2 / n;
+    let f_z = p.uav_mass_kg * GRAVITY_MPS2 + share_n;
+    let sin_lean = vt_fpu::sqrt((1.0 - p.cos_lean * p.cos_lean).max(0.0));
+    let tan_lean = sin_lean / p.cos_lean;
+    let ca = libm::cosf(p.tilt_max_rad);
+    let tan_tilt = vt_fpu::sqrt((1.0 - ca * ca).max(0.0)) / ca;
+    let by_tilt = f_z * tan_tilt;
+    let by_thrust = vt_fpu::sqrt((p.thrust_max_n * p.thrust_max_n - f_z * f_z).max(0.0));
+    let (horizontal_n, rotor_limit) = if by_tilt <= by_thrust { (by_tilt, WindLimit::Tilt) } else { (by_thrust, WindLimit::Thrust) };
+    // Rotors: (c_q + rho C_dA_L / 2n) V^2 + c_l V <= H - share tan(theta).
+    let load_quad = 0.5 * AIR_DENSITY_KG_M3 * p.load_drag_area_m2 / n;
+    let v_rotor = largest_speed(p.uav_drag_quad_n_per_mps2 + load_quad, p.uav_drag_lin_n_per_mps, horizontal_n - share_n * tan_lean);
+    // Cable: the load's drag share it can pass beyond the lean's horizontal pull.
+    let cable_h = vt_fpu::sqrt((p.cable_rated_n * p.cable_rated_n - share_n * share_n).max(0.0)) - share_n * tan_lean;
+    let v_cable = if p.cable_rated_n < share_n { 0.0 } else { largest_speed(load_quad, 0.0, cable_h) };
+    let (airspeed_max_mps, limit) = if v_cable < v_rotor { (v_cable, WindLimit::Cable) } else { (v_rotor, rotor_limit) };
+    let airspeed_max_mps = if airspeed_max_mps.is_finite() { airspeed_max_mps } else { 0.0 };
+    Ok(WindCapacity { airspeed_max_mps, steady_wind_max_mps: (airspeed_max_mps - p.progress_mps).max(0.0), horizontal_n, limit })
+}
+
+/// The pre-flight wind check: steady wind `wind_mps` plus `gust_margin_mps` against the
+/// capacity.
+///
+/// # Errors
+/// [`WindError::TooStrong`] with the numbers, or an invalid parameter.
+pub fn check(p: &WindParams, wind_mps: f32, gust_margin_mps: f32) -> Result<WindCapacity, WindError> {
+    let c = capacity(p)?;
+    if !(wind_mps.is_finite() && wind_mps >= 0.0) {
+        return Err(WindError::InvalidParameter("wind.wind_mps"));
+    }
+    if !(gust_margin_mps.is_finite() && gust_margin_mps >= 0.0) {
+        return Err(WindError::InvalidParameter("wind.gust_margin_mps"));
+    }
+    let need = wind_mps + gust_margin_mps;
+    // `!(<=)`: NaN refused.
+    if !(need <= c.steady_wind_max_mps) {
+        return Err(WindError::TooStrong { wind_mps: need, capacity_mps: c.steady_wind_max_mps, limit: c.limit });
+    }
+    Ok(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// The experiment's team: 3 x 1.47 kg, 30 N, 30 deg tilt, 3.06 kg load, 30 N cables.
+    fn experiment() -> WindParams {
+        WindParams {
+            n_uavs: 3,
+            uav_mass_kg: 1.47,
+            thrust_max_n: 30.0,
+            tilt_max_rad: 30.0f32.to_radians(),
+            uav_drag_quad_n_per_mps2: 0.0103,
+            uav_drag_lin_n_per_mps: 0.1,
+            load_mass_kg: 3.06,
+            load_drag_area_m2: 0.1,
+            cable_rated_n: 30.0,
+            cos_lean: 0.95,
+            progress_mps: 0.3,
+        }
+    }
+
+    /// Horizontal force one UAV needs at airspeed `v` (module docs).
+    fn needed(p: &WindParams, v: f32) -> f32 {
+        let n = p.n_uavs as f32;
+        let share = p.load_mass_kg * GRAVITY_MPS2 / n;
+        let tan = (1.0 - p.cos_lean * p.cos_lean).sqrt() / p.cos_lean;
+        p.uav_drag_quad_n_per_mps2 * v * v + p.uav_drag_lin_n_per_mps * v + 0.5 * AIR_DENSITY_KG_M3 * p.load_drag_area_m2 * v * v / n + share * tan
+    }
+
+    #[test]
+    fn the_experiment_holds_a_moderate_wind_and_refuses_a_gale() {
+        let p = experiment();
+        let c = capacity(&p).expect("valid");
+        // At the capacity the binding constraint holds with equality (rotor limits here).
+        assert!((needed(&p, c.airspeed_max_mps) - c.horizontal_n).abs() < 1e-3 * c.horizontal_n, "{c:?}");
+        assert!(c.steady_wind_max_mps > 3.0 && c.steady_wind_max_mps < 30.0, "{c:?}");
+        assert!(check(&p, 3.0, 1.0).is_ok());
+        match check(&p, 40.0, 3.0) {
+            Err(WindError::TooStrong { wind_mps, capacity_mps, .. }) => {
+                assert_eq!(wind_mps, 43.0);
+                assert_eq!(capacity_mps, c.steady_wind_max_mps);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_heavy_cable_share_or_weak_rotors_hold_no_wind() {
+        // The rotors cannot even carry the weight: no horizontal force left.
+        let weak = WindParams { thrust_max_n: 10.0, ..experiment() };
+        assert_eq!(capacity(&weak).expect("valid").steady_wind_max_mps, 0.0);
+        // The cable's rating is all taken by the weight share: the load's drag cannot pass.
+        let rated = WindParams { cable_rated_n: 10.5, load_drag_area_m2: 0.5, ..experiment() };
+        assert_eq!(capacity(&rated).expect("valid").limit, WindLimit::Cable);
+        assert!(check(&WindParams { cable_rated_n: 5.0, ..experiment() }, 0.1, 0.0).is_err());
+    }
+
+    #[test]
+    fn invalid_input_is_named() {
+        for (p, name) in [
+            (WindParams { n_uavs: 0, ..experiment() }, "wind.n_uavs"),
+            (WindParams { tilt_max_rad: 2.0, ..experiment() }, "wind.tilt_max_rad"),
+            (WindParams { load_drag_area_m2: f32::NAN, ..experiment() }, "wind.load_drag_area_m2"),
+            (WindParams { progress_mps: -1.0, ..experiment() }, "wind.progress_mps"),
+        ] {
+            assert_eq!(capacity(&p), Err(WindError::InvalidParameter(name)));
+        }
+        assert_eq!(check(&experiment(), f32::NAN, 0.0), Err(WindError::InvalidParameter("wind.wind_mps")));
+    }
+
+    fn params() -> impl Strategy<Value = WindParams> {
+        (1usize..40, 0.5f32..10.0, 10.0f32..200.0, 0.2f32..1.2, 0.0f32..0.1, 0.0f32..0.5, 0.5f32..60.0, 0.0f32..2.0, 5.0f32..200.0, 0.5f32..1.0, 0.0f32..2.0).prop_map(
+            |(n, m, f, a, q, l, ml, al, r, c, v)| WindParams {
+                n_uavs: n,
+                uav_mass_kg: m,
+                thrust_max_n: f,
+                tilt_max_rad: a,
+                uav_drag_quad_n_per_mps2: q + 1e-4,
+                uav_drag_lin_n_per_mps: l,
+                load_mass_kg: ml,
+                load_drag_area_m2: al,
+                cable_rated_n: r,
+                cos_lean: c,
+                progress_mps: v,
+            },
+        )
+    }
+
+    proptest! {
+        #[test]
+        fn capacity_is_finite_nonnegative_and_feasible(p in params()) {
+            let c = capacity(&p).expect("valid");
+            prop_assert!(c.airspeed_max_mps.is_finite() && c.airspeed_max_mps >= 0.0);
+            prop_assert!(c.steady_wind_max_mps >= 0.0 && c.steady_wind_max_mps <= c.airspeed_max_mps);
+            // At the capacity the rotors need no more than they have (to rounding).
+            if c.airspeed_max_mps > 0.0 {
+                prop_assert!(needed(&p, c.airspeed_max_mps) <= c.horizontal_n * 1.001 + 1e-3);
+            }
+        }
+
+        #[test]
+        fn more_drag_never_raises_the_capacity_nor_more_load_under_thrust_or_cable_limits(p in params(), k in 1.0f32..3.0) {
+            let c = capacity(&p).expect("valid").airspeed_max_mps;
+            let draggier = WindParams { uav_drag_quad_n_per_mps2: p.uav_drag_quad_n_per_mps2 * k, load_drag_area_m2: p.load_drag_area_m2 * k, ..p };
+            prop_assert!(capacity(&draggier).expect("valid").airspeed_max_mps <= c * 1.0001 + 1e-4);
+            // A heavier load never helps under the thrust or the cable limit. Under the tilt
+            // limit it can: more vertical thrust allows more horizontal thrust at the same tilt
+            // (`H = F_z tan(alpha)`), a real property of tilt-limited multirotors.
+            let heavier = WindParams { load_mass_kg: p.load_mass_kg * k, ..p };
+            let (before, after) = (capacity(&p).expect("valid"), capacity(&heavier).expect("valid"));
+            if before.limit != WindLimit::Tilt && after.limit != WindLimit::Tilt {
+                prop_assert!(after.airspeed_max_mps <= c * 1.0001 + 1e-4);
+            }
+        }
+
+        #[test]
+        fn more_thrust_or_tilt_never_lowers_the_capacity(p in params(), k in 1.0f32..2.0) {
+            let c = capacity(&p).expect("valid").airspeed_max_mps;
+            let stronger = WindParams { thrust_max_n: p.thrust_max_n * k, ..p };
+            prop_assert!(capacity(&stronger).expect("valid").airspeed_max_mps >= c * 0.9999 - 1e-4);
+            let tilt = (p.tilt_max_rad * k).min(1.5);
+            let tilted = WindParams { tilt_max_rad: tilt, ..p };
+            prop_assert!(capacity(&tilted).expect("valid").airspeed_max_mps >= c * 0.9999 - 1e-4);
+        }
+    }
+}
