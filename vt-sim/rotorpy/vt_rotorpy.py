@@ -342,7 +342,7 @@ class Flight:
             "load": (p.load_x.copy(), p.load_v.copy()),
         }
 
-    def tick(self, period, now, high_level):
+    def tick(self, now, high_level):
         """Queues the period's frames for every UAV (docs/protocol.md, lockstep) and sends them."""
         held = self.last if self.last is not None else now
         for i, link in enumerate(self.links):
@@ -370,7 +370,7 @@ class Flight:
     def preflight(self, periods):
         for k in range(periods):
             now = self.sample(self.time_ms(k))
-            self.tick(k, now, k % self.hl_every == 0)
+            self.tick(now, k % self.hl_every == 0)
             self.last = now
             for i, link in enumerate(self.links):
                 req = mavlink.MAVLink_param_request_read_message(self.ids[i], COMPANION_COMPONENT, b"VT_ID", -1)
@@ -405,7 +405,7 @@ class Flight:
                     arrival = k
             if arrival is not None and k - arrival >= post:
                 break
-            self.tick(clock, now, high_level)
+            self.tick(now, high_level)
             self.last = now
             self.collect(now["ms"])
             writer.writerow(self.row(k * ll_dt))
@@ -457,7 +457,7 @@ def main():
     flight.preflight(boot)
     # The take-off tick, as host-sim's start: every view complete, high level due.
     now = flight.sample(flight.time_ms(boot))
-    flight.tick(boot, now, True)
+    flight.tick(now, True)
     flight.last = now
     print("START", flush=True)
     if sys.stdin.readline().strip() != "GO":

@@ -124,7 +124,7 @@ impl<'a> World<'a> {
         let hl_every = u64::from(r.plant_hz / r.high_level_hz);
         // Pre-flight: whole high-level periods of hover before the start (docs/design.md,
         // "Take-off survey"); the take-off measurement is sampled at its end.
-        let boot_steps = (s.mission.preflight_s * f64::from(r.high_level_hz)).round() as u64 * hl_every;
+        let boot_steps = preflight_steps(s);
         let start_load = Meas::default();
         let start_own = vec![Meas::default(); n];
         let start_views = vec![vec![None; n]; n];
@@ -522,4 +522,11 @@ impl<'a> World<'a> {
         };
         (self.metrics.finish(s, &end), self.record)
     }
+}
+
+/// Plant steps of the pre-flight: whole high-level periods of hover before the start
+/// (docs/design.md, "Take-off survey"). Every plant that flies the lockstep protocol uses it.
+pub fn preflight_steps(s: &crate::scenario::Scenario) -> u64 {
+    let r = &s.rates;
+    (s.mission.preflight_s * f64::from(r.high_level_hz)).round() as u64 * u64::from(r.plant_hz / r.high_level_hz)
 }

@@ -74,23 +74,12 @@ fn config(ls: &LoadedScenario, rated_n: f64, trajectory: &Path) -> serde_json::V
     // above them, level): the centre of mass is the hook less the hook's offset.
     let com: Vec<[f64; 3]> = to.uav_pos_m.iter().map(|p| [p.x - attach[0], p.y - attach[1], p.z - attach[2]]).collect();
     let r = &s.rates;
-    let ll_every = r.plant_hz / r.low_level_hz;
-    let hl_every = r.plant_hz / r.high_level_hz;
-    let boot_steps = (s.mission.preflight_s * f64::from(r.high_level_hz)).round() as u32 * hl_every;
+    let ll_every = u64::from(r.plant_hz / r.low_level_hz);
+    let boot_steps = crate::mission::world::preflight_steps(s);
     let d = &s.disturbances;
-    let samples: Vec<[f32; 3]> = {
-        let mut acc = 0.0f32;
-        let pts = ls.tube.samples();
-        pts.iter()
-            .enumerate()
-            .map(|(k, p)| {
-                if k > 0 {
-                    acc += (p.pos_m - pts[k - 1].pos_m).norm();
-                }
-                [p.pos_m.x, p.pos_m.y, acc]
-            })
-            .collect()
-    };
+    // The tube's samples are equally spaced in arc length.
+    let ds = ls.tube.ds_m();
+    let samples: Vec<[f32; 3]> = ls.tube.samples().iter().enumerate().map(|(k, p)| [p.pos_m.x, p.pos_m.y, k as f32 * ds]).collect();
     json!({
         "scenario": s.name,
         "system_ids": (0..n).map(|i| crate::companion::SYSID_BASE.saturating_add(i as u8)).collect::<Vec<u8>>(),
