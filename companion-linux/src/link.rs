@@ -20,6 +20,12 @@ pub trait Link {
     /// # Errors
     /// The link failed for good.
     fn send(&mut self, frame: &[u8]) -> io::Result<()>;
+
+    /// True when each read returns one datagram of whole frames (UDP), false for a byte
+    /// stream (serial), where a frame may straddle reads.
+    fn datagrams(&self) -> bool {
+        false
+    }
 }
 
 /// MAVLink over UDP: one frame per datagram, to every `remote` (the autopilot, the ground
@@ -38,6 +44,7 @@ impl Udp {
     /// The address cannot be bound.
     pub fn open(bind: SocketAddr, remotes: Vec<SocketAddr>) -> io::Result<Self> {
         let socket = UdpSocket::bind(bind)?;
+        socket.set_nonblocking(true)?;
         Ok(Self { socket, remotes, last_sender: None })
     }
 
@@ -52,18 +59,23 @@ impl Udp {
 
 impl Link for Udp {
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        // A zero timeout means "block" to the OS: wait at least 1 us.
-        self.socket.set_read_timeout(Some(timeout.max(Duration::from_micros(1))))?;
-        match self.socket.recv_from(buf) {
-            Ok((n, from)) => {
-                self.last_sender = Some(from);
-                Ok(n)
-            }
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => Ok(0),
-            // An ICMP "port unreachable" from an earlier send (the peer not up yet): not fatal.
-            Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => Ok(0),
-            Err(e) => Err(e),
+        match self.try_recv(buf)? {
+            0 => {}
+            n => return Ok(n),
         }
+        // Wait on poll(2), whose timeout is exact to the high-resolution timer (a read
+        // timeout on the socket would be rounded up to the kernel's tick).
+        let ts = rustix::event::Timespec { tv_sec: timeout.as_secs().try_into().unwrap_or(i64::MAX), tv_nsec: timeout.subsec_nanos().into() };
+        let mut fds = [rustix::event::PollFd::new(&self.socket, rustix::event::PollFlags::IN)];
+        match rustix::event::poll(&mut fds, Some(&ts)) {
+            Ok(_) | Err(rustix::io::Errno::INTR) => {}
+            Err(e) => return Err(e.into()),
+        }
+        self.try_recv(buf)
+    }
+
+    fn datagrams(&self) -> bool {
+        true
     }
 
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
@@ -77,6 +89,22 @@ impl Link for Udp {
             }
         }
         Ok(())
+    }
+}
+
+impl Udp {
+    /// One datagram if one is waiting (the socket does not block), else 0.
+    fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self.socket.recv_from(buf) {
+            Ok((n, from)) => {
+                self.last_sender = Some(from);
+                Ok(n)
+            }
+            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => Ok(0),
+            // An ICMP "port unreachable" from an earlier send (the peer not up yet): not fatal.
+            Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => Ok(0),
+            Err(e) => Err(e),
+        }
     }
 }
 

@@ -107,7 +107,9 @@ pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool
         let n = link.recv(&mut buf, wait)?;
         let mut io = WallIo { start, out: &mut out };
         if n > 0 {
-            let exit = match companion.on_bytes(buf.get(..n).unwrap_or(&[]), &mut io) {
+            let bytes = buf.get(..n).unwrap_or(&[]);
+            let request = if link.datagrams() { companion.on_datagram(bytes, &mut io) } else { companion.on_bytes(bytes, &mut io) };
+            let exit = match request {
                 Some(Request::Shutdown) => Some(Exit::Shutdown),
                 Some(Request::Reboot) => Some(Exit::Reboot),
                 None => None,

@@ -225,12 +225,30 @@ impl<'t> Companion<'t> {
     pub fn on_bytes(&mut self, bytes: &[u8], io: &mut impl Io) -> Option<Request> {
         for &b in bytes {
             self.framer.push(b);
-            while let Some(frame) = self.framer.next_frame() {
-                self.core.handle(&frame, io);
-            }
+            self.handle_frames(io);
         }
         self.core.link = *self.framer.counters();
         self.core.request.take()
+    }
+
+    /// [`Companion::on_bytes`] for one whole datagram (UDP): a frame left incomplete at its
+    /// end is dropped rather than completed by the next datagram ([`Framer::end_datagram`]).
+    pub fn on_datagram(&mut self, bytes: &[u8], io: &mut impl Io) -> Option<Request> {
+        for &b in bytes {
+            self.framer.push(b);
+            self.handle_frames(io);
+        }
+        self.framer.end_datagram();
+        self.handle_frames(io);
+        self.core.link = *self.framer.counters();
+        self.core.request.take()
+    }
+
+    /// Handles every complete frame the framer holds.
+    fn handle_frames(&mut self, io: &mut impl Io) {
+        while let Some(frame) = self.framer.next_frame() {
+            self.core.handle(&frame, io);
+        }
     }
 
     /// Adds receive overruns counted by the board's UART driver.

@@ -79,6 +79,9 @@ pub struct Framer {
     len: usize,
     /// Length of the frame handed out by the last [`Framer::next_frame`], removed on the next call.
     consumed: usize,
+    /// The datagram the buffered bytes came in has ended ([`Framer::end_datagram`]): an
+    /// incomplete candidate is bogus, not waiting for more bytes.
+    datagram_ended: bool,
     counters: LinkCounters,
 }
 
@@ -91,7 +94,7 @@ impl Default for Framer {
 impl Framer {
     /// An empty synchroniser.
     pub const fn new() -> Self {
-        Self { buf: [0; MAX_FRAME_LEN], len: 0, consumed: 0, counters: LinkCounters::ZERO }
+        Self { buf: [0; MAX_FRAME_LEN], len: 0, consumed: 0, datagram_ended: false, counters: LinkCounters::ZERO }
     }
 
     /// The counters so far.
@@ -103,6 +106,7 @@ impl Framer {
     /// each byte (or each chunk of at most one frame's worth).
     pub fn push(&mut self, byte: u8) {
         self.drop_consumed();
+        self.datagram_ended = false;
         if self.len == 0 && byte != STX_V2 {
             self.counters.bytes_discarded = self.counters.bytes_discarded.wrapping_add(1);
             return;
@@ -116,12 +120,33 @@ impl Framer {
         }
     }
 
+    /// Marks the end of a datagram, on transports that carry whole frames per datagram (UDP:
+    /// PX4, ArduPilot and mavlink-router never split a frame). Call [`Framer::next_frame`] until
+    /// it returns `None` afterwards: a frame left incomplete is dropped as a framing error and
+    /// the bytes after its marker are searched at once, instead of waiting for the next
+    /// datagram to complete a bogus candidate. The next [`Framer::push`] clears the mark.
+    pub fn end_datagram(&mut self) {
+        self.datagram_ended = true;
+    }
+
+    /// An incomplete candidate at the front: wait for bytes, or drop it if its datagram ended.
+    /// Returns true when the caller should search again.
+    fn incomplete(&mut self) -> bool {
+        if !self.datagram_ended || self.len == 0 {
+            return false;
+        }
+        self.counters.framing_errors = self.counters.framing_errors.wrapping_add(1);
+        self.resync();
+        true
+    }
+
     /// The next complete, checked frame in the buffer, if any.
     pub fn next_frame(&mut self) -> Option<Frame<'_>> {
         self.drop_consumed();
         loop {
-            let (len, flags) = match (self.buf.get(1), self.buf.get(2)) {
-                (Some(&l), Some(&f)) if self.len >= 3 => (usize::from(l), f),
+            let (len, flags) = match (self.buf.get(1).copied(), self.buf.get(2).copied()) {
+                (Some(l), Some(f)) if self.len >= 3 => (usize::from(l), f),
+                _ if self.incomplete() => continue,
                 _ => return None,
             };
             if flags & !IFLAG_SIGNED != 0 {
@@ -132,6 +157,9 @@ impl Framer {
             let signature = if flags & IFLAG_SIGNED != 0 { SIGNATURE_LEN } else { 0 };
             let total = HEADER_LEN + len + CRC_LEN + signature;
             if self.len < total {
+                if self.incomplete() {
+                    continue;
+                }
                 return None;
             }
             let id = |k: usize| u32::from(self.buf.get(k).copied().unwrap_or(0));
@@ -145,8 +173,9 @@ impl Framer {
                 continue;
             }
             let crc_at = HEADER_LEN + len;
-            let expected = match (self.buf.get(crc_at), self.buf.get(crc_at + 1)) {
-                (Some(&lo), Some(&hi)) => u16::from_le_bytes([lo, hi]),
+            let expected = match (self.buf.get(crc_at).copied(), self.buf.get(crc_at + 1).copied()) {
+                (Some(lo), Some(hi)) => u16::from_le_bytes([lo, hi]),
+                _ if self.incomplete() => continue,
                 _ => return None,
             };
             let actual = self.buf.get(1..crc_at).map(|d| mavlink::calculate_crc(d, extra));
@@ -278,6 +307,41 @@ mod tests {
         let seqs: Vec<u8> = got.iter().map(|g| g.1).collect();
         assert_eq!(seqs, vec![1, 2, 3]);
         assert!(f.counters().bytes_discarded >= 300);
+    }
+
+    /// Drains every frame after the end of a datagram.
+    fn end(f: &mut Framer) -> Vec<u32> {
+        f.end_datagram();
+        let mut out = Vec::new();
+        while let Some(fr) = f.next_frame() {
+            out.push(fr.message_id);
+        }
+        out
+    }
+
+    #[test]
+    fn a_datagram_ending_mid_frame_does_not_hold_back_the_next() {
+        // Datagram 1: a good frame, then a marker claiming 250 bytes, then a good frame
+        // inside the claimed span. On a stream both would wait for 250 more bytes; at the
+        // datagram's end the stub is dropped and the frame inside it is found.
+        let mut f = Framer::new();
+        let mut d1 = frame(&pos(1.0), 0);
+        d1.extend([STX_V2, 250, 0, 0]);
+        d1.extend(frame(&HEARTBEAT_DATA::default(), 1));
+        let got: Vec<u32> = feed(&mut f, &d1).iter().map(|g| g.0).collect();
+        assert_eq!(got, [LOCAL_POSITION_NED_DATA::ID]);
+        assert_eq!(end(&mut f), [HEARTBEAT_DATA::ID]);
+        assert_eq!(f.counters().framing_errors, 1);
+        // Datagram 2 starts clean; a lone marker at its end is dropped too.
+        let mut d2 = frame(&pos(2.0), 2);
+        d2.push(STX_V2);
+        assert_eq!(feed(&mut f, &d2).len(), 1);
+        assert!(end(&mut f).is_empty());
+        assert_eq!(f.counters().framing_errors, 2);
+        // Without the end mark (a serial stream) the same bytes wait: a frame may straddle reads.
+        let mut g = Framer::new();
+        assert!(feed(&mut g, &[STX_V2, 250, 0, 0]).is_empty());
+        assert!(feed(&mut g, &frame(&HEARTBEAT_DATA::default(), 1)).is_empty());
     }
 
     #[test]
