@@ -426,6 +426,76 @@ fn twin_refuses_mission_start_for_an_overweight_declared_load() {
     overweight_is_refused_then_right_load_starts(&mut SilPort::new(), &mut Encoders::default());
 }
 
+/// Issue 29: the pre-flight wind check aboard. The experiment's team (capacity 7.6 m/s,
+/// tilt-bound) with 9 m/s declared and a 3 m/s gust margin is refused: `COMMAND_ACK` DENIED, a
+/// `STATUSTEXT` with the wind, the capacity and the binding limit (the crate's numbers from the
+/// same f32 inputs), refusal code 8. Declared 3 m/s, the same companion starts.
+fn windy_start_is_refused_then_calm_starts<P: Port>(q: &mut P, enc: &mut Encoders) {
+    let ls = experiment();
+    let (mut cfg, setup) = uav0_config(&ls, true);
+    for p in cfg.params.iter_mut() {
+        match p.0 {
+            Param::WindDecl => p.1 = 9.0,
+            Param::WindGust => p.1 = 3.0,
+            _ => {}
+        }
+    }
+    let mut params = vt_companion::Params::new();
+    for &(k, v) in &cfg.params {
+        params.set(k, v).unwrap();
+    }
+    let (all, (load, _)) = takeoff_state(&setup);
+    let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap()).collect();
+    let cal = vt_dissipative::calibrate(0, &uavs, &load, &params.calibration()).unwrap();
+    let err = vt_dissipative::wind::check(&params.wind(cal.cos_lean), 9.0, 3.0).unwrap_err();
+    let (head, detail) = vt_companion::flight::StartError::Wind(err).lines();
+    let expected = [head.as_str().to_string(), detail.unwrap().as_str().to_string()];
+    assert_eq!(expected, ["start refused: wind above the team's capacity", "wind 12.0m/s > cap 7.6m/s (tilt)"]);
+
+    pil::configure(q, &cfg, &mut enc.gcs).unwrap();
+    let own = (uavs[0], V3f::zeros());
+    let frames = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some((load, V3f::zeros())), neighbours: &all, own, sample_ms: (0, 0), id: 0 };
+    q.send(&frames.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
+    let (result, texts, heartbeat) = start_and_listen(q, &cfg, enc);
+    assert_eq!(result, 2, "MAV_RESULT_DENIED; texts {texts:?}");
+    assert_eq!(texts, expected);
+    let hb = heartbeat.expect("a HEARTBEAT with the refusal before the ACK");
+    assert_eq!(((hb & 0xFF), (hb >> 16) & 0xFF), (Mode::Ready as u32, 8), "not flying; refusal code: wind");
+    // Declared 3 m/s (with the 3 m/s gust margin: 6 m/s against 7.6), it starts.
+    let set = mavlink::dialects::common::PARAM_SET_DATA {
+        param_value: 3.0,
+        target_system: 0,
+        target_component: 191,
+        param_id: "VT_WIND_DECL".into(),
+        param_type: mavlink::dialects::common::MavParamType::MAV_PARAM_TYPE_REAL32,
+    };
+    q.send(&enc.gcs.frame(255, 190, &set)).unwrap();
+    let echoed = pil::recv_until(q, 64, |rx| match rx {
+        Rx::ParamValue(n, v) if n == "VT_WIND_DECL" => Some(*v),
+        _ => None,
+    })
+    .unwrap();
+    assert_eq!(echoed, 3.0);
+    let (result, texts, _) = start_and_listen(q, &cfg, enc);
+    assert_eq!((result, texts), (ACCEPTED, Vec::new()));
+}
+
+#[test]
+fn firmware_refuses_mission_start_in_a_declared_wind_above_its_capacity() {
+    let Some(elf) = firmware() else { return };
+    let mut q = spawn(&elf, "windy", false);
+    let mut enc = Encoders::default();
+    windy_start_is_refused_then_calm_starts(&mut q, &mut enc);
+    let (code, _) = q.shutdown(&mut enc.gcs, pil::SYSID_BASE).unwrap();
+    assert_eq!(code, Some(0));
+}
+
+/// The same on the host twin (no QEMU needed).
+#[test]
+fn twin_refuses_mission_start_in_a_declared_wind_above_its_capacity() {
+    windy_start_is_refused_then_calm_starts(&mut SilPort::new(), &mut Encoders::default());
+}
+
 /// Garbage for the link: random bytes, a truncated frame, a frame with a bad checksum, an
 /// unknown message id, and a well-formed state with a NaN.
 fn garbage(enc: &mut pil::Encoder) -> Vec<u8> {

@@ -259,3 +259,4 @@ fn take_off_survey_settings_are_checked() {
     let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("no pre-flight is valid");
     assert_eq!(ls.scenario.mission.preflight_s, 0.0);
 }
+

@@ -7,6 +7,7 @@
 //! from its own parameters (the horizontal reserve, `VT_Z_MIN`, `VT_CABLE_LMAX`, `VL_T_MIN`,
 //! `FS_NBR_TMO`) is sent as [`AUTO`] and derived aboard (`vt_companion::params`).
 
+use crate::models::UavModel;
 use crate::scenario::{Scenario, StaleNeighbour};
 use crate::sim::{ControllerKind, SimError};
 use vt_companion::{Companion, CompanionTube, Item, Param, Params, AUTO, MAX_UAVS};
@@ -106,6 +107,7 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
     let (bandwidth, lag, filter) = vl.tuning(s.uavs.model);
     let cap = &c.capacity;
     let f = |x: f64| x as f32;
+    let (drag_q, drag_l) = level_drag(s);
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
     let values = [
         (Param::Id, i as f32),
@@ -169,6 +171,11 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::HReserve, vl.horizontal_reserve(s.uavs.model).map_or(AUTO, f)),
         (Param::CalN, s.controller.survey_samples as f32),
         (Param::CableL, f(s.cables.lengths_m[i])),
+        (Param::WindDecl, s.mission.max_wind_mps.map_or(AUTO, f)),
+        (Param::WindGust, f(s.mission.gust_margin_mps)),
+        (Param::DragQ, f(drag_q)),
+        (Param::DragL, f(drag_l)),
+        (Param::LoadCda, f(s.disturbances.load_drag_area_m2)),
         (Param::Ctrl, match kind {
             ControllerKind::Dissipative => 0.0,
             ControllerKind::Baseline => 1.0,
@@ -179,6 +186,21 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         p.set(param, v).map_err(|e| SimError(format!("UAV {i}: parameter {} = {v}: {e:?}", param.info().name)))?;
     }
     Ok(p)
+}
+
+/// `VL_DRAG_Q`, `VL_DRAG_L`: the horizontal drag of one UAV of the plant, `(c_q, c_l)`.
+/// Rigid body: its body drag and its rotors' H-force at the loaded hover (weight plus the
+/// load's share, [`crate::quadrotor::QuadParams::level_drag`]). Point mass: the scenario's
+/// drag area, quadratic only (`disturbance::drag_n`).
+fn level_drag(s: &Scenario) -> (f64, f64) {
+    match s.uavs.model {
+        UavModel::RigidBody => {
+            let n = s.cables.lengths_m.len().max(1) as f64;
+            let hover_n = (s.uavs.mass_kg + s.load.mass_kg / n) * crate::quadrotor::GRAVITY_MPS2;
+            crate::quadrotor::QuadParams::sized(s.uavs.mass_kg, s.uavs.thrust_max_n).level_drag(hover_n)
+        }
+        UavModel::PointMass => (0.5 * crate::disturbance::AIR_DENSITY_KG_M3 * s.disturbances.uav_drag_area_m2, 0.0),
+    }
 }
 
 /// `VL_ILIM_*`: the bound on the velocity loop's integral term, m/s^2.
@@ -296,6 +318,33 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The wind check's drag parameters: the companion's defaults are the experiment airframe's
+    /// on the rigid-body plant (1.47 kg, 30 N, carrying a third of 3.06 kg), as documented; the
+    /// point mass has quadratic drag only; no declared wind maps to `-1` (no check).
+    #[test]
+    fn the_drag_the_wind_check_uses_is_the_plants() {
+        let exp = shipped().into_iter().find(|ls| ls.scenario.name == "experiment-3uav").expect("experiment");
+        let mut s = exp.scenario;
+        let p = params_for(&s, 0, ControllerKind::Dissipative, s.cables.rated_n, false).expect("parameters");
+        let d = Params::new();
+        for q in [Param::DragQ, Param::DragL, Param::LoadCda] {
+            let rel = (p.get(q) - d.get(q)).abs() / d.get(q);
+            assert!(rel < 0.01, "{}: plant {} default {}", q.info().name, p.get(q), d.get(q));
+        }
+        assert_eq!(p.declared_wind_mps(), None);
+        // Rotor drag grows with the rotor speed: more load, more drag.
+        s.load.mass_kg *= 2.0;
+        let heavier = params_for(&s, 0, ControllerKind::Dissipative, s.cables.rated_n, false).expect("parameters");
+        assert!(heavier.get(Param::DragL) > p.get(Param::DragL));
+        s.uavs.model = UavModel::PointMass;
+        s.mission.max_wind_mps = Some(4.0);
+        s.mission.gust_margin_mps = 1.5;
+        let pm = params_for(&s, 0, ControllerKind::Dissipative, s.cables.rated_n, false).expect("parameters");
+        assert_eq!(pm.get(Param::DragL), 0.0);
+        assert_eq!(pm.get(Param::DragQ), (0.5 * crate::disturbance::AIR_DENSITY_KG_M3 * s.disturbances.uav_drag_area_m2) as f32);
+        assert_eq!(pm.declared_wind_mps(), Some((4.0, 1.5)));
     }
 
     #[test]

@@ -189,6 +189,19 @@ pub fn preflight(s: &Scenario, rated_n: f64) -> Result<vt_dissipative::Feasibili
     vt_dissipative::feasibility::check(&p)
 }
 
+/// The pre-flight wind check of `s` (docs/design.md, "Wind capacity") for cables rated
+/// `rated_n` (N) at the take-off lean: what every companion checks at `MISSION_START` with its
+/// `VT_WIND_DECL`. `Ok(None)` when no wind is declared.
+///
+/// # Errors
+/// [`vt_dissipative::wind::WindError`] with the wind, the capacity and the binding limit
+/// (`InvalidParameter` when the scenario cannot be mapped to the companion's parameters).
+pub fn wind_preflight(s: &Scenario, rated_n: f64) -> Result<Option<vt_dissipative::wind::WindCapacity>, vt_dissipative::wind::WindError> {
+    let p = lead_params(s, rated_n).ok_or(vt_dissipative::wind::WindError::InvalidParameter("companion parameters"))?;
+    let Some((wind_mps, gust_mps)) = p.declared_wind_mps() else { return Ok(None) };
+    vt_dissipative::wind::check(&p.wind(takeoff_cos_lean(s, rated_n) as f32), wind_mps, gust_mps).map(Some)
+}
+
 /// The tray of the formation metric (the companions fly `VT_TRAY_H`, the same height).
 pub fn tray(s: &Scenario) -> TrayParams {
     TrayParams { height_above_load_m: s.controller.tray_height_m as f32, ..TrayParams::default() }

@@ -56,6 +56,26 @@ mod tests {
         assert_relative_eq!(v.y, -5.0, max_relative = 1e-3);
     }
 
+    /// The end terminal is a stop (issue 29): past the end every point locates to the end
+    /// section, whose disk `|q - m| < r_t` the barrier keeps. A node carried past the end is
+    /// pushed back along the end's tangent, harder the further it goes; the passing term there
+    /// is zero (`l = 0`), so nothing pushes on.
+    #[test]
+    fn the_end_terminal_stops_a_node_carried_past_it() {
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 2.0, 2.0), Waypoint::new(10.0, 0.0, 2.0, 2.0)]).unwrap();
+        let mut last = 0.0;
+        // Within the barrier's active band (d_t from 1.4 m down to 0.8 m; r_s 0.5, r_a 1.5).
+        for past_m in [0.6, 0.9, 1.2] {
+            let q = Vec2::new(10.0 + past_m, 0.0);
+            let sec = t.locate(q, 0).unwrap();
+            let (v, d) = keeping_velocity(&sec, &q, &BARRIER);
+            assert_relative_eq!(d, 2.0 - past_m, epsilon = 1e-4);
+            assert!(v.x < last && v.y.abs() < 1e-6, "{past_m} m past: {v:?}");
+            last = v.x;
+            assert_eq!(crate::passing::passing_velocity(&sec, &q, 1.0, 1.5), Vec2::zeros());
+        }
+    }
+
     #[test]
     fn zero_on_the_midpoint_and_far_from_the_boundary() {
         let t = tube();

@@ -55,6 +55,7 @@ pub struct WindParams {
 
 /// Which limit sets the capacity.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WindLimit {
     /// The UAV's tilt limit.
     Tilt,
@@ -80,6 +81,7 @@ pub struct WindCapacity {
 
 /// Why the team refuses to fly in a wind, or cannot be assessed.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WindError {
     /// A parameter is NaN, infinite or out of range; names it.
     InvalidParameter(&'static str),

@@ -739,7 +739,7 @@ impl Core<'_> {
             MavCmd::MAV_CMD_MISSION_START => match self.start(io) {
                 Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
                 Err(StartError::StaleData) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-                Err(StartError::Infeasible(_)) => MavResult::MAV_RESULT_DENIED,
+                Err(StartError::Infeasible(_) | StartError::Wind(_)) => MavResult::MAV_RESULT_DENIED,
                 Err(_) => MavResult::MAV_RESULT_FAILED,
             },
             // Operator hold and resume (docs/protocol.md): param1 0 pause, 1 continue.

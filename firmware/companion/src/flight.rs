@@ -196,6 +196,9 @@ pub enum StartError {
     Calibration(vt_dissipative::CalibrationError),
     /// The pre-flight check: the team cannot carry the declared load with the required margin.
     Infeasible(vt_dissipative::FeasibilityError),
+    /// The pre-flight wind check: the declared wind plus its gust margin is above what the
+    /// team can hold in the tube (`vt_dissipative::wind`).
+    Wind(vt_dissipative::wind::WindError),
 }
 
 /// What one low-level step produced.
@@ -303,6 +306,9 @@ impl Flight {
         let load_pos_m = src.survey.load().unwrap_or(load.pos_m);
         let cal = vt_dissipative::calibrate(id, takeoff, &load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
         vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
+        if let Some((wind_mps, gust_mps)) = params.declared_wind_mps() {
+            vt_dissipative::wind::check(&params.wind(cal.cos_lean), wind_mps, gust_mps).map_err(StartError::Wind)?;
+        }
         let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
         let tray = params.tray();
         let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load_pos_m, &tray)

@@ -400,6 +400,44 @@ fn an_overweight_declared_load_is_refused_with_the_numbers() {
 }
 
 #[test]
+fn a_declared_wind_above_the_capacity_is_refused_with_the_numbers() {
+    use vt_dissipative::wind::{self, WindError};
+    let (mut p, tube, src) = setup(3.06, 3.0);
+    // The law's capacity for this team at its measured take-off lean.
+    let takeoff = [src.own.unwrap().value.pos_m, src.neighbours[1].unwrap().value, src.neighbours[2].unwrap().value];
+    let cal = vt_dissipative::calibrate(0, &takeoff, &src.load.unwrap().value.pos_m, &p.calibration()).unwrap();
+    let cap = wind::capacity(&p.wind(cal.cos_lean)).unwrap();
+    // The experiment airframe (1.47 kg, 30 N, 30 deg) with 1 kg of load each: a few m/s.
+    assert!((3.0..15.0).contains(&cap.steady_wind_max_mps), "{cap:?}");
+    // Nothing declared: no wind check, whatever the weather.
+    assert!(Flight::start(&p, Some(&tube), &src, 0).is_ok());
+    p.set(Param::WindGust, 1.0).unwrap();
+    // Just inside (steady + gust below the capacity) starts; just outside is refused.
+    p.set(Param::WindDecl, cap.steady_wind_max_mps - 1.0 - 0.05).unwrap();
+    assert!(Flight::start(&p, Some(&tube), &src, 0).is_ok());
+    p.set(Param::WindDecl, cap.steady_wind_max_mps - 1.0 + 0.05).unwrap();
+    let err = Flight::start(&p, Some(&tube), &src, 0).unwrap_err();
+    match err {
+        StartError::Wind(WindError::TooStrong { wind_mps, capacity_mps, limit }) => {
+            assert!((wind_mps - (cap.steady_wind_max_mps + 0.05)).abs() < 1e-4, "{wind_mps}");
+            assert_eq!(capacity_mps, cap.steady_wind_max_mps);
+            assert_eq!(limit, cap.limit);
+        }
+        other => panic!("{other:?}"),
+    }
+    // The operator reads the numbers in STATUSTEXT; the GCS gets DENIED (companion.rs).
+    let (head, detail) = err.lines();
+    assert_eq!(head.as_str(), "start refused: wind above the team's capacity");
+    let detail = detail.unwrap();
+    assert!(detail.as_str().starts_with("wind ") && detail.as_str().contains("m/s > cap "), "{}", detail.as_str());
+    assert_eq!(err.code(), 8);
+    // A stronger airframe holds the same wind.
+    p.set(Param::TiltMax, 0.7).unwrap();
+    p.set(Param::ThrustMax, 45.0).unwrap();
+    assert!(Flight::start(&p, Some(&tube), &src, 0).is_ok());
+}
+
+#[test]
 fn an_implausible_take_off_is_refused_by_the_calibration() {
     // UAV 1 below the load.
     let (p, tube, src) = setup(3.06, -0.5);

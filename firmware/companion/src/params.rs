@@ -11,6 +11,7 @@
 use nalgebra::{Unit, Vector2, Vector3};
 use vt_cfo::{CfoError, CfoParams, PidGains, ThrustLimits, VelocityLoopParams};
 use vt_dissipative::calibration::MIN_COS_LEAN;
+use vt_dissipative::wind::WindParams;
 use vt_dissipative::{Calibration, CalibrationParams, CapacityParams, ControlError, DissipativeParams, FeasibilityParams, TrayParams, VerticalParams};
 
 /// One parameter's description.
@@ -157,6 +158,12 @@ params! {
     HReserve => derived("VL_H_RES", 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority; -1: as much as the airframe affords with its weight plus `VT_CABLE_RATED` under the vertical cap, at most 0.5, `ThrustLimits::rated_pull_reserve`).";
     CalN => int("VT_CAL_N", 100.0, 1.0, 100000.0), "Take-off survey: take-off positions averaged over this many samples per source before `MISSION_START` (1: the last sample; docs/design.md, \"Take-off survey\").";
     CableL => real("VT_CABLE_L", 3.0, 0.0, LENGTH_MAX_M), "Nominal length of this UAV's cable, m (derives `VT_Z_MIN` and `VT_CABLE_LMAX`; the calibration measures the true one).";
+    WindDecl => derived("VT_WIND_DECL", 0.0, 100.0), "Declared steady wind at the site for the mission, m/s (forecast or measured; -1: none declared, no wind check at the start). Refused at `MISSION_START` above the team's wind capacity (`vt_dissipative::wind`).";
+    WindGust => real("VT_WIND_GUST", 0.0, 0.0, 100.0), "Gust margin added to `VT_WIND_DECL` in the start check, m/s.";
+    WindVp => real("VT_WIND_VP", 0.3, 0.0, 50.0), "Ground speed the team must keep into the wind to make progress, m/s (the wind check's `v_p`).";
+    DragQ => real("VL_DRAG_Q", 0.0103, 0.0, 100.0), "Quadratic horizontal body drag of this UAV `c_q`, N/(m/s)^2 (`rho C_dA / 2`; default: the 1.47 kg experiment airframe, docs/plant.md).";
+    DragL => real("VL_DRAG_L", 0.74, 0.0, 1.0e3), "Linear horizontal rotor drag of this UAV at loaded hover `c_l`, N/(m/s) (default: the 1.47 kg experiment airframe carrying its share of 3.06 kg).";
+    LoadCda => real("VT_LOAD_CDA", 0.3, 0.0, 1.0e3), "Drag area of the load `C_dA`, m^2.";
     Ctrl => int("VT_CTRL", 0.0, 0.0, 1.0), "High-level controller: 0 the paper's dissipative controller; 1 traditional virtual-tube control (the baseline, REFERENCE §2: `VT_K1`..`VT_R_ACT` are its gains, no springs).";
 }
 
@@ -281,6 +288,31 @@ impl Params {
             cos_lean,
             min_margin: self.get(Param::MarginMin),
         }
+    }
+
+    /// What the wind capacity law needs (`vt_dissipative::wind`) at the take-off lean
+    /// `cos_lean` (validated by the law).
+    pub fn wind(&self, cos_lean: f32) -> WindParams {
+        WindParams {
+            n_uavs: self.get_u32(Param::NUavs) as usize,
+            uav_mass_kg: self.get(Param::Mass),
+            thrust_max_n: self.get(Param::ThrustMax),
+            tilt_max_rad: self.get(Param::TiltMax),
+            uav_drag_quad_n_per_mps2: self.get(Param::DragQ),
+            uav_drag_lin_n_per_mps: self.get(Param::DragL),
+            load_mass_kg: self.get(Param::LoadKg),
+            load_drag_area_m2: self.get(Param::LoadCda),
+            cable_rated_n: self.get(Param::CableRated),
+            cos_lean,
+            progress_mps: self.get(Param::WindVp),
+        }
+    }
+
+    /// The declared steady wind and its gust margin for the start check, m/s; `None` when no
+    /// wind is declared (`VT_WIND_DECL = -1`).
+    pub fn declared_wind_mps(&self) -> Option<(f32, f32)> {
+        let w = self.get(Param::WindDecl);
+        (w >= 0.0).then(|| (w, self.get(Param::WindGust)))
     }
 
     /// The high-level controller's parameters with the take-off calibration `cal` (validated

@@ -5,6 +5,7 @@
 //! formatter: no allocation, and no `core::fmt` float machinery in the firmware's flash.
 
 use crate::flight::StartError;
+use vt_dissipative::wind::{WindError, WindLimit};
 use vt_dissipative::{CalibrationError, ControlError, FeasibilityError};
 
 /// Length of `STATUSTEXT.text`, bytes.
@@ -123,6 +124,7 @@ impl core::fmt::Display for StartError {
             Self::VelocityLoop(e) => write!(f, "velocity loop parameters: {e}"),
             Self::Calibration(e) => write!(f, "take-off calibration: {e}"),
             Self::Infeasible(e) => write!(f, "pre-flight check: {e}"),
+            Self::Wind(e) => write!(f, "pre-flight wind check: {e}"),
         }
     }
 }
@@ -138,6 +140,7 @@ impl StartError {
             Self::VelocityLoop(_) => 5,
             Self::Calibration(_) => 6,
             Self::Infeasible(_) => 7,
+            Self::Wind(_) => 8,
         }
     }
 
@@ -176,6 +179,11 @@ impl StartError {
             Self::Infeasible(e) => {
                 head.push("team cannot lift the load");
                 feasibility_detail(e, &mut detail);
+                true
+            }
+            Self::Wind(e) => {
+                head.push("wind above the team's capacity");
+                wind_detail(e, &mut detail);
                 true
             }
         };
@@ -222,6 +230,22 @@ fn calibration_detail(e: &CalibrationError, l: &mut Line) {
         }
         CalibrationError::LengthOutOfRange { length_m, min_m, max_m } => {
             l.push("cable ").push_fixed(length_m, 2).push("m not in (").push_fixed(min_m, 2).push(", ").push_fixed(max_m, 2).push("]m");
+        }
+    }
+}
+
+fn wind_detail(e: &WindError, l: &mut Line) {
+    match *e {
+        WindError::InvalidParameter(name) => {
+            l.push(name);
+        }
+        WindError::TooStrong { wind_mps, capacity_mps, limit } => {
+            l.push("wind ").push_fixed(wind_mps, 1).push("m/s > cap ").push_fixed(capacity_mps, 1).push("m/s (").push(match limit {
+                WindLimit::Tilt => "tilt",
+                WindLimit::Thrust => "thrust",
+                WindLimit::Cable => "cable",
+            });
+            l.push(")");
         }
     }
 }

@@ -5,7 +5,10 @@
 //! `"builtin:paper-10uav"`), optional `runs` and `seed` (first seed), optional
 //! `[levels] key = "disturbances.intensity"`, `values = [...]`, and any scenario tables to
 //! merge over the base (`[disturbances]`, `[[faults]]`, `[load]`, ...). A plain scenario file
-//! is a campaign of itself.
+//! is a campaign of itself. With `generate = true` every run flies its own generated scenario
+//! (`vt_sim::scenario::generate`, from the run's seed, over the level's merged scenario): tube,
+//! team, airframe, cables and load are drawn; gains, rates, link and disturbances are the
+//! campaign's.
 
 use crate::scenario::{self, LoadedScenario, ScenarioError};
 use crate::sim::{self, RunOptions};
@@ -18,7 +21,7 @@ pub mod shard;
 pub use shard::{merge, ShardFile, ShardSpec};
 
 /// Keys of a campaign file that are not scenario fields.
-const CAMPAIGN_KEYS: [&str; 4] = ["base", "runs", "seed", "levels"];
+const CAMPAIGN_KEYS: [&str; 5] = ["base", "runs", "seed", "levels", "generate"];
 
 /// A loaded campaign.
 #[derive(Debug, Clone)]
@@ -33,6 +36,10 @@ pub struct Campaign {
     pub runs: usize,
     /// First seed.
     pub seed: u64,
+    /// Each run flies the scenario generated from its seed over its level's table.
+    pub generate: bool,
+    /// The merged scenario table of each level (what the generator draws over).
+    pub tables: Vec<toml::Table>,
 }
 
 fn err(source: &str, field: Option<&str>, message: String) -> ScenarioError {
@@ -90,7 +97,8 @@ fn set_dotted(t: &mut toml::Table, key: &str, value: f64) -> bool {
 pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(path) = path else {
         let ls = scenario::load(None)?;
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1 });
+        let tables = vec![toml::from_str(scenario::PAPER_10UAV).map_err(|e| err(scenario::DEFAULT_SCENARIO_NAME, None, e.to_string()))?];
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, tables });
     };
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
@@ -103,7 +111,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(base) = table.get("base") else {
         let ls = scenario::parse(&text, &name)?;
         let seed = ls.scenario.seed;
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, tables: vec![table] });
     };
     let base = base.as_str().ok_or_else(|| err(&name, Some("base"), "must be a path string".into()))?;
     let (base_text, base_name) = if base == "builtin:paper-10uav" {
@@ -149,6 +157,10 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
         None => 1,
         Some(v) => v.as_integer().filter(|r| *r >= 0).ok_or_else(|| err(&name, Some("seed"), "must be an integer >= 0".into()))? as u64,
     };
+    let generate = match table.get("generate") {
+        None => false,
+        Some(v) => v.as_bool().ok_or_else(|| err(&name, Some("generate"), "must be true or false".into()))?,
+    };
     let source = format!("{name} (over {base_name})");
     let (level_key, values) = match table.get("levels") {
         None => (None, vec![None]),
@@ -164,7 +176,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
         }
         Some(_) => return Err(err(&name, Some("levels"), "must be a table".into())),
     };
-    let mut levels = Vec::new();
+    let (mut levels, mut tables) = (Vec::new(), Vec::new());
     for v in values {
         let mut t = merged.clone();
         if let (Some(k), Some(v)) = (&level_key, v) {
@@ -177,9 +189,13 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
         // they are dropped.
         let ls = scenario::parse(&text, &source).map_err(|e| ScenarioError { line: None, ..e })?;
         levels.push((v, ls));
+        tables.push(t);
     }
-    let name = levels.first().map_or_else(String::new, |(_, l)| l.scenario.name.clone());
-    Ok(Campaign { name, levels, level_key, runs, seed })
+    let mut name = levels.first().map_or_else(String::new, |(_, l)| l.scenario.name.clone());
+    if generate {
+        name = format!("generated over {name}");
+    }
+    Ok(Campaign { name, levels, level_key, runs, seed, generate, tables })
 }
 
 /// One run's row of `sweep.csv`.
@@ -189,6 +205,56 @@ pub struct Row {
     pub level: Option<f64>,
     /// The run's summary.
     pub summary: Summary,
+    /// What was generated for the run (generated campaigns only).
+    #[serde(default)]
+    pub class: Option<RunClass>,
+}
+
+/// The class of a generated run's scenario, for the per-class tables.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RunClass {
+    /// Tube shape.
+    pub tube: String,
+    /// Team size.
+    pub n_uavs: usize,
+    /// Airframe class.
+    pub airframe: String,
+    /// Load over the team's vertical capacity at take-off.
+    pub load_fraction: f64,
+    /// All cables the same length.
+    pub equal_cables: bool,
+    /// Draws that failed validation before this one.
+    pub redraws: u32,
+}
+
+impl From<&scenario::generate::Drawn> for RunClass {
+    fn from(d: &scenario::generate::Drawn) -> Self {
+        Self {
+            tube: d.tube.name().into(),
+            n_uavs: d.n_uavs,
+            airframe: d.airframe.name.into(),
+            load_fraction: d.load_fraction,
+            equal_cables: d.equal_cables,
+            redraws: d.redraws,
+        }
+    }
+}
+
+/// The scenario run `(level l, seed)` of `c` flies: the level's, or the one generated from the
+/// seed over the level's table.
+///
+/// # Errors
+/// No valid generated draw (the generator's last validation error).
+pub fn scenario_of(c: &Campaign, l: usize, seed: u64) -> Result<(std::borrow::Cow<'_, LoadedScenario>, Option<RunClass>), String> {
+    if c.generate {
+        let t = c.tables.get(l).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
+        let g = scenario::generate::generate(t, seed).map_err(|e| e.to_string())?;
+        let class = RunClass::from(&g.drawn);
+        Ok((std::borrow::Cow::Owned(g.loaded), Some(class)))
+    } else {
+        let (_, ls) = c.levels.get(l).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
+        Ok((std::borrow::Cow::Borrowed(ls), None))
+    }
 }
 
 /// Flies `runs` seeds (`seed`, `seed + 1`, ...) at every level on `jobs` threads.
@@ -218,12 +284,13 @@ pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bo
     let rows: Result<Vec<(usize, Row)>, String> = pool.install(|| {
         work.par_iter()
             .map(|&(i, (l, s))| {
-                let (level, ls) = &c.levels[l];
-                let out = sim::run(ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?;
+                let level = c.levels.get(l).and_then(|(lv, _)| *lv);
+                let (ls, class) = scenario_of(c, l, s)?;
+                let out = sim::run(&ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?;
                 if let Some(b) = &bar {
                     b.inc(1);
                 }
-                Ok((i, Row { level: *level, summary: out.summary }))
+                Ok((i, Row { level, summary: out.summary, class }))
             })
             .collect()
     });
@@ -247,12 +314,13 @@ pub fn worst(rows: &[Row]) -> Option<&Row> {
 /// # Errors
 /// The row's level is not in the campaign, or a crate rejects the scenario.
 pub fn refly(c: &Campaign, row: &Row) -> Result<sim::RunOutput, String> {
-    let (_, ls) = c
+    let l = c
         .levels
         .iter()
-        .find(|(l, _)| l.map(f64::to_bits) == row.level.map(f64::to_bits))
+        .position(|(l, _)| l.map(f64::to_bits) == row.level.map(f64::to_bits))
         .ok_or_else(|| format!("level {:?} is not in campaign {}", row.level, c.name))?;
-    sim::run(ls, &RunOptions { seed: Some(row.summary.seed), record: true, ..RunOptions::default() }).map_err(|e| e.to_string())
+    let (ls, _) = scenario_of(c, l, row.summary.seed)?;
+    sim::run(&ls, &RunOptions { seed: Some(row.summary.seed), record: true, ..RunOptions::default() }).map_err(|e| e.to_string())
 }
 
 /// Percentiles of one metric.
@@ -295,6 +363,80 @@ pub struct LevelStats {
     pub percentiles: std::collections::BTreeMap<&'static str, Percentiles>,
     /// How often each failure reason occurred (first words of the reason).
     pub failure_reasons: std::collections::BTreeMap<String, usize>,
+    /// Runs where a UAV centre or the load left the tube (a boundary distance below 0).
+    pub out_of_tube: usize,
+}
+
+/// One class of generated scenarios at one level.
+#[derive(Debug, Clone, Serialize)]
+pub struct ClassStats {
+    /// What is grouped (`tube`, `airframe`, `team`, `load`).
+    pub dimension: &'static str,
+    /// The class (`s_bend`, `light-1.47kg-30N`, `10-19`, `60-80 %`, ...).
+    pub class: String,
+    /// Level value.
+    pub level: Option<f64>,
+    /// Runs, successes, and runs out of the tube.
+    pub runs: usize,
+    /// Successful runs.
+    pub successes: usize,
+    /// Runs where a UAV or the load left the tube.
+    pub out_of_tube: usize,
+    /// Failure reasons and their counts.
+    pub failure_reasons: std::collections::BTreeMap<String, usize>,
+}
+
+/// A run left the tube: a UAV centre or the load beyond a boundary.
+pub fn left_the_tube(s: &Summary) -> bool {
+    s.min_uav_boundary_m < 0.0 || s.min_load_boundary_m < 0.0
+}
+
+/// The class a generated run falls in along `dimension`.
+fn class_of(dimension: &str, c: &RunClass) -> String {
+    match dimension {
+        "tube" => c.tube.clone(),
+        "airframe" => c.airframe.clone(),
+        "team" => match c.n_uavs {
+            0..=9 => "3-9".into(),
+            10..=19 => "10-19".into(),
+            _ => "20-30".into(),
+        },
+        _ => match c.load_fraction {
+            f if f < 0.6 => "30-60 %".into(),
+            f if f < 0.8 => "60-80 %".into(),
+            _ => "80-95 %".into(),
+        },
+    }
+}
+
+/// Per-class statistics of a generated campaign's rows (empty for other campaigns).
+pub fn class_stats(level_values: &[Option<f64>], rows: &[Row]) -> Vec<ClassStats> {
+    let mut out = Vec::new();
+    for dimension in ["tube", "airframe", "team", "load"] {
+        let mut classes: Vec<String> = rows.iter().filter_map(|r| r.class.as_ref().map(|c| class_of(dimension, c))).collect();
+        classes.sort();
+        classes.dedup();
+        for class in classes {
+            for lv in level_values {
+                let these: Vec<&Row> =
+                    rows.iter().filter(|r| r.level == *lv && r.class.as_ref().is_some_and(|c| class_of(dimension, c) == class)).collect();
+                if these.is_empty() {
+                    continue;
+                }
+                let st = level_stats(*lv, &these);
+                out.push(ClassStats {
+                    dimension,
+                    class: class.clone(),
+                    level: *lv,
+                    runs: st.runs,
+                    successes: st.successes,
+                    out_of_tube: st.out_of_tube,
+                    failure_reasons: st.failure_reasons,
+                });
+            }
+        }
+    }
+    out
 }
 
 /// `sweep.json`.
@@ -316,6 +458,10 @@ pub struct SweepReport {
     pub percentiles: std::collections::BTreeMap<&'static str, Percentiles>,
     /// Per level.
     pub levels: Vec<LevelStats>,
+    /// Per class of generated scenario and level (generated campaigns only).
+    pub classes: Vec<ClassStats>,
+    /// Redraws of the generator over all runs (draws that failed validation).
+    pub redraws: u64,
 }
 
 fn metric_table(rows: &[&Row]) -> std::collections::BTreeMap<&'static str, Percentiles> {
@@ -359,6 +505,7 @@ fn level_stats(level: Option<f64>, rows: &[&Row]) -> LevelStats {
         success_rate: if rows.is_empty() { 0.0 } else { successes as f64 / rows.len() as f64 },
         percentiles: metric_table(rows),
         failure_reasons: reasons,
+        out_of_tube: rows.iter().filter(|r| left_the_tube(&r.summary)).count(),
     }
 }
 
@@ -382,18 +529,20 @@ pub fn report_for(name: &str, level_key: Option<&str>, level_values: &[Option<f6
         success_rate: total.success_rate,
         percentiles: total.percentiles,
         levels,
+        classes: class_stats(level_values, rows),
+        redraws: rows.iter().filter_map(|r| r.class.as_ref()).map(|c| u64::from(c.redraws)).sum(),
     }
 }
 
 /// `sweep.csv`: one row per run.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg\n",
+        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables\n",
     );
     for r in rows {
         let m = &r.summary;
         s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{},{}\n",
             r.level.map_or(String::new(), |l| l.to_string()),
             m.seed,
             m.success,
@@ -411,6 +560,7 @@ pub fn csv(rows: &[Row]) -> String {
             m.failures.join("; ").replace('"', "'"),
             m.time_above_rated_fraction,
             m.true_load_mass_kg,
+            r.class.as_ref().map_or_else(|| ",,,,".to_string(), |c| format!("{},{},{},{},{}", c.tube, c.n_uavs, c.airframe, c.load_fraction, c.equal_cables)),
         );
     }
     s

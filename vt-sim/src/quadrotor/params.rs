@@ -236,6 +236,16 @@ impl QuadParams {
         self.arm_length_m * core::f64::consts::FRAC_1_SQRT_2
     }
 
+    /// The horizontal drag of this airframe as the wind capacity law models it
+    /// (`vt_dissipative::wind`), flying level with total thrust `thrust_n` (N) spread evenly:
+    /// `(c_q, c_l)`, the quadratic body drag along x, N/(m/s)^2, and the rotors' linear H-force
+    /// `4 k_d omega` with `omega = sqrt(T / (4 k_T))`, N/(m/s) (the terms of the step's drag).
+    #[must_use]
+    pub fn level_drag(&self, thrust_n: f64) -> (f64, f64) {
+        let omega_rps = (thrust_n.max(0.0) / (4.0 * self.thrust_coeff_n_per_rps2)).sqrt();
+        (self.body_drag_n_per_mps2.x, 4.0 * self.rotor_drag_coeff * omega_rps)
+    }
+
     /// Checks every field.
     ///
     /// # Errors

@@ -612,6 +612,14 @@ pub struct MissionSpec {
     /// the plant is held at its take-off state; docs/design.md, "Take-off survey").
     #[serde(default = "default_preflight")]
     pub preflight_s: f64,
+    /// Declared steady wind at the site, m/s (a forecast or a measurement; companion
+    /// `VT_WIND_DECL`). With it, a team that cannot hold this wind plus `gust_margin_mps` in the
+    /// tube is refused before take-off (docs/design.md, "Wind capacity"). Absent: no wind check.
+    #[serde(default)]
+    pub max_wind_mps: Option<f64>,
+    /// Gust margin added to `max_wind_mps` in the start check, m/s (`VT_WIND_GUST`).
+    #[serde(default)]
+    pub gust_margin_mps: f64,
 }
 
 fn default_survey_samples() -> u32 {
@@ -682,6 +690,7 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
 }
 
 mod capacity;
+pub mod generate;
 mod validate;
 
 pub use capacity::CapacitySpec;

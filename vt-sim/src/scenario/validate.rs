@@ -331,6 +331,7 @@ impl Validator<'_> {
     /// team carries the declared load with `preflight.min_margin` at the take-off lean, or the
     /// scenario is refused before anything flies.
     fn check_preflight(&self, s: &Scenario) -> Result<(), ScenarioError> {
+        self.check_wind(s)?;
         let m = s.preflight.min_margin;
         if !(m.is_finite() && m > -1.0 && m <= 10.0) {
             return Err(self.err("preflight", "min_margin", format!("must be a fraction in (-1, 10] (got {m})")));
@@ -348,6 +349,26 @@ impl Validator<'_> {
                     p.n_uavs, p.cable_rated_n, p.cos_lean)))
             }
             Err(e) => Err(self.err("preflight", "min_margin", e.to_string())),
+        }
+    }
+
+    /// The pre-flight wind check (docs/design.md, "Wind capacity"): with a declared wind, the
+    /// team must hold it plus the gust margin in the tube, as every companion checks at
+    /// `MISSION_START` (`VT_WIND_DECL`), or the scenario is refused before anything flies.
+    fn check_wind(&self, s: &Scenario) -> Result<(), ScenarioError> {
+        let g = s.mission.gust_margin_mps;
+        if !(g.is_finite() && (0.0..=100.0).contains(&g)) {
+            return Err(self.err("mission", "gust_margin_mps", format!("must be in [0, 100] m/s (got {g})")));
+        }
+        let Some(w) = s.mission.max_wind_mps else { return Ok(()) };
+        if !(w.is_finite() && (0.0..=100.0).contains(&w)) {
+            return Err(self.err("mission", "max_wind_mps", format!("must be in [0, 100] m/s (got {w})")));
+        }
+        match crate::sim::wind_preflight(s, s.cables.rated_n) {
+            Ok(_) => Ok(()),
+            Err(e @ vt_dissipative::wind::WindError::TooStrong { .. }) => Err(self.err("mission", "max_wind_mps", format!(
+                "{e}: the team would be blown out of the tube; fly in less wind, with stronger or more UAVs, or a lighter or smaller load"))),
+            Err(e) => Err(self.err("mission", "max_wind_mps", e.to_string())),
         }
     }
 
