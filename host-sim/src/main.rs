@@ -167,6 +167,19 @@ enum Cmd {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Write the scenario a generated campaign flies for SEED (issue 29; docs/robustness.md,
+    /// "Generated scenarios"): a TOML file to read, edit and fly with `run`.
+    Generate {
+        /// The run's seed.
+        seed: u64,
+        /// Scenario or campaign whose gains, rates, link and disturbances are kept (default:
+        /// the built-in paper scenario); a campaign's first level.
+        #[arg(long)]
+        base: Option<PathBuf>,
+        /// Write it here (default: print it).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Fly the scenario with one `vt-companion` process per UAV over UDP (host-sim as the MAVLink
     /// simulator, the ground station uploading and starting), in lockstep; fly the SIL twin
     /// beside it and compare every command; write sitl_report.json, summary.json, plots.
@@ -312,7 +325,54 @@ fn main() -> ExitCode {
             host_sim::sitl::cli::gcs(&team, bind, &action, &RunOptions::default())
         }
         Cmd::Plan { map, start, goal, team, out, plot } => plan(&map, start, goal, team.as_deref(), out.as_deref(), plot.as_deref()),
+        Cmd::Generate { seed, base, out } => generate(seed, base.as_deref(), out.as_deref()),
     }
+}
+
+/// `host-sim generate SEED [--base FILE] [--out FILE]`.
+fn generate(seed: u64, base: Option<&std::path::Path>, out: Option<&std::path::Path>) -> ExitCode {
+    let c = match host_sim::campaign::load(base) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let Some(table) = c.tables.first() else {
+        eprintln!("error: {}: no scenario", c.name);
+        return ExitCode::from(EXIT_BAD_INPUT);
+    };
+    let g = match scenario::generate::generate(table, seed) {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let d = &g.drawn;
+    let text = format!(
+        "# host-sim generate {seed} (over {}): {} tube, {} x {}, load {:.1} % of the team's capacity, {} cables, narrowest half-width {:.2} m, {} redraws\n{}",
+        c.name,
+        d.tube.name(),
+        d.n_uavs,
+        d.airframe.name,
+        100.0 * d.load_fraction,
+        if d.equal_cables { "equal" } else { "unequal" },
+        d.min_half_width_m,
+        d.redraws,
+        g.text
+    );
+    match out {
+        None => print!("{text}"),
+        Some(p) => {
+            if let Err(e) = std::fs::write(p, text) {
+                eprintln!("error: {}: {e}", p.display());
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+            eprintln!("wrote {}", p.display());
+        }
+    }
+    ExitCode::SUCCESS
 }
 
 fn controller_kind(c: Controller) -> ControllerKind {
@@ -623,6 +683,21 @@ fn print_sweep(rep: &host_sim::campaign::SweepReport, wall_s: f64, out: &std::pa
             worst("max_load_altitude_error_m", true),
             if l.failure_reasons.is_empty() { String::new() } else { format!("  failures: {:?}", l.failure_reasons) }
         );
+    }
+    if !rep.classes.is_empty() {
+        println!("  generated scenarios ({} redraws): class, level, successes / runs, out of the tube, failures", rep.redraws);
+        for c in &rep.classes {
+            let lv = c.level.map_or_else(|| "-".to_string(), |v| format!("{v}"));
+            println!(
+                "    {:>8} {:<18} level {lv:>4}: {:>4}/{:<4} out {:>3}{}",
+                c.dimension,
+                c.class,
+                c.successes,
+                c.runs,
+                c.out_of_tube,
+                if c.failure_reasons.is_empty() { String::new() } else { format!("  {:?}", c.failure_reasons) }
+            );
+        }
     }
     println!("  wrote {}", out.display());
 }

@@ -154,6 +154,9 @@ impl Summary {
 
 /// A number of `summary.json`: JSON has no NaN or infinity, so serde_json writes them as
 /// `null`; `null` reads back as NaN (the sweep statistics skip non-finite values either way).
-fn f64_or_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+///
+/// # Errors
+/// The value is neither a number nor `null`.
+pub fn f64_or_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }

@@ -225,10 +225,28 @@ pub struct RunClass {
     pub equal_cables: bool,
     /// Draws that failed validation before this one.
     pub redraws: u32,
+    /// The team's steady-wind capacity (`vt_dissipative::wind`), m/s.
+    #[serde(default, deserialize_with = "crate::summary::f64_or_nan")]
+    pub wind_capacity_mps: f64,
+    /// The wind the run flies in, as a forecast would declare it: mean plus two gust standard
+    /// deviations, at the run's intensity, m/s.
+    #[serde(default, deserialize_with = "crate::summary::f64_or_nan")]
+    pub wind_mps: f64,
 }
 
-impl From<&scenario::generate::Drawn> for RunClass {
-    fn from(d: &scenario::generate::Drawn) -> Self {
+impl RunClass {
+    /// The class of generated scenario `g`.
+    fn of(g: &scenario::generate::Generated) -> Self {
+        let d = &g.drawn;
+        let s = &g.loaded.scenario;
+        let dist = &s.disturbances;
+        let mean = dist.wind_mean_mps[0].hypot(dist.wind_mean_mps[1]);
+        let cap = {
+            let mut calm = s.clone();
+            calm.mission.max_wind_mps = Some(0.0);
+            calm.mission.gust_margin_mps = 0.0;
+            sim::wind_preflight(&calm, calm.cables.rated_n).ok().flatten().map_or(f64::NAN, |c| f64::from(c.steady_wind_max_mps))
+        };
         Self {
             tube: d.tube.name().into(),
             n_uavs: d.n_uavs,
@@ -236,7 +254,14 @@ impl From<&scenario::generate::Drawn> for RunClass {
             load_fraction: d.load_fraction,
             equal_cables: d.equal_cables,
             redraws: d.redraws,
+            wind_capacity_mps: cap,
+            wind_mps: dist.intensity * (mean + 2.0 * dist.gust_std_mps),
         }
+    }
+
+    /// The run's wind is beyond what the team can hold (it would be refused if declared).
+    pub fn beyond_wind_capacity(&self) -> bool {
+        self.wind_mps > self.wind_capacity_mps
     }
 }
 
@@ -249,7 +274,7 @@ pub fn scenario_of(c: &Campaign, l: usize, seed: u64) -> Result<(std::borrow::Co
     if c.generate {
         let t = c.tables.get(l).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
         let g = scenario::generate::generate(t, seed).map_err(|e| e.to_string())?;
-        let class = RunClass::from(&g.drawn);
+        let class = RunClass::of(&g);
         Ok((std::borrow::Cow::Owned(g.loaded), Some(class)))
     } else {
         let (_, ls) = c.levels.get(l).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
@@ -370,7 +395,8 @@ pub struct LevelStats {
 /// One class of generated scenarios at one level.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClassStats {
-    /// What is grouped (`tube`, `airframe`, `team`, `load`).
+    /// What is grouped (`tube`, `airframe`, `team`, `load`, `wind`: within or beyond the
+    /// team's wind capacity).
     pub dimension: &'static str,
     /// The class (`s_bend`, `light-1.47kg-30N`, `10-19`, `60-80 %`, ...).
     pub class: String,
@@ -396,6 +422,7 @@ fn class_of(dimension: &str, c: &RunClass) -> String {
     match dimension {
         "tube" => c.tube.clone(),
         "airframe" => c.airframe.clone(),
+        "wind" => if c.beyond_wind_capacity() { "beyond capacity".into() } else { "within capacity".into() },
         "team" => match c.n_uavs {
             0..=9 => "3-9".into(),
             10..=19 => "10-19".into(),
@@ -412,7 +439,7 @@ fn class_of(dimension: &str, c: &RunClass) -> String {
 /// Per-class statistics of a generated campaign's rows (empty for other campaigns).
 pub fn class_stats(level_values: &[Option<f64>], rows: &[Row]) -> Vec<ClassStats> {
     let mut out = Vec::new();
-    for dimension in ["tube", "airframe", "team", "load"] {
+    for dimension in ["tube", "airframe", "team", "load", "wind"] {
         let mut classes: Vec<String> = rows.iter().filter_map(|r| r.class.as_ref().map(|c| class_of(dimension, c))).collect();
         classes.sort();
         classes.dedup();
@@ -537,7 +564,7 @@ pub fn report_for(name: &str, level_key: Option<&str>, level_values: &[Option<f6
 /// `sweep.csv`: one row per run.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables\n",
+        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables,wind_capacity_mps,wind_mps\n",
     );
     for r in rows {
         let m = &r.summary;
@@ -560,7 +587,10 @@ pub fn csv(rows: &[Row]) -> String {
             m.failures.join("; ").replace('"', "'"),
             m.time_above_rated_fraction,
             m.true_load_mass_kg,
-            r.class.as_ref().map_or_else(|| ",,,,".to_string(), |c| format!("{},{},{},{},{}", c.tube, c.n_uavs, c.airframe, c.load_fraction, c.equal_cables)),
+            r.class.as_ref().map_or_else(
+                || ",,,,,,".to_string(),
+                |c| format!("{},{},{},{},{},{},{}", c.tube, c.n_uavs, c.airframe, c.load_fraction, c.equal_cables, c.wind_capacity_mps, c.wind_mps)
+            ),
         );
     }
     s
@@ -638,6 +668,55 @@ mod tests {
         // A plain scenario file with a partial table parses the same way.
         let partial = crate::scenario::parse(&(base_text + "\n[link]\ndelay_s = 0.04\n"), "partial.toml").unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((partial.scenario.link.delay_s, partial.scenario.link.drop_probability), (0.04, 0.0));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Issue 29: `generate = true` flies each run on the scenario generated from its seed over
+    /// the level's table: rows carry the class, the same seeds give the same rows, a refly is
+    /// the same flight, shards merge to the whole, and per-class tables cover every row.
+    #[test]
+    fn a_generated_campaign_flies_one_generated_scenario_per_seed() {
+        let dir = std::env::temp_dir().join(format!("vt-campaign-gen-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("gen.toml");
+        let text = "base = \"builtin:paper-10uav\"\ngenerate = true\nruns = 3\nseed = 5003\n[disturbances]\nposition_noise_m = 0.02\n";
+        // (builtin base: paths relative to nothing.)
+        std::fs::write(&file, text).unwrap();
+        let c = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+        assert!(c.generate && c.name.starts_with("generated over"));
+        let rows = fly(&c, c.runs, c.seed, 2, false).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(rows.len(), 3);
+        for (r, seed) in rows.iter().zip(5003..) {
+            let class = r.class.as_ref().expect("a generated row has its class");
+            assert_eq!(r.summary.scenario, format!("gen-{seed}"));
+            assert_eq!(r.summary.n_uavs, class.n_uavs);
+            assert_eq!(r.summary.seed, seed);
+        }
+        // (Compared through sweep.csv: everything but the wall-clock time.)
+        assert_eq!(csv(&rows), csv(&fly(&c, c.runs, c.seed, 1, false).unwrap_or_else(|e| panic!("{e}"))), "deterministic whatever the threads");
+        let again = refly(&c, &rows[1]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(again.summary.min_uav_uav_m.to_bits(), rows[1].summary.min_uav_uav_m.to_bits());
+        // Sharded through JSON, as between machines.
+        let shards: Vec<(String, ShardFile)> = [2, 1]
+            .iter()
+            .map(|&k| {
+                let spec = ShardSpec { index: k, count: 2 };
+                let part = fly_shard(&c, c.runs, c.seed, 1, false, Some(spec)).unwrap_or_else(|e| panic!("{e}"));
+                let text = serde_json::to_string(&ShardFile::new(&c, c.runs, c.seed, spec, part)).unwrap_or_default();
+                (format!("shard{k}"), serde_json::from_str::<ShardFile>(&text).unwrap_or_else(|e| panic!("{e}")))
+            })
+            .collect();
+        assert_eq!(csv(&merge(&shards).unwrap_or_else(|e| panic!("{e}")).rows), csv(&rows));
+        let rep = report(&c, c.seed, &rows);
+        for dim in ["tube", "airframe", "team", "load"] {
+            assert_eq!(rep.classes.iter().filter(|k| k.dimension == dim).map(|k| k.runs).sum::<usize>(), 3, "{dim}");
+        }
+        assert_eq!(rep.levels[0].out_of_tube, rows.iter().filter(|r| left_the_tube(&r.summary)).count());
+        assert!(csv(&rows).lines().nth(1).is_some_and(|l| l.contains(&rows[0].class.as_ref().map_or(String::new(), |k| k.airframe.clone()))));
+        // A bad flag names its key.
+        std::fs::write(&file, "base = \"builtin:paper-10uav\"\ngenerate = \"yes\"\n").unwrap();
+        let e = load(Some(&file)).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("generate"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
