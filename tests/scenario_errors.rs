@@ -260,3 +260,28 @@ fn take_off_survey_settings_are_checked() {
     assert_eq!(ls.scenario.mission.preflight_s, 0.0);
 }
 
+
+/// Issue 29: `host-sim generate SEED` writes the generated scenario of a seed; the same seed
+/// gives the same file, `run`'s parser accepts it, and a bad base is exit 2 naming the file.
+#[test]
+fn generate_writes_a_scenario_run_accepts() {
+    let dir = std::env::temp_dir().join(format!("vt-generate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let gen = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_host-sim")).arg("generate").args(args).output().expect("host-sim runs");
+    let a = gen(&["7"]);
+    assert_eq!(a.status.code(), Some(0), "{}", String::from_utf8_lossy(&a.stderr));
+    assert_eq!(a.stdout, gen(&["7"]).stdout, "deterministic");
+    assert_ne!(a.stdout, gen(&["8"]).stdout);
+    let text = String::from_utf8(a.stdout).expect("utf-8");
+    assert!(text.starts_with("# host-sim generate 7 (over paper-10uav): "), "{}", text.lines().next().unwrap_or(""));
+    let ls = host_sim::scenario::parse(&text, "gen-7.toml").expect("a valid scenario");
+    assert_eq!((ls.scenario.name.as_str(), ls.scenario.seed), ("gen-7", 7));
+    let path = dir.join("gen-7.toml");
+    let o = gen(&["7", "--out", path.to_str().expect("utf-8 path")]);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(std::fs::read_to_string(&path).expect("written"), text);
+    let bad = gen(&["7", "--base", "/does/not/exist.toml"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("/does/not/exist.toml"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
