@@ -683,17 +683,27 @@ fn print_sweep(rep: &host_sim::campaign::SweepReport, wall_s: f64, out: &std::pa
             worst("max_load_altitude_error_m", true),
             if l.failure_reasons.is_empty() { String::new() } else { format!("  failures: {:?}", l.failure_reasons) }
         );
+        if l.refused > 0 || l.out_of_tube > 0 {
+            println!(
+                "                  refused before take-off {}, accepted {}: success {:.1} %, out of the tube {}",
+                l.refused,
+                l.runs - l.refused,
+                100.0 * l.accepted_success_rate,
+                l.out_of_tube
+            );
+        }
     }
     if !rep.classes.is_empty() {
-        println!("  generated scenarios ({} redraws): class, level, successes / runs, out of the tube, failures", rep.redraws);
+        println!("  generated scenarios ({} redraws): class, level, successes / runs, refused, out of the tube, failures", rep.redraws);
         for c in &rep.classes {
             let lv = c.level.map_or_else(|| "-".to_string(), |v| format!("{v}"));
             println!(
-                "    {:>8} {:<18} level {lv:>4}: {:>4}/{:<4} out {:>3}{}",
+                "    {:>8} {:<18} level {lv:>4}: {:>4}/{:<4} refused {:>3} out {:>3}{}",
                 c.dimension,
                 c.class,
                 c.successes,
                 c.runs,
+                c.refused,
                 c.out_of_tube,
                 if c.failure_reasons.is_empty() { String::new() } else { format!("  {:?}", c.failure_reasons) }
             );

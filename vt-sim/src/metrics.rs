@@ -271,6 +271,7 @@ impl Metrics {
             cables_broken: self.breaks.len(),
             cable_breaks: self.breaks,
             cables_cut_by_fault: self.snapped_by_fault,
+            outcome: "flown".into(),
         }
     }
 }

@@ -97,6 +97,14 @@ pub struct Summary {
     pub cable_breaks: Vec<CableBreak>,
     /// Cables cut by injected `cable_snap` faults.
     pub cables_cut_by_fault: usize,
+    /// `flown`, or `refused` before take-off (a campaign's run whose declared wind the team
+    /// cannot hold: nothing flew, the distances are NaN; issue 29).
+    #[serde(default = "flown")]
+    pub outcome: String,
+}
+
+fn flown() -> String {
+    "flown".into()
 }
 
 /// One cable that broke in flight.
@@ -116,6 +124,56 @@ pub struct CableBreak {
 }
 
 impl Summary {
+    /// The summary of a run refused before take-off for `reason`: not a success, nothing flown
+    /// (distances and tensions NaN, which the sweep statistics skip).
+    #[must_use]
+    pub fn refused(s: &crate::scenario::Scenario, controller: &str, seed: u64, reason: String) -> Self {
+        let nan = f64::NAN;
+        Self {
+            scenario: s.name.clone(),
+            controller: controller.into(),
+            seed,
+            success: false,
+            failures: vec![format!("refused before take-off: {reason}")],
+            reached_end: false,
+            completion_time_s: None,
+            min_uav_boundary_m: nan,
+            min_load_boundary_m: nan,
+            min_uav_uav_m: nan,
+            max_tension_n: nan,
+            mean_tension_n: nan,
+            tension_cv_mean: nan,
+            time_at_cap_fraction: nan,
+            max_load_altitude_error_m: nan,
+            max_thrust_fraction: nan,
+            formation_error_end_m: nan,
+            capacity_margin: nan,
+            sim_time_s: 0.0,
+            wall_time_s: 0.0,
+            realtime_factor: nan,
+            n_uavs: s.cables.lengths_m.len(),
+            f_max_n: s.cables.rated_n,
+            load_mass_kg: s.load.mass_kg,
+            true_load_mass_kg: s.load.plant_mass_kg(),
+            nonfinite: false,
+            invalid_commands: 0,
+            plant: "host".into(),
+            uav_model: s.uavs.model.name().into(),
+            cable_model: s.cables.model.name().into(),
+            rated_n: s.cables.rated_n,
+            time_above_rated_fraction: nan,
+            cables_broken: 0,
+            cable_breaks: Vec::new(),
+            cables_cut_by_fault: 0,
+            outcome: "refused".into(),
+        }
+    }
+
+    /// Nothing flew: the team refused before take-off.
+    pub fn was_refused(&self) -> bool {
+        self.outcome == "refused"
+    }
+
     /// Rows for the terminal table: (label, value).
     pub fn table_rows(&self) -> Vec<(&'static str, String)> {
         let opt = |x: Option<f64>| x.map_or_else(|| "-".to_string(), |v| format!("{v:.1} s"));

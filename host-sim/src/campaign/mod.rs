@@ -8,7 +8,10 @@
 //! is a campaign of itself. With `generate = true` every run flies its own generated scenario
 //! (`vt_sim::scenario::generate`, from the run's seed, over the level's merged scenario): tube,
 //! team, airframe, cables and load are drawn; gains, rates, link and disturbances are the
-//! campaign's.
+//! campaign's. With `declare_wind = true` every run declares its wind as a forecast would
+//! (`[mission] max_wind_mps` = the mean wind, `gust_margin_mps` = two gust standard deviations,
+//! at the run's intensity); a team that cannot hold it is refused before take-off and the row
+//! says so (`outcome = "refused"`).
 
 use crate::scenario::{self, LoadedScenario, ScenarioError};
 use crate::sim::{self, RunOptions};
@@ -21,7 +24,7 @@ pub mod shard;
 pub use shard::{merge, ShardFile, ShardSpec};
 
 /// Keys of a campaign file that are not scenario fields.
-const CAMPAIGN_KEYS: [&str; 5] = ["base", "runs", "seed", "levels", "generate"];
+const CAMPAIGN_KEYS: [&str; 6] = ["base", "runs", "seed", "levels", "generate", "declare_wind"];
 
 /// A loaded campaign.
 #[derive(Debug, Clone)]
@@ -38,6 +41,8 @@ pub struct Campaign {
     pub seed: u64,
     /// Each run flies the scenario generated from its seed over its level's table.
     pub generate: bool,
+    /// Each run declares its level's wind before take-off (refused above the team's capacity).
+    pub declare_wind: bool,
     /// The merged scenario table of each level (what the generator draws over).
     pub tables: Vec<toml::Table>,
 }
@@ -98,7 +103,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(path) = path else {
         let ls = scenario::load(None)?;
         let tables = vec![toml::from_str(scenario::PAPER_10UAV).map_err(|e| err(scenario::DEFAULT_SCENARIO_NAME, None, e.to_string()))?];
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, tables });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, declare_wind: false, tables });
     };
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
@@ -111,7 +116,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(base) = table.get("base") else {
         let ls = scenario::parse(&text, &name)?;
         let seed = ls.scenario.seed;
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, tables: vec![table] });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, declare_wind: false, tables: vec![table] });
     };
     let base = base.as_str().ok_or_else(|| err(&name, Some("base"), "must be a path string".into()))?;
     let (base_text, base_name) = if base == "builtin:paper-10uav" {
@@ -157,10 +162,11 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
         None => 1,
         Some(v) => v.as_integer().filter(|r| *r >= 0).ok_or_else(|| err(&name, Some("seed"), "must be an integer >= 0".into()))? as u64,
     };
-    let generate = match table.get("generate") {
-        None => false,
-        Some(v) => v.as_bool().ok_or_else(|| err(&name, Some("generate"), "must be true or false".into()))?,
+    let flag = |key: &str| match table.get(key) {
+        None => Ok(false),
+        Some(v) => v.as_bool().ok_or_else(|| err(&name, Some(key), "must be true or false".into())),
     };
+    let (generate, declare_wind) = (flag("generate")?, flag("declare_wind")?);
     let source = format!("{name} (over {base_name})");
     let (level_key, values) = match table.get("levels") {
         None => (None, vec![None]),
@@ -195,7 +201,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     if generate {
         name = format!("generated over {name}");
     }
-    Ok(Campaign { name, levels, level_key, runs, seed, generate, tables })
+    Ok(Campaign { name, levels, level_key, runs, seed, generate, declare_wind, tables })
 }
 
 /// One run's row of `sweep.csv`.
@@ -239,8 +245,7 @@ impl RunClass {
     fn of(g: &scenario::generate::Generated) -> Self {
         let d = &g.drawn;
         let s = &g.loaded.scenario;
-        let dist = &s.disturbances;
-        let mean = dist.wind_mean_mps[0].hypot(dist.wind_mean_mps[1]);
+        let (mean, gust) = forecast_mps(s);
         let cap = {
             let mut calm = s.clone();
             calm.mission.max_wind_mps = Some(0.0);
@@ -255,13 +260,33 @@ impl RunClass {
             equal_cables: d.equal_cables,
             redraws: d.redraws,
             wind_capacity_mps: cap,
-            wind_mps: dist.intensity * (mean + 2.0 * dist.gust_std_mps),
+            wind_mps: mean + gust,
         }
     }
 
     /// The run's wind is beyond what the team can hold (it would be refused if declared).
     pub fn beyond_wind_capacity(&self) -> bool {
         self.wind_mps > self.wind_capacity_mps
+    }
+}
+
+/// The wind a forecast declares for `s`: its mean horizontal wind and two gust standard
+/// deviations, at its intensity, m/s.
+pub fn forecast_mps(s: &scenario::Scenario) -> (f64, f64) {
+    let d = &s.disturbances;
+    (d.intensity * d.wind_mean_mps[0].hypot(d.wind_mean_mps[1]), d.intensity * 2.0 * d.gust_std_mps)
+}
+
+/// Why `s` is refused before take-off with its forecast declared (the companions' wind check,
+/// `sim::wind_preflight`), or `None` when the team holds it.
+fn wind_refusal(s: &scenario::Scenario) -> Option<String> {
+    let mut declared = s.clone();
+    let (mean, gust) = forecast_mps(s);
+    declared.mission.max_wind_mps = Some(mean);
+    declared.mission.gust_margin_mps = gust;
+    match sim::wind_preflight(&declared, declared.cables.rated_n) {
+        Ok(_) => None,
+        Err(e) => Some(e.to_string()),
     }
 }
 
@@ -311,11 +336,14 @@ pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bo
             .map(|&(i, (l, s))| {
                 let level = c.levels.get(l).and_then(|(lv, _)| *lv);
                 let (ls, class) = scenario_of(c, l, s)?;
-                let out = sim::run(&ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?;
+                let summary = match c.declare_wind.then(|| wind_refusal(&ls.scenario)).flatten() {
+                    Some(reason) => Summary::refused(&ls.scenario, sim::ControllerKind::Dissipative.name(), s, reason),
+                    None => sim::run(&ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?.summary,
+                };
                 if let Some(b) = &bar {
                     b.inc(1);
                 }
-                Ok((i, Row { level, summary: out.summary, class }))
+                Ok((i, Row { level, summary, class }))
             })
             .collect()
     });
@@ -326,11 +354,11 @@ pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bo
 }
 
 /// The run `sweep --replay-worst` re-flies (issue 17): the first failed run in (level, seed)
-/// order, else the run with the smallest minimum UAV-boundary distance. `None` without rows.
+/// order, else the run with the smallest minimum UAV-boundary distance; refused runs (nothing
+/// flew) are skipped. `None` without a flown row.
 pub fn worst(rows: &[Row]) -> Option<&Row> {
-    rows.iter().find(|r| !r.summary.success).or_else(|| {
-        rows.iter().min_by(|a, b| a.summary.min_uav_boundary_m.total_cmp(&b.summary.min_uav_boundary_m))
-    })
+    let flown = || rows.iter().filter(|r| !r.summary.was_refused());
+    flown().find(|r| !r.summary.success).or_else(|| flown().min_by(|a, b| a.summary.min_uav_boundary_m.total_cmp(&b.summary.min_uav_boundary_m)))
 }
 
 /// Flies `row`'s run again (same level, same seed) with recording on, for its replay: campaign
@@ -390,6 +418,10 @@ pub struct LevelStats {
     pub failure_reasons: std::collections::BTreeMap<String, usize>,
     /// Runs where a UAV centre or the load left the tube (a boundary distance below 0).
     pub out_of_tube: usize,
+    /// Runs refused before take-off (declared wind above the team's capacity).
+    pub refused: usize,
+    /// successes / (runs - refused): the success rate among the runs the team accepted.
+    pub accepted_success_rate: f64,
 }
 
 /// One class of generated scenarios at one level.
@@ -408,6 +440,8 @@ pub struct ClassStats {
     pub successes: usize,
     /// Runs where a UAV or the load left the tube.
     pub out_of_tube: usize,
+    /// Runs refused before take-off.
+    pub refused: usize,
     /// Failure reasons and their counts.
     pub failure_reasons: std::collections::BTreeMap<String, usize>,
 }
@@ -458,6 +492,7 @@ pub fn class_stats(level_values: &[Option<f64>], rows: &[Row]) -> Vec<ClassStats
                     runs: st.runs,
                     successes: st.successes,
                     out_of_tube: st.out_of_tube,
+                    refused: st.refused,
                     failure_reasons: st.failure_reasons,
                 });
             }
@@ -510,6 +545,7 @@ fn metric_table(rows: &[&Row]) -> std::collections::BTreeMap<&'static str, Perce
 
 fn level_stats(level: Option<f64>, rows: &[&Row]) -> LevelStats {
     let successes = rows.iter().filter(|r| r.summary.success).count();
+    let refused = rows.iter().filter(|r| r.summary.was_refused()).count();
     let mut reasons = std::collections::BTreeMap::new();
     for r in rows {
         for f in &r.summary.failures {
@@ -533,6 +569,8 @@ fn level_stats(level: Option<f64>, rows: &[&Row]) -> LevelStats {
         percentiles: metric_table(rows),
         failure_reasons: reasons,
         out_of_tube: rows.iter().filter(|r| left_the_tube(&r.summary)).count(),
+        refused,
+        accepted_success_rate: if rows.len() > refused { successes as f64 / (rows.len() - refused) as f64 } else { 0.0 },
     }
 }
 
@@ -564,12 +602,12 @@ pub fn report_for(name: &str, level_key: Option<&str>, level_values: &[Option<f6
 /// `sweep.csv`: one row per run.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables,wind_capacity_mps,wind_mps\n",
+        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables,wind_capacity_mps,wind_mps,outcome\n",
     );
     for r in rows {
         let m = &r.summary;
         s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{},{},{}\n",
             r.level.map_or(String::new(), |l| l.to_string()),
             m.seed,
             m.success,
@@ -591,6 +629,7 @@ pub fn csv(rows: &[Row]) -> String {
                 || ",,,,,,".to_string(),
                 |c| format!("{},{},{},{},{},{},{}", c.tube, c.n_uavs, c.airframe, c.load_fraction, c.equal_cables, c.wind_capacity_mps, c.wind_mps)
             ),
+            m.outcome,
         );
     }
     s
@@ -717,6 +756,40 @@ mod tests {
         std::fs::write(&file, "base = \"builtin:paper-10uav\"\ngenerate = \"yes\"\n").unwrap();
         let e = load(Some(&file)).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("generate"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Issue 29: `declare_wind = true` declares each run's forecast (mean + two gust sigma at the
+    /// level's intensity); the experiment's team (capacity 7.6 m/s) is refused at 3x of a
+    /// 3 m/s + 0.5 m/s-sigma wind (10.5 m/s) and flies at 1x (4.0 m/s). Refused rows fly
+    /// nothing, are counted, and are never the run `--replay-worst` picks.
+    #[test]
+    fn declared_wind_refuses_the_runs_the_team_cannot_hold() {
+        let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+        let dir = std::env::temp_dir().join(format!("vt-campaign-wind-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("windy.toml");
+        let text = format!(
+            "base = {:?}\ndeclare_wind = true\nruns = 2\nseed = 3\n[disturbances]\nwind_mean_mps = [3.0, 0.0, 0.0]\ngust_std_mps = 0.5\n[mission]\ntime_limit_s = 4.0\n[levels]\nkey = \"disturbances.intensity\"\nvalues = [1.0, 3.0]\n",
+            base.display().to_string()
+        );
+        std::fs::write(&file, text).unwrap();
+        let c = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+        assert!(c.declare_wind && !c.generate);
+        let rows = fly(&c, c.runs, c.seed, 2, false).unwrap_or_else(|e| panic!("{e}"));
+        for r in &rows {
+            let refused = r.level == Some(3.0);
+            assert_eq!(r.summary.was_refused(), refused, "{:?}", r.summary.failures);
+            if refused {
+                assert_eq!(r.summary.sim_time_s, 0.0, "nothing flew");
+                assert!(r.summary.failures[0].starts_with("refused before take-off: ") && r.summary.failures[0].contains("capacity 7.6 m/s"), "{:?}", r.summary.failures);
+            } else {
+                assert!(r.summary.sim_time_s > 0.0 && r.summary.outcome == "flown");
+            }
+        }
+        let rep = report(&c, c.seed, &rows);
+        assert_eq!((rep.levels[0].refused, rep.levels[1].refused), (0, 2));
+        assert!(worst(&rows).is_some_and(|w| !w.summary.was_refused()));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
