@@ -338,6 +338,23 @@ fn start_and_listen<P: Port>(port: &mut P, cfg: &UavConfig, enc: &mut Encoders) 
     }
 }
 
+/// Sets one parameter from the ground station (`PARAM_SET`) and returns the value echoed.
+fn set_param<P: Port>(q: &mut P, enc: &mut Encoders, name: &str, value: f32) -> f32 {
+    let set = mavlink::dialects::common::PARAM_SET_DATA {
+        param_value: value,
+        target_system: 0,
+        target_component: 191,
+        param_id: name.into(),
+        param_type: mavlink::dialects::common::MavParamType::MAV_PARAM_TYPE_REAL32,
+    };
+    q.send(&enc.gcs.frame(255, 190, &set)).unwrap();
+    pil::recv_until(q, 64, |rx| match rx {
+        Rx::ParamValue(n, v) if n == name => Some(*v),
+        _ => None,
+    })
+    .unwrap()
+}
+
 /// Issue 15: the companion runs the pre-flight check itself at `MISSION_START`, from its own
 /// parameters and its take-off calibration. An overweight declared load (6 kg for the
 /// experiment's three 30 N UAVs, which hold about 4.6 kg) is refused: `COMMAND_ACK` DENIED, a
@@ -383,20 +400,7 @@ fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut En
     let (r, t) = pil::start_mission_with_reason(q, cfg.system_id, &mut enc.gcs).unwrap();
     assert_eq!((r, t), (2, expected.to_vec()), "refused again, same reason");
     // Declared right (the experiment's 3.06 kg), the same companion starts.
-    let set = mavlink::dialects::common::PARAM_SET_DATA {
-        param_value: 3.06,
-        target_system: 0,
-        target_component: 191,
-        param_id: "VT_LOAD_KG".into(),
-        param_type: mavlink::dialects::common::MavParamType::MAV_PARAM_TYPE_REAL32,
-    };
-    q.send(&enc.gcs.frame(255, 190, &set)).unwrap();
-    let echoed = pil::recv_until(q, 64, |rx| match rx {
-        Rx::ParamValue(n, v) if n == "VT_LOAD_KG" => Some(*v),
-        _ => None,
-    })
-    .unwrap();
-    assert_eq!(echoed, 3.06);
+    assert_eq!(set_param(q, enc, "VT_LOAD_KG", 3.06), 3.06);
     let (result, texts, _) = start_and_listen(q, &cfg, enc);
     assert_eq!((result, texts), (ACCEPTED, Vec::new()));
     // Flying now: the next tick is answered with a setpoint and the refusal code is cleared.
@@ -462,20 +466,7 @@ fn windy_start_is_refused_then_calm_starts<P: Port>(q: &mut P, enc: &mut Encoder
     let hb = heartbeat.expect("a HEARTBEAT with the refusal before the ACK");
     assert_eq!(((hb & 0xFF), (hb >> 16) & 0xFF), (Mode::Ready as u32, 8), "not flying; refusal code: wind");
     // Declared 3 m/s (with the 3 m/s gust margin: 6 m/s against 7.6), it starts.
-    let set = mavlink::dialects::common::PARAM_SET_DATA {
-        param_value: 3.0,
-        target_system: 0,
-        target_component: 191,
-        param_id: "VT_WIND_DECL".into(),
-        param_type: mavlink::dialects::common::MavParamType::MAV_PARAM_TYPE_REAL32,
-    };
-    q.send(&enc.gcs.frame(255, 190, &set)).unwrap();
-    let echoed = pil::recv_until(q, 64, |rx| match rx {
-        Rx::ParamValue(n, v) if n == "VT_WIND_DECL" => Some(*v),
-        _ => None,
-    })
-    .unwrap();
-    assert_eq!(echoed, 3.0);
+    assert_eq!(set_param(q, enc, "VT_WIND_DECL", 3.0), 3.0);
     let (result, texts, _) = start_and_listen(q, &cfg, enc);
     assert_eq!((result, texts), (ACCEPTED, Vec::new()));
 }
