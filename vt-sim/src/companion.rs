@@ -173,6 +173,8 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::CableL, f(s.cables.lengths_m[i])),
         (Param::WindDecl, s.mission.max_wind_mps.map_or(AUTO, f)),
         (Param::WindGust, f(s.mission.gust_margin_mps)),
+        (Param::BodyR, f(s.uavs.body_radius_m.unwrap_or(0.0))),
+        (Param::ClrMin, f(s.mission.clearance_floor())),
         (Param::DragQ, f(drag_q)),
         (Param::DragL, f(drag_l)),
         (Param::LoadCda, f(s.disturbances.load_drag_area_m2)),

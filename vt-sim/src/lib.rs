@@ -9,6 +9,7 @@
 #![forbid(unsafe_code)]
 
 pub mod cable;
+pub mod clearance;
 pub mod companion;
 pub mod disturbance;
 pub mod link;

@@ -1,6 +1,7 @@
 //! Mission metrics: safety distances, tensions, load altitude, formation; the `summary.json`
 //! criteria. Filled by the mission loop ([`crate::mission`]) at the rates it documents.
 
+use crate::clearance::Clearances;
 use crate::scenario::{Scenario, SimTube};
 use crate::sim::ControllerKind;
 use crate::summary::{CableBreak, Summary};
@@ -78,11 +79,18 @@ pub struct Metrics {
     pub(crate) arrived: bool,
     pub(crate) nonfinite: bool,
     pub(crate) invalid_commands: u64,
+    /// Surface-to-surface clearances at the plant rate (issue 27).
+    pub(crate) clearances: Clearances,
+    /// Success requires the clearances (UAVs with an envelope, the rigid-body plant's default).
+    judge_clearances: bool,
 }
 
 impl Metrics {
-    pub(crate) fn new(n: usize, f_max: f64, s: &Scenario, tube_len: f32) -> Self {
+    /// Metrics of a flight of `n` UAVs; `clearances` judged when `judge_clearances`.
+    pub(crate) fn new(n: usize, f_max: f64, s: &Scenario, tube_len: f32, clearances: Clearances, judge_clearances: bool) -> Self {
         Self {
+            clearances,
+            judge_clearances,
             n,
             f_max,
             rated: f_max,
@@ -225,6 +233,14 @@ impl Metrics {
         if self.min_uav_uav < floor {
             failures.push(format!("UAVs within {:.2} m of each other (floor {floor} m)", self.min_uav_uav));
         }
+        let c = self.clearances.min();
+        if let (true, Some(cf)) = (self.judge_clearances, s.mission.clearance_floor_m) {
+            for (what, x) in [("UAV-UAV", c.uav_uav_m), ("UAV-boundary", c.uav_boundary_m), ("obstacle", c.obstacle_m)] {
+                if x < cf {
+                    failures.push(format!("{what} clearance {x:.2} m (floor {cf} m)"));
+                }
+            }
+        }
         if self.max_alt_err > s.mission.altitude_tolerance_m {
             failures.push(format!("load altitude error {:.2} m > {} m", self.max_alt_err, s.mission.altitude_tolerance_m));
         }
@@ -246,6 +262,11 @@ impl Metrics {
             min_uav_boundary_m: fin(self.min_uav_boundary),
             min_load_boundary_m: fin(self.min_load_boundary),
             min_uav_uav_m: fin(self.min_uav_uav),
+            min_uav_uav_clearance_m: c.uav_uav_m,
+            min_uav_boundary_clearance_m: c.uav_boundary_m,
+            min_obstacle_clearance_m: c.obstacle_m,
+            uav_body_radius_m: self.clearances.uav_radius_m(),
+            load_radius_m: self.clearances.load_radius_m(),
             max_tension_n: self.max_tension,
             mean_tension_n: if self.tension_count > 0 { self.tension_sum / self.tension_count as f64 } else { 0.0 },
             tension_cv_mean: if self.cv_count > 0 { self.cv_sum / self.cv_count as f64 } else { 0.0 },

@@ -10,6 +10,7 @@
 //! breaking strength; the formation error at the end is measured against the formation of the
 //! first row (the take-off).
 
+use crate::models::UavModel;
 use crate::metrics::{formation_error, FlightEnd, Metrics, TubeHints};
 use crate::record::RunRecord;
 use crate::scenario::{LoadedScenario, SIM_MAX_UAVS};
@@ -150,7 +151,9 @@ pub fn score_text(text: &str, source: &str, ls: &LoadedScenario, from: &Provenan
     let rated = s.cables.rated_n;
     let breaking = s.cables.breaking_strength_n();
     let thrust_max = s.uavs.thrust_max_n;
-    let mut metrics = Metrics::new(n, rated, s, ls.tube.length_m());
+    let model = if from.uav_model == UavModel::PointMass.name() { UavModel::PointMass } else { UavModel::RigidBody };
+    let (clearances, judge) = crate::clearance::Clearances::for_flight(ls, model);
+    let mut metrics = Metrics::new(n, rated, s, ls.tube.length_m(), clearances, judge);
     metrics.set_rated(rated);
     let mut record = RunRecord {
         scenario: s.name.clone(),
@@ -193,6 +196,8 @@ pub fn score_text(text: &str, source: &str, ls: &LoadedScenario, from: &Provenan
                 metrics.breaks.push(CableBreak { uav: i, time_s: t, tension_n: tension, breaking_n: breaking });
             }
         }
+        let attached: Vec<bool> = broken.iter().map(|b| !b).collect();
+        metrics.clearances.sample(&row.uav_pos_m, &row.load_pos_m, &lost, &attached, &ls.tube);
         metrics.tensions(&row.tension_n);
         metrics.tension_sample(&row.tension_n);
         if thrust_max > 0.0 {

@@ -29,6 +29,23 @@ pub struct Summary {
     /// Minimum UAV-UAV distance (3-D), m.
     #[serde(deserialize_with = "f64_or_nan")]
     pub min_uav_uav_m: f64,
+    /// Smallest UAV-UAV clearance, surface to surface (envelopes `uav_body_radius_m`), at the
+    /// plant rate, m (issue 27).
+    #[serde(default = "nan", deserialize_with = "f64_or_nan")]
+    pub min_uav_uav_clearance_m: f64,
+    /// Smallest clearance of a UAV's envelope to the tube boundary, at the plant rate, m.
+    #[serde(default = "nan", deserialize_with = "f64_or_nan")]
+    pub min_uav_boundary_clearance_m: f64,
+    /// Smallest clearance of the UAV bodies, the load (`load_radius_m`) and every attached cable
+    /// to the world's real obstacles, at the plant rate, m.
+    #[serde(default = "nan", deserialize_with = "f64_or_nan")]
+    pub min_obstacle_clearance_m: f64,
+    /// UAV envelope radius the clearances used, m (0: points, the paper's).
+    #[serde(default = "nan", deserialize_with = "f64_or_nan")]
+    pub uav_body_radius_m: f64,
+    /// Load envelope radius, m.
+    #[serde(default = "nan", deserialize_with = "f64_or_nan")]
+    pub load_radius_m: f64,
     /// Maximum cable tension, N.
     #[serde(deserialize_with = "f64_or_nan")]
     pub max_tension_n: f64,
@@ -140,6 +157,11 @@ impl Summary {
             min_uav_boundary_m: nan,
             min_load_boundary_m: nan,
             min_uav_uav_m: nan,
+            min_uav_uav_clearance_m: nan,
+            min_uav_boundary_clearance_m: nan,
+            min_obstacle_clearance_m: nan,
+            uav_body_radius_m: s.uavs.envelope_radius_m(s.uavs.model),
+            load_radius_m: s.load.envelope_radius_m(),
             max_tension_n: nan,
             mean_tension_n: nan,
             tension_cv_mean: nan,
@@ -185,6 +207,10 @@ impl Summary {
             ("min UAV-boundary", format!("{:.3} m", self.min_uav_boundary_m)),
             ("min load-boundary", format!("{:.3} m", self.min_load_boundary_m)),
             ("min UAV-UAV", format!("{:.3} m", self.min_uav_uav_m)),
+            ("clearances", format!(
+                "{:.3} UAV-UAV, {:.3} UAV-boundary, {:.3} to obstacles (m; bodies {:.3} m, load {:.3} m)",
+                self.min_uav_uav_clearance_m, self.min_uav_boundary_clearance_m, self.min_obstacle_clearance_m, self.uav_body_radius_m, self.load_radius_m
+            )),
             ("plant", format!("{}: {} UAVs, {} cables", self.plant, self.uav_model, self.cable_model)),
             ("max / mean tension", format!("{:.1} / {:.1} N (rated {:.0} N)", self.max_tension_n, self.mean_tension_n, self.rated_n)),
             ("time above rated", format!("{:.1} %  (cables broken: {})", 100.0 * self.time_above_rated_fraction, self.cables_broken)),
@@ -208,6 +234,11 @@ impl Summary {
         let w = self.table_rows().iter().map(|r| r.0.len()).max().unwrap_or(0);
         self.table_rows().iter().map(|(k, v)| format!("  {k:<w$}  {v}\n")).collect()
     }
+}
+
+/// NaN: the value of a key a summary written before it existed lacks.
+fn nan() -> f64 {
+    f64::NAN
 }
 
 /// A number of `summary.json`: JSON has no NaN or infinity, so serde_json writes them as

@@ -14,6 +14,7 @@
 
 use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
+use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, Formation, NodeId};
 use crate::tray::TrayParams;
@@ -40,6 +41,9 @@ pub struct DissipativeParams {
     pub r_safe_m: f32,
     /// Tube barrier activation radius `r_a`, m.
     pub r_active_m: f32,
+    /// Horizontal centre distance the separation barrier keeps between UAVs, m (0: off, the
+    /// paper's controller; extension, [`crate::separation`]).
+    pub separation_m: f32,
     /// Virtual tray geometry.
     pub tray: TrayParams,
     /// Altitude law.
@@ -57,6 +61,7 @@ impl Default for DissipativeParams {
             v_max_mps: 1.5,
             r_safe_m: 0.5,
             r_active_m: 1.5,
+            separation_m: 0.0,
             tray: TrayParams::default(),
             vertical: VerticalParams::default(),
         }
@@ -75,6 +80,9 @@ impl DissipativeParams {
     /// [`ControlError::InvalidParameter`] naming the bad field.
     pub fn validate(&self) -> Result<(), ControlError> {
         validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
+        if !(self.separation_m.is_finite() && self.separation_m >= 0.0) {
+            return Err(ControlError::InvalidParameter("separation_m"));
+        }
         self.tray.validate()?;
         self.vertical.validate()
     }
@@ -171,6 +179,8 @@ pub struct DissipativeController<const N: usize> {
     n: usize,
     params: DissipativeParams,
     barrier: BarrierParams,
+    /// The separation barrier (`None`: off).
+    separation: Option<BarrierParams>,
     /// Rest lengths now: the take-off ones (eq:2-7) times the formation scale `rest_scale`
     /// (recomputed from `rest_scale` relative to the last scale when it changes).
     rest: RestLengths<N>,
@@ -217,6 +227,7 @@ impl<const N: usize> DissipativeController<N> {
             n,
             params,
             barrier: params.tube_barrier(),
+            separation: separation_barrier(params.k3, params.separation_m),
             rest,
             rest_scale: 1.0,
             center_m: formation.node_m(NodeId::Center),
@@ -368,7 +379,15 @@ impl<const N: usize> DissipativeController<N> {
             }
             None => p.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps),
         };
-        let v_xy = sat(v_xy, p.v_max_mps);
+        let mut v_xy = sat(v_xy, p.v_max_mps);
+        // Separation barrier on the UAVs' own positions (extension, separation.rs), added to the
+        // saturated command with up to twice its authority, then saturated again: at its cap
+        // it always turns the command away from the neighbour.
+        if let Some(b) = &self.separation {
+            let (v_sep, c) = separation_velocity(self.id, &m.own_pos_m, m.neighbours_m.get(..self.n).unwrap_or(m.neighbours_m), b);
+            status.coincident_nodes |= c;
+            v_xy = sat(v_xy + sat(v_sep, SEPARATION_AUTHORITY * p.v_max_mps), p.v_max_mps);
+        }
         let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(v_xy.x, v_xy.y, v_z);
         if !finite3(&vel) {

@@ -10,6 +10,7 @@
 //! - [`tray`]: node projection eq:2-4 (corrected) and the velocity mapping eq:2-20 (corrected).
 //! - [`springs`]: virtual springs eq:2-5 .. eq:2-7 and their energy (Prop. 1).
 //! - [`passing`]: passing term eq:2-13. [`keeping`]: tube-keeping term eq:2-14/eq:2-15.
+//! - [`separation`]: the UAV-UAV separation barrier (extension for real airframes, issue 27).
 //! - [`vertical`]: the altitude law (the paper gives none; see `docs/design.md`).
 //! - [`capacity`]: the capacity-aware formation (Remark 1 made automatic; issue 15).
 //! - [`calibration`]: take-off cable calibration and the tension share (run once, at start).
@@ -30,6 +31,7 @@ mod error;
 pub mod feasibility;
 pub mod keeping;
 pub mod passing;
+pub mod separation;
 pub mod springs;
 pub mod survey;
 mod status;

@@ -323,7 +323,8 @@ impl Flight {
                 k2: dissipative.k2,
                 k3: dissipative.k3,
                 v_max_mps: dissipative.v_max_mps,
-                r_safe_m: dissipative.r_safe_m,
+                // The published radii as given: `VT_BODY_R` shapes the dissipative controller only.
+                r_safe_m: params.get(Param::RSafe),
                 r_active_m: dissipative.r_active_m,
                 vertical: dissipative.vertical,
             };

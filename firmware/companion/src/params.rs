@@ -164,6 +164,8 @@ params! {
     DragQ => real("VL_DRAG_Q", 0.0103, 0.0, 100.0), "Quadratic horizontal body drag of this UAV `c_q`, N/(m/s)^2 (`rho C_dA / 2`; default: the 1.47 kg experiment airframe, docs/plant.md).";
     DragL => real("VL_DRAG_L", 0.74, 0.0, 1.0e3), "Linear horizontal rotor drag of this UAV at loaded hover `c_l`, N/(m/s) (default: the 1.47 kg experiment airframe carrying its share of 3.06 kg).";
     LoadCda => real("VT_LOAD_CDA", 0.3, 0.0, 1.0e3), "Drag area of the load `C_dA`, m^2.";
+    BodyR => real("VT_BODY_R", 0.0, 0.0, 5.0), "Radius of the sphere that bounds this UAV (rotor tips and guards), m (0: a point, the paper's controller; the 1.47 kg experiment airframe measures 0.40 with a 0.03 m guard). Above 0 it turns on the separation barrier at `2 VT_BODY_R + VT_CLR_MIN` and raises `VT_R_SAFE` and `VT_SEP_MIN` to what the body needs (docs/design.md, \"Envelopes and clearances\").";
+    ClrMin => real("VT_CLR_MIN", 0.2, 0.0, 5.0), "Clearance kept between surfaces (UAV to UAV, UAV to tube boundary), m.";
     Ctrl => int("VT_CTRL", 0.0, 0.0, 1.0), "High-level controller: 0 the paper's dissipative controller; 1 traditional virtual-tube control (the baseline, REFERENCE §2: `VT_K1`..`VT_R_ACT` are its gains, no springs).";
 }
 
@@ -327,8 +329,9 @@ impl Params {
             k2: g(Param::K2),
             k3: g(Param::K3),
             v_max_mps: g(Param::VMax),
-            r_safe_m: g(Param::RSafe),
+            r_safe_m: self.r_safe_m(),
             r_active_m: g(Param::RActive),
+            separation_m: self.separation_m(),
             tray: self.tray(),
             vertical: VerticalParams {
                 load_altitude_ref_m: g(Param::LoadZRef),
@@ -357,7 +360,7 @@ impl Params {
             load_mass_kg: if self.get_u32(Param::CapOn) == 1 { g(Param::LoadKg) } else { 0.0 },
             uav_capacity_n: g(Param::CableRated),
             margin: g(Param::CapMargin),
-            separation_m: g(Param::SepMin),
+            separation_m: g(Param::SepMin).max(self.separation_m()),
             rate_per_s: g(Param::CapRate),
             sag_start_m: g(Param::SagLo),
             sag_full_m: g(Param::SagHi),
@@ -442,6 +445,22 @@ impl Params {
         self.explicit(Param::ThrustMin).unwrap_or_else(|| THRUST_MIN_FRACTION * self.get(Param::ThrustMax))
     }
 
+    /// Horizontal centre distance the separation barrier keeps between UAVs, m:
+    /// `2 VT_BODY_R + VT_CLR_MIN`, so that the bodies keep `VT_CLR_MIN` between their surfaces;
+    /// 0 (off, the paper's controller) when `VT_BODY_R` is 0.
+    pub fn separation_m(&self) -> f32 {
+        let body = self.get(Param::BodyR);
+        if body > 0.0 { 2.0 * body + self.get(Param::ClrMin) } else { 0.0 }
+    }
+
+    /// The tube barrier's safety radius flown, m: `VT_R_SAFE`, raised to
+    /// `VT_BODY_R + VT_CLR_MIN` so that the body keeps `VT_CLR_MIN` from the boundary.
+    pub fn r_safe_m(&self) -> f32 {
+        let body = self.get(Param::BodyR);
+        let r = self.get(Param::RSafe);
+        if body > 0.0 { r.max(body + self.get(Param::ClrMin)) } else { r }
+    }
+
     /// The horizontal thrust reserve (`VL_H_RES`), fraction of `VL_T_MAX`: derived by
     /// [`ThrustLimits::rated_pull_reserve`] from `VL_MASS`, `VT_CABLE_RATED` and `VL_T_MAX`,
     /// capped at [`HORIZONTAL_RESERVE_CAP`].
@@ -468,6 +487,21 @@ impl Params {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 27: a body turns on the separation barrier at `2 VT_BODY_R + VT_CLR_MIN` and raises
+    /// the tube safety radius and the formation's separation floor to what it needs; without
+    /// one the controller is the paper's (barrier off, radii as given).
+    #[test]
+    fn a_body_derives_the_separation_and_the_safety_radius() {
+        let mut p = Params::default();
+        assert_eq!((p.separation_m(), p.r_safe_m()), (0.0, 0.5));
+        p.set(Param::BodyR, 0.445).unwrap();
+        assert!((p.separation_m() - 1.09).abs() < 1e-6);
+        assert!((p.r_safe_m() - 0.645).abs() < 1e-6);
+        assert!((p.capacity().unwrap().separation_m - 1.09).abs() < 1e-6, "raised from VT_SEP_MIN 0.9");
+        p.set(Param::RSafe, 0.8).unwrap();
+        assert_eq!(p.r_safe_m(), 0.8, "a larger VT_R_SAFE is kept");
+    }
 
     #[test]
     fn names_fit_mavlink_and_are_unique() {

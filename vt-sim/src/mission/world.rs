@@ -72,6 +72,8 @@ pub struct World<'a> {
     hints: TubeHints,
     /// Scratch: the UAV positions the safety metrics read, m.
     uav_pos_scratch: Vec<V3>,
+    /// Which cables are attached (not cut or broken), per plant step.
+    attached: Vec<bool>,
     dt: f64,
     ll_every: u64,
     hl_every: u64,
@@ -143,7 +145,8 @@ impl<'a> World<'a> {
             s.faults.iter().map(|f| (plant_steps(f.time_s), f.kind, f.uav, plant_steps(f.duration_s.unwrap_or(0.0)))).collect();
         faults.sort_by_key(|f| f.0);
         let time_limit = opts.duration_s.map_or(s.mission.time_limit_s, |d| d.min(s.mission.time_limit_s));
-        let mut metrics = Metrics::new(n, f_max, s, ls.tube.length_m());
+        let (clearances, judge) = crate::clearance::Clearances::for_flight(ls, uav_model);
+        let mut metrics = Metrics::new(n, f_max, s, ls.tube.length_m(), clearances, judge);
         metrics.set_rated(f_max);
         let record = RunRecord {
             scenario: s.name.clone(),
@@ -184,6 +187,7 @@ impl<'a> World<'a> {
             no_stall: vec![false; n],
             hints: TubeHints::new(n),
             uav_pos_scratch: Vec::with_capacity(n),
+            attached: Vec::with_capacity(n),
             dt: 1.0 / f64::from(r.plant_hz),
             ll_every: u64::from(r.plant_hz / r.low_level_hz),
             hl_every,
@@ -465,6 +469,12 @@ impl<'a> World<'a> {
             }
         }
         self.plant.ground_contact();
+        self.attached.clear();
+        self.attached.extend(self.plant.cable_params().iter().map(|c| c.stiffness_n_per_m > 0.0));
+        let uav_pos = &mut self.uav_pos_scratch;
+        uav_pos.clear();
+        uav_pos.extend(self.plant.uavs.iter().map(|u| u.pos_m));
+        self.metrics.clearances.sample(uav_pos, &self.plant.load.pos_m, &self.motors_off, &self.attached, &self.ls.tube);
         self.metrics.tensions(self.plant.tensions_n());
         self.metrics.max_thrust_fraction =
             setpoints.iter().fold(self.metrics.max_thrust_fraction, |a, sp| a.max(f64::from(sp.thrust)));

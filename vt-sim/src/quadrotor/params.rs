@@ -32,6 +32,12 @@ const REF_MASS_KG: f64 = 1.5;
 const REF_INERTIA_KGM2: [f64; 3] = [0.029125, 0.029125, 0.055225];
 /// Reference arm length, centre to rotor (Iris rotors at (0.13, 0.22) / (0.13, 0.20) m), m.
 const REF_ARM_M: f64 = 0.25;
+/// Reference propeller radius: the Iris's 10 x 4.7 inch propellers (PX4 Gazebo `iris.sdf`
+/// rotor visual `iris_prop_ccw.dae`, 0.254 m diameter), m.
+const REF_PROP_RADIUS_M: f64 = 0.127;
+/// Guard added to the rotor-tip radius in the body envelope: the radial extent of a prop guard
+/// ring and the blades' flex (project choice; docs/plant.md, "Body envelope"), m.
+pub const ENVELOPE_GUARD_M: f64 = 0.03;
 /// Reference maximum rotor speed (Iris `maxRotVelocity`), rad/s.
 const REF_OMEGA_MAX_RPS: f64 = 1100.0;
 /// Reference thrust coefficient (Iris `motorConstant`), N/(rad/s)^2.
@@ -131,6 +137,8 @@ pub struct QuadParams {
     /// Distance from the centre of mass to each rotor hub, m (> 0). Source: Iris 0.25 m,
     /// scaled by `(m / 1.5 kg)^(1/3)`.
     pub arm_length_m: f64,
+    /// Propeller radius, m (> 0). Source: Iris 10-inch propellers (0.127 m), scaled with the arm.
+    pub prop_radius_m: f64,
     /// Rotor thrust coefficient `k_T` in `T = k_T omega^2`, N/(rad/s)^2 (> 0); sets the rotor
     /// speed used by the rotor-drag model. Source: `T_max / omega_max^2`, Iris-scaled
     /// `omega_max`.
@@ -190,6 +198,7 @@ impl QuadParams {
             mass_kg,
             inertia_kgm2,
             arm_length_m,
+            prop_radius_m: REF_PROP_RADIUS_M * length_ratio,
             thrust_coeff_n_per_rps2,
             yaw_moment_coeff_m: REF_YAW_MOMENT_COEFF_M * length_ratio,
             motor_time_constant_s: MOTOR_TIME_CONSTANT_S,
@@ -236,6 +245,14 @@ impl QuadParams {
         self.arm_length_m * core::f64::consts::FRAC_1_SQRT_2
     }
 
+    /// Radius of the body envelope, m: the rotor-tip radius (arm + propeller) plus
+    /// [`ENVELOPE_GUARD_M`] (docs/plant.md, "Body envelope"). Clearances are measured from this
+    /// sphere around the centre of mass.
+    #[must_use]
+    pub fn envelope_radius_m(&self) -> f64 {
+        self.arm_length_m + self.prop_radius_m + ENVELOPE_GUARD_M
+    }
+
     /// The horizontal drag of this airframe as the wind capacity law models it
     /// (`vt_dissipative::wind`), flying level with total thrust `thrust_n` (N) spread evenly:
     /// `(c_q, c_l)`, the quadratic body drag along x, N/(m/s)^2, and the rotors' linear H-force
@@ -266,6 +283,7 @@ impl QuadParams {
             "each principal moment at most the sum of the other two (triangle inequality)",
         )?;
         positive("arm_length_m", self.arm_length_m)?;
+        positive("prop_radius_m", self.prop_radius_m)?;
         positive("thrust_coeff_n_per_rps2", self.thrust_coeff_n_per_rps2)?;
         non_negative("yaw_moment_coeff_m", self.yaw_moment_coeff_m)?;
         positive("motor_time_constant_s", self.motor_time_constant_s)?;
@@ -340,10 +358,25 @@ mod tests {
         }
     }
 
+    /// Issue 27: the paper's 2 kg airframe measures about 0.83 m from rotor tip to rotor tip
+    /// (0.275 m arm, 11-inch propellers); its envelope adds the guard.
+    #[test]
+    fn envelope_of_the_paper_airframe_spans_its_rotor_tips() {
+        let p = QuadParams::sized(2.0, 50.0);
+        let tip = p.arm_length_m + p.prop_radius_m;
+        assert!((2.0 * tip - 0.83).abs() < 0.01, "tip to tip {:.3} m", 2.0 * tip);
+        assert!((2.0 * p.prop_radius_m / 0.0254 - 11.0).abs() < 0.1, "propeller {:.2} in", 2.0 * p.prop_radius_m / 0.0254);
+        assert!((p.envelope_radius_m() - tip - ENVELOPE_GUARD_M).abs() < 1e-12);
+        // Geometric similarity: the envelope grows as the cube root of the mass.
+        let heavy = QuadParams::sized(16.0, 400.0);
+        assert!((heavy.envelope_radius_m() - ENVELOPE_GUARD_M - 2.0 * tip).abs() < 1e-9);
+    }
+
     #[test]
     fn sized_at_the_reference_mass_is_the_reference_airframe() {
         let p = QuadParams::sized(REF_MASS_KG, 4.0 * REF_THRUST_COEFF * REF_OMEGA_MAX_RPS * REF_OMEGA_MAX_RPS);
         assert!((p.arm_length_m - REF_ARM_M).abs() < 1e-12);
+        assert!((p.prop_radius_m - REF_PROP_RADIUS_M).abs() < 1e-12);
         assert!((p.inertia_kgm2.x - REF_INERTIA_KGM2[0]).abs() < 1e-12);
         assert!((p.thrust_coeff_n_per_rps2 - REF_THRUST_COEFF).abs() < 1e-15);
         assert!((p.rotor_drag_coeff - REF_ROTOR_DRAG).abs() < 1e-15);

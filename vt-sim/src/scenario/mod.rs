@@ -329,9 +329,24 @@ pub struct LoadSpec {
     /// `mass_kg`; only the plant flies `true_mass_kg` (times `disturbances.load_mass_error`).
     #[serde(default)]
     pub true_mass_kg: Option<f64>,
+    /// Radius of the sphere that bounds the load, m (issue 27; default
+    /// [`LoadSpec::envelope_radius_m`]'s rule).
+    #[serde(default)]
+    pub radius_m: Option<f64>,
 }
 
+/// Mean density the default load envelope assumes: a crate of mixed cargo, kg/m^3 (project
+/// choice; docs/plant.md, "Body envelope").
+pub const LOAD_DENSITY_KG_M3: f64 = 500.0;
+
 impl LoadSpec {
+    /// Radius of the load's envelope, m: `radius_m`, else the sphere around a cube of
+    /// [`LOAD_DENSITY_KG_M3`] holding the declared mass (`sqrt 3 / 2` times its side; 18 kg:
+    /// 0.29 m).
+    pub fn envelope_radius_m(&self) -> f64 {
+        self.radius_m.unwrap_or_else(|| 0.5 * 3f64.sqrt() * (self.mass_kg / LOAD_DENSITY_KG_M3).cbrt())
+    }
+
     /// The plant's load mass before disturbance draws, kg: `true_mass_kg`, else `mass_kg`.
     pub fn plant_mass_kg(&self) -> f64 {
         self.true_mass_kg.unwrap_or(self.mass_kg)
@@ -361,6 +376,34 @@ pub struct UavSpec {
     /// UAV model of the plant: `rigid_body` (default) or `point_mass` (the paper's).
     #[serde(default)]
     pub model: UavModel,
+    /// Radius of the sphere that bounds each UAV (rotors and guards), m (issue 27). Given, the
+    /// companions keep it (`VT_BODY_R`: the separation barrier, a tube safety radius of at least
+    /// `body_radius_m + clearance floor`); absent, the controller flies the paper's points and
+    /// the clearances are measured with [`UavSpec::envelope_radius_m`]'s default.
+    #[serde(default)]
+    pub body_radius_m: Option<f64>,
+}
+
+impl UavSpec {
+    /// The tube barrier's safety radius the companions fly, m: `r_safe_m`, raised to
+    /// `body_radius_m + clearance floor` when the UAVs have a body (`vt_companion::Params::r_safe_m`).
+    pub fn flown_r_safe_m(&self, r_safe_m: f64, clearance_floor_m: f64) -> f64 {
+        match self.body_radius_m {
+            Some(b) if b > 0.0 => r_safe_m.max(b + clearance_floor_m),
+            _ => r_safe_m,
+        }
+    }
+
+    /// Radius of a UAV's envelope flown as `model`, m: `body_radius_m`; else, for
+    /// `rigid_body`, the sized airframe's rotor-tip radius plus its guard
+    /// (`QuadParams::envelope_radius_m`, docs/plant.md "Body envelope"); for `point_mass`, 0:
+    /// the paper's UAVs are points, judged on its centre distances.
+    pub fn envelope_radius_m(&self, model: UavModel) -> f64 {
+        self.body_radius_m.unwrap_or_else(|| match model {
+            UavModel::RigidBody => crate::quadrotor::QuadParams::sized(self.mass_kg, self.thrust_max_n).envelope_radius_m(),
+            UavModel::PointMass => 0.0,
+        })
+    }
 }
 
 fn default_tilt() -> f64 {
@@ -604,6 +647,12 @@ pub struct MissionSpec {
     /// Safety floor for UAV-boundary and UAV-UAV distances, m.
     #[serde(default = "default_floor")]
     pub safety_distance_m: f64,
+    /// Floor of every surface-to-surface clearance (UAV-UAV, UAV-boundary, bodies, load and
+    /// cables against the obstacles), m. Given, success requires it (issue 27, docs/design.md
+    /// "Envelopes and clearances"); absent, the clearances are reported and the companions keep
+    /// [`DEFAULT_CLEARANCE_FLOOR_M`].
+    #[serde(default)]
+    pub clearance_floor_m: Option<f64>,
     /// Allowed load altitude error after settling, m.
     #[serde(default = "one")]
     pub altitude_tolerance_m: f64,
@@ -638,6 +687,15 @@ fn default_settle() -> f64 {
 }
 fn default_floor() -> f64 {
     0.4
+}
+/// Clearance floor the companions keep when the scenario gives none (`VT_CLR_MIN`), m.
+pub const DEFAULT_CLEARANCE_FLOOR_M: f64 = 0.2;
+
+impl MissionSpec {
+    /// The clearance floor, m: `clearance_floor_m` or [`DEFAULT_CLEARANCE_FLOOR_M`].
+    pub fn clearance_floor(&self) -> f64 {
+        self.clearance_floor_m.unwrap_or(DEFAULT_CLEARANCE_FLOOR_M)
+    }
 }
 
 /// A scenario with its source (for error locations).

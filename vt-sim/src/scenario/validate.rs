@@ -105,6 +105,9 @@ impl Validator<'_> {
             self.positive("load", "true_mass_kg", m)?;
         }
         self.positive("load", "altitude_m", s.load.altitude_m)?;
+        if let Some(r) = s.load.radius_m {
+            self.non_negative("load", "radius_m", r)?;
+        }
         self.non_negative("load", "start_s_m", s.load.start_s_m)?;
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
         self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
@@ -124,6 +127,12 @@ impl Validator<'_> {
             return Err(self.err("uavs", "tilt_max_deg", format!("must be in (0, 90) degrees (got {})", s.uavs.tilt_max_deg)));
         }
         self.positive("uavs", "formation_radius_m", s.uavs.formation_radius_m)?;
+        if let Some(r) = s.uavs.body_radius_m {
+            // The companion's VT_BODY_R range.
+            if !(r.is_finite() && (0.0..=5.0).contains(&r)) {
+                return Err(self.err("uavs", "body_radius_m", format!("must be in [0, 5] m (got {r})")));
+            }
+        }
         let n = s.cables.lengths_m.len();
         if n == 0 || n > SIM_MAX_UAVS {
             return Err(self.err("cables", "lengths_m", format!("needs 1..={SIM_MAX_UAVS} entries, one per UAV (got {n})")));
@@ -247,6 +256,18 @@ impl Validator<'_> {
             self.positive("mission", k, v)?;
         }
         self.non_negative("mission", "post_arrival_s", m.post_arrival_s)?;
+        // The companion's VT_CLR_MIN range.
+        if let Some(c) = m.clearance_floor_m {
+            if !(c.is_finite() && (0.0..=5.0).contains(&c)) {
+                return Err(self.err("mission", "clearance_floor_m", format!("must be in [0, 5] m (got {c})")));
+            }
+        }
+        let r_safe = s.uavs.flown_r_safe_m(s.controller.r_safe_m, m.clearance_floor());
+        if r_safe >= s.controller.r_active_m {
+            return Err(self.err("uavs", "body_radius_m", format!(
+                "the tube safety radius this body needs, body_radius_m + clearance floor = {r_safe:.2} m, must stay below controller.r_active_m = {} m",
+                s.controller.r_active_m)));
+        }
         self.non_negative("mission", "settle_time_s", m.settle_time_s)?;
         if !(m.preflight_s.is_finite() && (0.0..=60.0).contains(&m.preflight_s)) {
             return Err(self.err("mission", "preflight_s", format!("must be in [0, 60] s (got {})", m.preflight_s)));
@@ -375,7 +396,7 @@ impl Validator<'_> {
     fn check_tube(&self, s: &Scenario) -> Result<SimTube, ScenarioError> {
         let tube = SimTube::from_waypoints(&s.tube.waypoints_f32()).map_err(|e| self.err("tube", "waypoints", e.to_string()))?;
         // The narrowest section must hold a UAV with its safety margin on both sides.
-        let need = s.mission.safety_distance_m + s.controller.r_safe_m;
+        let need = s.mission.safety_distance_m + s.uavs.flown_r_safe_m(s.controller.r_safe_m, s.mission.clearance_floor());
         if f64::from(tube.min_half_width_m()) <= need {
             return Err(self.err("tube", "waypoints", format!(
                 "narrowest half-width {:.2} m cannot hold a UAV: needs > r_safe_m + safety_distance_m = {need:.2} m",

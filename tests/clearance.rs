@@ -1,0 +1,105 @@
+//! True clearances (issue 27): surface to surface at the plant rate, bodies, load and cables
+//! against the real obstacles; judged when a scenario gives `mission.clearance_floor_m`; the
+//! separation barrier that keeps surfaces apart when the UAVs declare `body_radius_m`.
+
+use host_sim::scenario::{parse, PAPER_10UAV};
+use host_sim::sim::{self, RunOptions};
+use host_sim::summary::Summary;
+use std::process::Command;
+
+fn fly(text: &str) -> (Summary, host_sim::record::RunRecord) {
+    let ls = parse(text, "clearance.toml").expect("valid scenario");
+    let out = sim::run(&ls, &RunOptions { record: true, ..RunOptions::default() }).expect("flies");
+    (out.summary, out.record)
+}
+
+/// The paper scenario on the point-mass plant, optionally with bodies and a clearance floor.
+fn paper_point_mass(body_m: Option<f64>, floor_m: Option<f64>) -> String {
+    let mut t = PAPER_10UAV.replacen("[uavs]\n", "[uavs]\nmodel = \"point_mass\"\n", 1);
+    if let Some(b) = body_m {
+        t = t.replacen("[uavs]\n", &format!("[uavs]\nbody_radius_m = {b}\n"), 1);
+    }
+    if let Some(f) = floor_m {
+        t = t.replacen("[mission]\n", &format!("[mission]\nclearance_floor_m = {f}\n"), 1);
+    }
+    t
+}
+
+/// On the default plant the clearances use the sized airframe's envelope (2 kg: 0.445 m) and
+/// the 18 kg load's (0.286 m); the plant-rate UAV-UAV clearance is at most every recorded
+/// sample's centre distance less the two bodies, and the obstacle clearance is at most the one
+/// of the UAV centres the record holds. Without `clearance_floor_m` they are reported, not
+/// judged.
+#[test]
+fn the_paper_mission_reports_clearances_from_its_airframe() {
+    let (s, rec) = fly(PAPER_10UAV);
+    assert!((s.uav_body_radius_m - 0.445).abs() < 0.005, "{}", s.uav_body_radius_m);
+    assert!((s.load_radius_m - 0.286).abs() < 0.005, "{}", s.load_radius_m);
+    assert!(s.min_uav_uav_clearance_m <= s.min_uav_uav_m - 2.0 * s.uav_body_radius_m + 1e-9);
+    assert!(s.min_uav_boundary_clearance_m <= s.min_uav_boundary_m - s.uav_body_radius_m + 1e-6);
+    let ls = parse(PAPER_10UAV, "p.toml").expect("paper");
+    let obstacles = host_sim::clearance::Obstacles::of(&ls);
+    let recorded = rec
+        .uav_pos_m
+        .iter()
+        .flatten()
+        .map(|p| obstacles.point_m(nalgebra::Vector2::new(p[0], p[1])) - s.uav_body_radius_m)
+        .fold(f64::INFINITY, f64::min);
+    assert!(s.min_obstacle_clearance_m <= recorded + 1e-9, "{} vs {recorded}", s.min_obstacle_clearance_m);
+    assert!(s.min_obstacle_clearance_m > 0.2, "the paper's tube keeps the team off the obstacles: {}", s.min_obstacle_clearance_m);
+    assert!(s.success, "{:?}", s.failures);
+}
+
+/// With a floor the clearances are success criteria: a floor the team cannot keep fails the
+/// run, naming the clearance.
+#[test]
+fn a_clearance_floor_is_judged() {
+    let t = PAPER_10UAV.replacen("[mission]\n", "[mission]\nclearance_floor_m = 1.0\n", 1);
+    let (s, _) = fly(&t);
+    assert!(!s.success);
+    assert!(s.failures.iter().any(|f| f.starts_with("UAV-UAV clearance")), "{:?}", s.failures);
+    assert!(s.failures.iter().any(|f| f.starts_with("UAV-boundary clearance")), "{:?}", s.failures);
+}
+
+/// The separation barrier (extension, `vt_dissipative::separation`): the paper's team of
+/// 0.445 m bodies on the point-mass plant comes within 0.06 m of each other with the paper's
+/// controller (0.948 m between centres), and keeps more than the 0.2 m floor with the barrier.
+/// The paper's own judgement (no floor, points) still passes without it.
+#[test]
+fn declared_bodies_keep_their_clearance_with_the_separation_barrier() {
+    let (points, _) = fly(&paper_point_mass(None, None));
+    assert!(points.success, "{:?}", points.failures);
+    assert!(points.min_uav_uav_m - 2.0 * 0.445 < 0.2, "the paper's controller alone: {} m between centres", points.min_uav_uav_m);
+    let (bodies, _) = fly(&paper_point_mass(Some(0.445), Some(0.2)));
+    assert!(bodies.success, "{:?}", bodies.failures);
+    assert!(bodies.min_uav_uav_clearance_m >= 0.2, "{}", bodies.min_uav_uav_clearance_m);
+    assert!(bodies.min_uav_boundary_clearance_m >= 0.2, "{}", bodies.min_uav_boundary_clearance_m);
+    assert!(bodies.min_obstacle_clearance_m >= 0.2, "{}", bodies.min_obstacle_clearance_m);
+}
+
+fn expect_error(text: &str, name: &str, must_contain: &[&str]) {
+    let dir = std::env::temp_dir().join(format!("vt-clearance-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write scenario");
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim")).args(["run", path.to_str().expect("utf-8 path"), "--out"]).arg(dir.join("out")).output().expect("host-sim runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    for m in must_contain {
+        assert!(err.contains(m), "`{m}` missing from: {err}");
+    }
+}
+
+#[test]
+fn bad_envelopes_exit_2_naming_file_line_and_field() {
+    let line_of = |t: &str, key: &str| t.lines().position(|l| l.starts_with(key)).expect("key") + 1;
+    let t = PAPER_10UAV.replacen("[uavs]\n", "[uavs]\nbody_radius_m = -0.1\n", 1);
+    expect_error(&t, "neg.toml", &["neg.toml:", &format!(":{}:", line_of(&t, "body_radius_m")), "`uavs.body_radius_m`"]);
+    // A body whose safety radius reaches the barrier's activation radius (1.5 m).
+    let t = PAPER_10UAV.replacen("[uavs]\n", "[uavs]\nbody_radius_m = 1.4\n", 1);
+    expect_error(&t, "big.toml", &["`uavs.body_radius_m`", "r_active_m"]);
+    let t = PAPER_10UAV.replacen("[mission]\n", "[mission]\nclearance_floor_m = nan\n", 1);
+    expect_error(&t, "floor.toml", &["`mission.clearance_floor_m`"]);
+    let t = PAPER_10UAV.replacen("[load]\n", "[load]\nradius_m = -1\n", 1);
+    expect_error(&t, "load.toml", &["`load.radius_m`"]);
+}
