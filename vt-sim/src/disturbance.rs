@@ -192,6 +192,9 @@ pub struct ParameterDraw {
     pub uav_mass: Vec<f64>,
     /// Load mass factor.
     pub load_mass: f64,
+    /// Maximum-thrust factors, one per UAV: the plant's true maximum over the one the firmware
+    /// believes (`VL_T_MAX`; issue 27). Drawn after the others, so that they keep their values.
+    pub thrust_scale: Vec<f64>,
 }
 
 impl ParameterDraw {
@@ -205,6 +208,7 @@ impl ParameterDraw {
             cable_stiffness: (0..n).map(|_| f(d.cable_stiffness_error)).collect(),
             uav_mass: (0..n).map(|_| f(d.uav_mass_error)).collect(),
             load_mass: f(d.load_mass_error),
+            thrust_scale: (0..n).map(|_| f(d.thrust_scale_error)).collect(),
         }
     }
 }
@@ -248,5 +252,10 @@ mod tests {
         assert!(p.cable_stiffness.iter().all(|k| (0.5..=1.5).contains(k)));
         assert!(p.cable_length.iter().all(|k| *k == 1.0));
         assert!((0.9..=1.1).contains(&p.load_mass));
+        assert!(p.thrust_scale.iter().all(|k| *k == 1.0));
+        // The thrust draw comes last: turning it on leaves the other draws as they were.
+        let t = ParameterDraw::draw(&DisturbanceSpec { thrust_scale_error: 0.2, ..d }, 10, 9);
+        assert_eq!((&t.cable_stiffness, t.load_mass), (&p.cable_stiffness, p.load_mass));
+        assert!(t.thrust_scale.iter().all(|k| (0.8..=1.2).contains(k)) && t.thrust_scale.iter().any(|k| *k != 1.0));
     }
 }

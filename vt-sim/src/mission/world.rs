@@ -424,6 +424,15 @@ impl<'a> World<'a> {
     /// tensions, the record.
     pub fn advance(&mut self, setpoints: &[Setpoint]) {
         let t = self.step as f64 * self.dt;
+        // Battery sag (issue 27): the maximum thrust declines over the flight, once per
+        // low-level period; the firmware keeps believing `thrust_max_n`.
+        let sag = self.ls.scenario.uavs.battery_sag_per_min;
+        if sag > 0.0 && self.step.is_multiple_of(self.ll_every) {
+            let scale = (1.0 - sag * t / 60.0).max(0.0);
+            for i in 0..self.plant.n_uavs() {
+                self.plant.set_thrust_scale(i, scale);
+            }
+        }
         if self.step.is_multiple_of(self.hl_every) {
             self.uav_pos_scratch.clear();
             self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));

@@ -197,6 +197,8 @@ pub struct Plant {
     ext_buf: Vec<Vector3<f64>>,
     /// The `rigid_body` UAVs, one per UAV (empty: point-mass UAVs); see [`rigid`].
     quads: Vec<crate::quadrotor::Quadrotor>,
+    /// Each UAV's maximum thrust as built, N ([`Plant::set_thrust_scale`] scales it).
+    thrust_built_n: Vec<f64>,
     /// Last valid setpoint of each quadrotor, held when a setpoint is lost.
     rigid_targets: Vec<crate::quadrotor::AttitudeTarget>,
     /// The setpoint each target was converted from (converted again only when it changes).
@@ -318,10 +320,28 @@ impl Plant {
             quads: Vec::new(),
             rigid_targets: Vec::new(),
             rigid_setpoints: Vec::new(),
+            thrust_built_n: Vec::new(),
         };
+        plant.thrust_built_n = plant.uav_params.iter().map(|p| p.thrust_max_n).collect();
         plant.last_forces = plant.cable_forces();
         plant.tensions_n = plant.last_forces.iter().map(|f| f.tension_n).collect();
         Ok(plant)
+    }
+
+    /// Scales UAV `index`'s maximum thrust to `scale` times the built one (issue 27: battery
+    /// sag): point-mass UAVs through their thrust limit, quadrotors through their rotors
+    /// ([`crate::quadrotor::Quadrotor::set_thrust_scale`]). An out-of-range index or a
+    /// non-finite or negative scale does nothing.
+    pub fn set_thrust_scale(&mut self, index: usize, scale: f64) {
+        if !(scale.is_finite() && scale >= 0.0) {
+            return;
+        }
+        if let (Some(p), Some(b)) = (self.uav_params.get_mut(index), self.thrust_built_n.get(index)) {
+            p.thrust_max_n = b * scale;
+        }
+        if let Some(q) = self.quads.get_mut(index) {
+            q.set_thrust_scale(scale);
+        }
     }
 
     /// Cuts cable `index` (fault injection): from now on it carries no force.

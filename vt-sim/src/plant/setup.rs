@@ -33,7 +33,8 @@ pub fn build(
     let uav_params: Vec<UavParams> = draw
         .uav_mass
         .iter()
-        .map(|k| UavParams { mass_kg: s.uavs.mass_kg * k, thrust_max_n: s.uavs.thrust_max_n, thrust_lag_s: s.uavs.thrust_lag_s })
+        .zip(&draw.thrust_scale)
+        .map(|(k, t)| UavParams { mass_kg: s.uavs.mass_kg * k, thrust_max_n: s.uavs.thrust_max_n * t, thrust_lag_s: s.uavs.thrust_lag_s })
         .collect();
     let cap = match cable_model {
         CableModel::PaperClamp => rated_n,
@@ -60,15 +61,20 @@ pub fn build(
         }
         UavModel::RigidBody => {
             // Each UAV's airframe sized from its (drawn) mass and the scenario's thrust limit,
-            // so that normalised thrust 1 is `thrust_max_n` for the plant as for the firmware.
+            // so that normalised thrust 1 is `thrust_max_n` for the plant as for the firmware;
+            // then its rotors given the drawn thrust error (the same normalised command gives
+            // that much more or less thrust than the firmware believes).
             let quads = draw
                 .uav_mass
                 .iter()
+                .zip(&draw.thrust_scale)
                 .zip(&to.uav_pos_m)
                 .enumerate()
-                .map(|(index, (k, p))| {
-                    Quadrotor::new(QuadParams::sized(s.uavs.mass_kg * k, s.uavs.thrust_max_n), *p, Vector3::zeros())
-                        .map_err(|error| PlantError::Quadrotor { index, error })
+                .map(|(index, ((k, t), p))| {
+                    let mut q = Quadrotor::new(QuadParams::sized(s.uavs.mass_kg * k, s.uavs.thrust_max_n), *p, Vector3::zeros())
+                        .map_err(|error| PlantError::Quadrotor { index, error })?;
+                    q.set_thrust_scale(*t);
+                    Ok(q)
                 })
                 .collect::<Result<Vec<_>, _>>()?;
             plant.fit_quadrotors(quads).map_err(|error| PlantError::Quadrotor { index: 0, error })?;

@@ -203,6 +203,12 @@ impl Autopilot {
         (self.output, true)
     }
 
+    /// Sets the collective at `thrust_norm = 1`, N: what the motors give at full throttle now
+    /// (a weak battery or worn motors give less for the same normalised command).
+    pub fn set_thrust_max_total(&mut self, thrust_max_total_n: f64) {
+        self.thrust_max_total_n = thrust_max_total_n;
+    }
+
     /// The target being tracked (the last valid one received).
     #[must_use]
     pub fn target(&self) -> &AttitudeTarget {

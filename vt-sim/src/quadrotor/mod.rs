@@ -96,6 +96,8 @@ pub struct Quadrotor {
     inv_inertia: Vector3<f64>,
     /// `(h, 1 - exp(-h / tau_m))` of the last step length (saves an `exp` per step).
     motor_gain: (f64, f64),
+    /// Each rotor's maximum thrust as built, N ([`Self::set_thrust_scale`] scales it).
+    nominal_rotor_max_n: f64,
 }
 
 impl Quadrotor {
@@ -136,6 +138,7 @@ impl Quadrotor {
             saturation: Saturation::default(),
             autopilot: Autopilot::new(params.autopilot, params.inertia_kgm2, params.thrust_max_total_n(), level),
             motor_gain: (0.0, 0.0),
+            nominal_rotor_max_n: params.rotor_thrust_max_n,
             inv_inertia: params.inertia_kgm2.map(|x| 1.0 / x),
         })
     }
@@ -247,6 +250,21 @@ impl Quadrotor {
         let omega_mid = inv_i.component_mul(&q_half.inverse_transform_vector(&self.ang_mom_world));
         self.attitude = exp_step(&self.attitude, &omega_mid, h);
         self.body_rates_rps = inv_i.component_mul(&self.attitude.inverse_transform_vector(&self.ang_mom_world));
+    }
+
+    /// Scales the rotors' maximum thrust to `scale` times the built one (issue 27: a thrust
+    /// that differs from what the firmware believes, battery sag): the same normalised command
+    /// gives `scale` times the thrust, the rotors' idle stays. `scale` is clamped so that the
+    /// maximum stays above the idle thrust; a non-finite one is ignored.
+    pub fn set_thrust_scale(&mut self, scale: f64) {
+        if !scale.is_finite() {
+            return;
+        }
+        let floor = 2.0 * self.params.rotor_thrust_min_n / self.nominal_rotor_max_n;
+        let max = self.nominal_rotor_max_n * scale.max(floor);
+        self.params.rotor_thrust_max_n = max;
+        self.mixer.thrust_max_n = max;
+        self.autopilot.set_thrust_max_total(4.0 * max);
     }
 
     /// Parameters in use.

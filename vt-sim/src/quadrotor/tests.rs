@@ -431,3 +431,24 @@ proptest! {
         }
     }
 }
+
+/// Issue 27, thrust errors: rotors scaled to 80 % give 80 % of the thrust for the same
+/// normalised command, so a UAV trimmed for hover on the nominal rotors sinks at about
+/// `0.2 g`; scaled back to 1 it is the airframe it was built as.
+#[test]
+fn a_thrust_scale_gives_that_share_of_the_thrust_for_the_same_command() {
+    let mut q = trimmed(QuadParams::paper(), Vector3::zeros());
+    let target = *q.autopilot().target();
+    let built = q.params().rotor_thrust_max_n;
+    q.set_thrust_scale(0.8);
+    assert!((q.params().rotor_thrust_max_n - 0.8 * built).abs() < 1e-12);
+    run(&mut q, &target, Vector3::zeros(), Vector3::zeros(), 500);
+    let vz = q.vel_mps().z;
+    assert!((vz + 0.2 * 9.81 * 0.5).abs() < 0.15, "sink rate after 0.5 s {vz}");
+    q.set_thrust_scale(1.0);
+    assert_eq!(q.params().rotor_thrust_max_n, built);
+    q.set_thrust_scale(f64::NAN);
+    assert_eq!(q.params().rotor_thrust_max_n, built, "a non-finite scale is ignored");
+    q.set_thrust_scale(0.0);
+    assert!(q.params().validate().is_ok(), "the maximum stays above the idle thrust");
+}

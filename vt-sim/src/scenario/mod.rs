@@ -198,6 +198,10 @@ pub struct DisturbanceSpec {
     /// Relative load mass error, uniform in +-this.
     #[serde(default)]
     pub load_mass_error: f64,
+    /// Relative error of each UAV's maximum thrust, uniform in +-this: the plant's true maximum
+    /// differs from `uavs.thrust_max_n`, which the firmware believes (`VL_T_MAX`; issue 27).
+    #[serde(default)]
+    pub thrust_scale_error: f64,
     /// Multiplies every noise, wind and error magnitude above (campaign levels).
     #[serde(default = "one")]
     pub intensity: f64,
@@ -219,6 +223,7 @@ impl Default for DisturbanceSpec {
             cable_stiffness_error: 0.0,
             uav_mass_error: 0.0,
             load_mass_error: 0.0,
+            thrust_scale_error: 0.0,
             intensity: 1.0,
         }
     }
@@ -382,6 +387,10 @@ pub struct UavSpec {
     /// the clearances are measured with [`UavSpec::envelope_radius_m`]'s default.
     #[serde(default)]
     pub body_radius_m: Option<f64>,
+    /// Battery sag: the fraction of the maximum thrust lost per minute of flight, from the
+    /// start of the flight (issue 27; the firmware keeps believing `thrust_max_n`).
+    #[serde(default)]
+    pub battery_sag_per_min: f64,
 }
 
 impl UavSpec {

@@ -112,6 +112,9 @@ impl Validator<'_> {
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
         self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
         self.non_negative("uavs", "thrust_lag_s", s.uavs.thrust_lag_s)?;
+        if !(s.uavs.battery_sag_per_min.is_finite() && (0.0..=0.5).contains(&s.uavs.battery_sag_per_min)) {
+            return Err(self.err("uavs", "battery_sag_per_min", format!("must be in [0, 0.5] per minute (got {})", s.uavs.battery_sag_per_min)));
+        }
         // issue 17: the velocity loop needs the hover thrust m g within its limits
         // [0.05 thrust_max, thrust_max] (the companion's derived VL_T_MIN, vt_cfo::VelocityLoopParams::new, in
         // f32 as there); else the crate's error surfaced as a bare SimError with no location.
@@ -288,7 +291,8 @@ impl Validator<'_> {
             return Err(self.err("disturbances", "wind_mean_mps", "must be finite".into()));
         }
         for (k, v) in [("cable_length_error", d.cable_length_error), ("cable_stiffness_error", d.cable_stiffness_error),
-                       ("uav_mass_error", d.uav_mass_error), ("load_mass_error", d.load_mass_error)] {
+                       ("uav_mass_error", d.uav_mass_error), ("load_mass_error", d.load_mass_error),
+                       ("thrust_scale_error", d.thrust_scale_error)] {
             if !(v.is_finite() && (0.0..0.9).contains(&(v * d.intensity))) {
                 return Err(self.err("disturbances", k, format!("relative error x intensity must be in [0, 0.9) (got {})", v * d.intensity)));
             }
