@@ -26,7 +26,7 @@ impl Team for Recording {
         self.team.preflight(ls, at)
     }
 
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
         self.team.start(ls, start)
     }
 

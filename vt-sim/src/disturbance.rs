@@ -5,6 +5,7 @@
 use crate::link::SplitMix64;
 use crate::plant::Plant;
 use crate::scenario::DisturbanceSpec;
+use crate::sensing::{PositionErrors, Receiver, SensingSpec};
 use nalgebra::Vector3;
 
 type V3 = Vector3<f64>;
@@ -139,12 +140,16 @@ pub struct Sensors {
     pos_sigma_m: f64,
     vel_sigma_mps: f64,
     noise: Noise,
+    /// GNSS-like position errors (`[sensing] position`; `None`: white noise only).
+    errors: Option<PositionErrors>,
 }
 
 impl Sensors {
-    /// Sensors with `latency_steps` low-level periods of delay.
-    pub fn new(d: &DisturbanceSpec, latency_steps: usize, seed: u64) -> Self {
+    /// Sensors with `latency_steps` low-level periods of delay; `sensing` gives `n` UAV
+    /// receivers and the load tracker their errors, stepped every `dt_s` (one low-level period).
+    pub fn new(d: &DisturbanceSpec, sensing: &SensingSpec, n: usize, dt_s: f64, latency_steps: usize, seed: u64) -> Self {
         Self {
+            errors: PositionErrors::new(sensing, n, dt_s, seed),
             ring: vec![Snapshot::default(); latency_steps + 1],
             head: 0,
             filled: 0,
@@ -161,6 +166,9 @@ impl Sensors {
             s.fill(p, time_ms);
         }
         self.filled = (self.filled + 1).min(self.ring.len());
+        if let Some(e) = &mut self.errors {
+            e.step();
+        }
     }
 
     /// The state `latency` ago (the oldest available at start-up).
@@ -170,9 +178,11 @@ impl Sensors {
         &self.ring[(self.head + n - back) % n]
     }
 
-    /// Position measurement: `x` plus noise.
-    pub fn position(&mut self, x: &V3) -> V3 {
-        x + self.noise.vec3(self.pos_sigma_m)
+    /// Position measurement of receiver `r`: `x` plus its GNSS-like error, if any, plus white
+    /// noise. What a UAV's neighbours receive is its own receiver's error (`Receiver::Uav`).
+    pub fn position(&mut self, r: Receiver, x: &V3) -> V3 {
+        let e = self.errors.as_ref().map_or(V3::zeros(), |e| e.of(r));
+        x + e + self.noise.vec3(self.pos_sigma_m)
     }
 
     /// Velocity measurement: `v` plus noise.

@@ -23,6 +23,7 @@ pub mod plant;
 pub mod quadrotor;
 pub mod record;
 pub mod scenario;
+pub mod sensing;
 pub mod score;
 pub mod sim;
 pub mod sitl;

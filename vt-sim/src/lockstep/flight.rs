@@ -237,7 +237,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
         Ok(())
     }
 
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
         self.configure_all(ls, start)?;
         if let Some(mut hook) = self.start_hook.take() {
             for i in 0..self.ports.len() {
@@ -257,10 +257,10 @@ impl<P: Port> Team for PortTeam<'_, P> {
                 })
                 .map_err(|e| self.fail(i, e))?;
                 if r != 0 {
-                    return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r}): {}", texts.join("; "))));
+                    return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, texts.join("; "))));
                 }
             }
-            return Ok(());
+            return Ok(None);
         }
         for i in 0..self.ports.len() {
             let id = self.configs[i].system_id;
@@ -268,10 +268,10 @@ impl<P: Port> Team for PortTeam<'_, P> {
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
             let (r, texts) = start_mission_with_reason(&mut self.ports[i], id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             if r != 0 {
-                return Err(self.fail(i, format!("mission start refused (MAV_RESULT {r}): {}", texts.join("; "))));
+                return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, texts.join("; "))));
             }
         }
-        Ok(())
+        Ok(None)
     }
 
     fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {

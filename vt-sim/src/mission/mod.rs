@@ -53,7 +53,10 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
         team.preflight(ls, &TeamStart { tick, takeoff: &takeoff, cable_rated_n })?;
         world.advance_preflight()?;
     }
-    team.start(ls, &world.start())?;
+    if let Some(reason) = team.start(ls, &world.start())? {
+        let seed = opts.seed.unwrap_or(ls.scenario.seed);
+        return Ok(Flown { summary: Summary::refused(&ls.scenario, opts.controller.name(), seed, reason), record: RunRecord::default() });
+    }
     let n = ls.scenario.cables.lengths_m.len();
     let mut setpoints = vec![Setpoint { q_ned: [1.0, 0.0, 0.0, 0.0], thrust: 0.0 }; n];
     let bar = crate::sim::progress_bar(opts.progress, world.max_steps(), "{spinner} simulating [{bar:40}] {percent:>3}% (time limit) {elapsed}");

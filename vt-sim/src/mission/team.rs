@@ -71,11 +71,13 @@ pub struct TeamStart<'a> {
 
 /// A team controller: one computer per UAV, however they are built.
 pub trait Team {
-    /// Configures and arms every UAV (`MAV_CMD_MISSION_START`).
+    /// Configures and arms every UAV (`MAV_CMD_MISSION_START`): `Some(reason)` when a UAV
+    /// refused the start (its pre-flight checks: the flight is not flown, an outcome, not an
+    /// error).
     ///
     /// # Errors
-    /// A configuration is refused.
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError>;
+    /// A configuration is refused, or a backend failed.
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError>;
 
     /// One low-level period of the pre-flight hover (`at.tick`), before [`Team::start`]: every
     /// UAV's computer takes the tick's measurements into its take-off survey (docs/design.md,
@@ -242,16 +244,16 @@ impl Team for CompanionTeam {
         self.each(&at.tick)
     }
 
-    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
         self.configure(ls, start.cable_rated_n)?;
         self.each(&start.tick)?;
         for (i, uav) in self.uavs.iter_mut().enumerate() {
             let c = uav.get_mut().ok_or_else(|| SimError("companion dropped".into()))?;
             if let Err(e) = c.start_mission(&mut Unlinked) {
-                return Err(SimError(format!("UAV {i}: mission start refused: {e}")));
+                return Ok(Some(format!("UAV {i}: mission start refused: {e}")));
             }
         }
-        Ok(())
+        Ok(None)
     }
 
     fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {

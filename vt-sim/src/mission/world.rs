@@ -11,6 +11,7 @@ use crate::plant::Plant;
 use crate::record::{EventKind, RecordEvent, RunRecord, MODE_HOLD, MODE_TRANSPORT};
 use crate::scenario::{FaultKind, LoadedScenario, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, RunOptions, SimError, Takeoff};
+use crate::sensing::Receiver;
 use crate::summary::{CableBreak, Summary};
 use nalgebra::Vector3;
 use vt_dissipative::{Formation, TeamMode};
@@ -122,7 +123,7 @@ impl<'a> World<'a> {
         // Sensors first: the controllers calibrate from what they measure at take-off.
         let r = &s.rates;
         let latency_steps = (dist.latency_s * dist.intensity * f64::from(r.low_level_hz)).round() as usize;
-        let sensors = Sensors::new(dist, latency_steps, seed);
+        let sensors = Sensors::new(dist, &s.sensing, n, 1.0 / f64::from(r.low_level_hz), latency_steps, seed);
         let hl_every = u64::from(r.plant_hz / r.high_level_hz);
         // Pre-flight: whole high-level periods of hover before the start (docs/design.md,
         // "Take-off survey"); the take-off measurement is sampled at its end.
@@ -225,14 +226,15 @@ impl<'a> World<'a> {
         let (sensors, plant) = (&mut self.sensors, &self.plant);
         sensors.sample(plant, time_ms);
         let start_load = Meas {
-            pos_m: v3f(&sensors.position(&plant.load.pos_m)),
+            pos_m: v3f(&sensors.position(Receiver::Load, &plant.load.pos_m)),
             vel_mps: v3f(&sensors.velocity(&plant.load.vel_mps)),
             sample_ms: time_ms,
         };
         let start_own: Vec<Meas> = plant
             .uavs
             .iter()
-            .map(|u| Meas { pos_m: v3f(&sensors.position(&u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: time_ms })
+            .enumerate()
+            .map(|(i, u)| Meas { pos_m: v3f(&sensors.position(Receiver::Uav(i), &u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: time_ms })
             .collect();
         let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
         self.formation = Some(
@@ -352,11 +354,11 @@ impl<'a> World<'a> {
         if high_level {
             let hl_step = clock / self.hl_every;
             let snap = self.sensors.delayed().clone();
-            for ((msg, x), mode) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode) {
-                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(x)), mode: *mode };
+            for (i, ((msg, x), mode)) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode).enumerate() {
+                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), x)), mode: *mode };
             }
             self.load = Meas {
-                pos_m: v3f(&self.sensors.position(&snap.load_pos_m)),
+                pos_m: v3f(&self.sensors.position(Receiver::Load, &snap.load_pos_m)),
                 vel_mps: v3f(&self.sensors.velocity(&snap.load_vel_mps)),
                 sample_ms: snap.time_ms,
             };
@@ -376,8 +378,8 @@ impl<'a> World<'a> {
         let time_ms = self.clock_ms();
         self.sensors.sample(&self.plant, time_ms);
         let snap = self.sensors.delayed().clone();
-        for (m, (p, v)) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)) {
-            *m = Meas { pos_m: v3f(&self.sensors.position(p)), vel_mps: v3f(&self.sensors.velocity(v)), sample_ms: snap.time_ms };
+        for (i, (m, (p, v))) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)).enumerate() {
+            *m = Meas { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), p)), vel_mps: v3f(&self.sensors.velocity(v)), sample_ms: snap.time_ms };
         }
         Tick {
             step: self.step,

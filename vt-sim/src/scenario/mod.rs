@@ -90,6 +90,9 @@ pub struct Scenario {
     /// Disturbances and uncertainty (all off by default; seeded).
     #[serde(default)]
     pub disturbances: DisturbanceSpec,
+    /// How the receivers see positions (issue 27; white noise by default).
+    #[serde(default)]
+    pub sensing: crate::sensing::SensingSpec,
     /// Faults injected at given times.
     #[serde(default)]
     pub faults: Vec<FaultSpec>,

@@ -287,6 +287,11 @@ impl Validator<'_> {
             self.non_negative("disturbances", k, v)?;
         }
         self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
+        if let Some(k) = s.sensing.error_scale {
+            if !(k.is_finite() && (0.0..=100.0).contains(&k)) {
+                return Err(self.err("sensing", "error_scale", format!("must be in [0, 100] (got {k})")));
+            }
+        }
         if !d.wind_mean_mps.iter().all(|x| x.is_finite()) {
             return Err(self.err("disturbances", "wind_mean_mps", "must be finite".into()));
         }

@@ -112,7 +112,7 @@ impl Team for RealtimeTeam<'_> {
         self.drain()
     }
 
-    fn start(&mut self, _ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<(), SimError> {
+    fn start(&mut self, _ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
         self.send(&start.tick)?;
         let mut hook = self.inner.take_start_hook().ok_or_else(|| SimError("realtime: nobody starts the companions".into()))?;
         hook().map_err(|e| SimError(format!("the start failed: {e}")))?;
@@ -131,7 +131,7 @@ impl Team for RealtimeTeam<'_> {
                     match rx {
                         Rx::CommandAck(c, r) if c == MavCmd::MAV_CMD_MISSION_START as u32 => {
                             if r != 0 {
-                                return Err(SimError(format!("UAV {i}: mission start refused (MAV_RESULT {r})")));
+                                return Ok(Some(format!("UAV {i}: mission start refused (MAV_RESULT {r})")));
                             }
                             *a = true;
                         }
@@ -143,7 +143,7 @@ impl Team for RealtimeTeam<'_> {
         }
         // Simulated time starts now.
         self.anchor = Some((Instant::now(), start.tick.time_ms));
-        Ok(())
+        Ok(None)
     }
 
     fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError> {

@@ -55,8 +55,16 @@ pub fn unsupported(ls: &LoadedScenario) -> Option<String> {
     if d.intensity != 0.0 && (d.position_noise_m != 0.0 || d.velocity_noise_mps != 0.0 || d.latency_s != 0.0 || d.link_jitter_s != 0.0) {
         what.push("[disturbances] sensing noise, latency or jitter");
     }
-    if d.intensity != 0.0 && (d.cable_length_error != 0.0 || d.cable_stiffness_error != 0.0 || d.uav_mass_error != 0.0 || d.load_mass_error != 0.0) {
+    if d.intensity != 0.0
+        && (d.cable_length_error != 0.0 || d.cable_stiffness_error != 0.0 || d.uav_mass_error != 0.0 || d.load_mass_error != 0.0 || d.thrust_scale_error != 0.0)
+    {
         what.push("[disturbances] parameter errors");
+    }
+    if s.uavs.battery_sag_per_min != 0.0 {
+        what.push("[uavs] battery_sag_per_min");
+    }
+    if s.sensing.position != crate::sensing::PositionModel::White {
+        what.push("[sensing] position");
     }
     (!what.is_empty()).then(|| {
         format!("{}: the RotorPy plant models the airframe, cables, load and wind only; remove {} (or fly --plant host)", ls.source_name, what.join(", "))
