@@ -2,10 +2,11 @@
 //! against the real obstacles; judged when a scenario gives `mission.clearance_floor_m`; the
 //! separation barrier that keeps surfaces apart when the UAVs declare `body_radius_m`.
 
+mod common;
+
 use host_sim::scenario::{parse, PAPER_10UAV};
 use host_sim::sim::{self, RunOptions};
 use host_sim::summary::Summary;
-use std::process::Command;
 
 fn fly(text: &str) -> (Summary, host_sim::record::RunRecord) {
     let ls = parse(text, "clearance.toml").expect("valid scenario");
@@ -78,16 +79,7 @@ fn declared_bodies_keep_their_clearance_with_the_separation_barrier() {
 }
 
 fn expect_error(text: &str, name: &str, must_contain: &[&str]) {
-    let dir = std::env::temp_dir().join(format!("vt-clearance-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    std::fs::write(&path, text).expect("write scenario");
-    let out = Command::new(env!("CARGO_BIN_EXE_host-sim")).args(["run", path.to_str().expect("utf-8 path"), "--out"]).arg(dir.join("out")).output().expect("host-sim runs");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    for m in must_contain {
-        assert!(err.contains(m), "`{m}` missing from: {err}");
-    }
+    common::expect_exit_2("clearance", text, name, must_contain);
 }
 
 #[test]

@@ -3,13 +3,14 @@
 //! The full campaigns (`scenarios/campaigns/{payload,payload-elastic,overload,overload-clamp}.toml`)
 //! are flown by `scripts/robustness-report.sh`; these tests fly reduced versions.
 
+mod common;
+
 use host_sim::campaign::{self, Campaign, Row};
 use host_sim::models::{CableModel, UavModel};
 use host_sim::scenario::{self, LoadedScenario};
 use host_sim::sim::{self, RunOptions};
 use host_sim::summary::Summary;
 use std::path::Path;
-use std::process::Command;
 
 /// The paper's physical limit with the 20 N cap: 10 x 20 N / g, kg.
 const PHYSICAL_LIMIT_KG: f64 = 10.0 * 20.0 / 9.81;
@@ -57,8 +58,10 @@ fn carries_19_8_kg_with_the_20_n_cap_as_a_hard_limit() {
     // pre-flight requirement lowered on purpose) it drops the load.
     let mut off = paper(mass);
     off.scenario.controller.capacity.enabled = false;
-    let refused = sim::run(&off, &hard_cap()).expect_err("the pre-flight check refuses the 3 m formation");
-    assert!(refused.0.contains("pre-flight") && refused.0.contains("available 191.6 N"), "{}", refused.0);
+    let refused = sim::run(&off, &hard_cap()).expect("a refusal is an outcome").summary;
+    let why = refused.failures.join("; ");
+    assert!(refused.was_refused(), "the pre-flight check refuses the 3 m formation: {why}");
+    assert!(why.contains("pre-flight") && why.contains("available 191.6 N"), "{why}");
     off.scenario.preflight.min_margin = -0.5;
     let off = sim::run(&off, &hard_cap()).expect("run starts").summary;
     println!("{mass} kg, rigid_body + paper_clamp, law off: {}", describe(&off));
@@ -132,8 +135,6 @@ fn overload_beyond_the_hard_cap_keeps_both_floors() {
 /// The new scenario fields are validated like the others: file, line and field, exit code 2.
 #[test]
 fn bad_payload_fields_name_the_file_line_and_field() {
-    let dir = std::env::temp_dir().join(format!("vt-payload-errors-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
     let paper = scenario::PAPER_10UAV;
     let line_of = |needle: &str| paper.lines().position(|l| l.contains(needle)).expect("needle") + 1;
     let cases = [
@@ -152,16 +153,6 @@ fn bad_payload_fields_name_the_file_line_and_field() {
         ),
     ];
     for (name, text, field, line) in cases {
-        let path = dir.join(name);
-        std::fs::write(&path, &text).expect("write scenario");
-        let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-            .args(["run", path.to_str().expect("utf-8 path"), "--out"])
-            .arg(dir.join("out"))
-            .output()
-            .expect("host-sim runs");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
-        assert!(!err.contains("panicked"), "{name}: {err}");
-        assert!(err.contains(&format!("{}:{line}:", path.display())) && err.contains(field), "{name}: want line {line} and `{field}` in: {err}");
+        common::expect_exit_2("payload-errors", &text, name, &[&format!("{name}:{line}:"), field]);
     }
 }

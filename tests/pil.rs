@@ -414,14 +414,19 @@ fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut En
     assert_eq!((hb & 0xFF, hb >> 16), (Mode::Transport as u32, 0));
 }
 
-#[test]
-fn firmware_refuses_mission_start_for_an_overweight_declared_load() {
+/// Runs `exchange` against a fresh firmware in QEMU (`name`) and shuts it down cleanly.
+fn on_firmware(name: &str, exchange: fn(&mut QemuPort, &mut Encoders)) {
     let Some(elf) = firmware() else { return };
-    let mut q = spawn(&elf, "overweight", false);
+    let mut q = spawn(&elf, name, false);
     let mut enc = Encoders::default();
-    overweight_is_refused_then_right_load_starts(&mut q, &mut enc);
+    exchange(&mut q, &mut enc);
     let (code, _) = q.shutdown(&mut enc.gcs, pil::SYSID_BASE).unwrap();
     assert_eq!(code, Some(0));
+}
+
+#[test]
+fn firmware_refuses_mission_start_for_an_overweight_declared_load() {
+    on_firmware("overweight", overweight_is_refused_then_right_load_starts);
 }
 
 /// The same on the host twin (no QEMU needed).
@@ -473,12 +478,7 @@ fn windy_start_is_refused_then_calm_starts<P: Port>(q: &mut P, enc: &mut Encoder
 
 #[test]
 fn firmware_refuses_mission_start_in_a_declared_wind_above_its_capacity() {
-    let Some(elf) = firmware() else { return };
-    let mut q = spawn(&elf, "windy", false);
-    let mut enc = Encoders::default();
-    windy_start_is_refused_then_calm_starts(&mut q, &mut enc);
-    let (code, _) = q.shutdown(&mut enc.gcs, pil::SYSID_BASE).unwrap();
-    assert_eq!(code, Some(0));
+    on_firmware("windy", windy_start_is_refused_then_calm_starts);
 }
 
 /// The same on the host twin (no QEMU needed).

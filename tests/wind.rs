@@ -2,8 +2,9 @@
 //! about, and the pre-flight refusal built on it. Plant: the default rigid-body quadrotors
 //! behind the PX4-style autopilot, elastic cables.
 
+mod common;
+
 use host_sim::sim::{self, RunOptions};
-use std::process::Command;
 
 fn experiment() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/experiment-3uav.toml")).expect("experiment scenario")
@@ -19,8 +20,8 @@ fn declare(text: &str, wind: f64, gust: f64) -> String {
 
 /// The team's steady-wind capacity as the companions compute it before take-off.
 fn capacity(text: &str) -> Cap {
-    let s = host_sim::scenario::parse(&declare(text, 0.0, 0.0), "calm.toml").expect("calm").scenario;
-    let c = sim::wind_preflight(&s, s.cables.rated_n).expect("holds calm air").expect("declared");
+    let s = host_sim::scenario::parse(text, "calm.toml").expect("calm").scenario;
+    let c = sim::wind_check(&s, s.cables.rated_n, 0.0, 0.0).expect("holds calm air");
     Cap { steady_mps: f64::from(c.steady_wind_max_mps), limit: format!("{:?}", c.limit) }
 }
 
@@ -32,17 +33,7 @@ struct Cap {
 }
 
 fn expect_error(text: &str, name: &str, must_contain: &[&str]) {
-    let dir = std::env::temp_dir().join(format!("vt-wind-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join(name);
-    std::fs::write(&path, text).expect("write scenario");
-    let out = Command::new(env!("CARGO_BIN_EXE_host-sim")).args(["run", path.to_str().expect("utf-8 path"), "--out"]).arg(dir.join("out")).output().expect("host-sim runs");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{name}: {err}");
-    assert!(!err.contains("panicked"), "{name}: {err}");
-    for m in must_contain {
-        assert!(err.contains(m), "{name}: `{m}` not in: {err}");
-    }
+    common::expect_exit_2("wind", text, name, must_contain);
 }
 
 /// The law's capacity is where the plant's team stops holding the tube: the experiment's team

@@ -1,4 +1,5 @@
-//! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`).
+//! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`)
+//! and the scenario error checks (`tests/wind.rs`, `tests/clearance.rs`).
 #![allow(dead_code)] // each test target uses its own part
 
 use host_sim::mission::{CompanionTeam, Setpoint, Team, TeamStart, Tick};
@@ -54,5 +55,25 @@ impl Team for Recording {
 
     fn team_modes(&self, out: &mut [TeamMode]) {
         self.team.team_modes(out);
+    }
+}
+
+/// Writes `text` as scenario `name` in a temporary folder of its own (`tag`), runs `host-sim run`
+/// on it and asserts exit 2 without a panic, with every string of `must_contain` on stderr.
+pub fn expect_exit_2(tag: &str, text: &str, name: &str, must_contain: &[&str]) {
+    let dir = std::env::temp_dir().join(format!("vt-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write scenario");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["run", path.to_str().expect("utf-8 path"), "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .expect("host-sim runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+    assert!(!err.contains("panicked"), "{name}: {err}");
+    for m in must_contain {
+        assert!(err.contains(m), "{name}: `{m}` not in: {err}");
     }
 }

@@ -202,6 +202,16 @@ pub fn wind_preflight(s: &Scenario, rated_n: f64) -> Result<Option<vt_dissipativ
     vt_dissipative::wind::check(&p.wind(takeoff_cos_lean(s, rated_n) as f32), wind_mps, gust_mps).map(Some)
 }
 
+/// The companions' wind check of `s` at a steady wind `wind_mps` plus `gust_mps` (m/s),
+/// whatever the scenario declares: the capacity (`steady_wind_max_mps`) when the team holds it.
+///
+/// # Errors
+/// As [`wind_preflight`].
+pub fn wind_check(s: &Scenario, rated_n: f64, wind_mps: f32, gust_mps: f32) -> Result<vt_dissipative::wind::WindCapacity, vt_dissipative::wind::WindError> {
+    let p = lead_params(s, rated_n).ok_or(vt_dissipative::wind::WindError::InvalidParameter("companion parameters"))?;
+    vt_dissipative::wind::check(&p.wind(takeoff_cos_lean(s, rated_n) as f32), wind_mps, gust_mps)
+}
+
 /// The tray of the formation metric (the companions fly `VT_TRAY_H`, the same height).
 pub fn tray(s: &Scenario) -> TrayParams {
     TrayParams { height_above_load_m: s.controller.tray_height_m as f32, ..TrayParams::default() }

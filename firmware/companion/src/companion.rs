@@ -223,23 +223,25 @@ impl<'t> Companion<'t> {
     /// Feeds received bytes; handles every complete frame (and, in lockstep, runs the control
     /// steps they trigger). Returns a board request if one arrived.
     pub fn on_bytes(&mut self, bytes: &[u8], io: &mut impl Io) -> Option<Request> {
-        for &b in bytes {
-            self.framer.push(b);
-            self.handle_frames(io);
-        }
-        self.core.link = *self.framer.counters();
-        self.core.request.take()
+        self.feed(bytes, io, false)
     }
 
     /// [`Companion::on_bytes`] for one whole datagram (UDP): a frame left incomplete at its
     /// end is dropped rather than completed by the next datagram ([`Framer::end_datagram`]).
     pub fn on_datagram(&mut self, bytes: &[u8], io: &mut impl Io) -> Option<Request> {
+        self.feed(bytes, io, true)
+    }
+
+    /// Frames and handles `bytes`; a `datagram` ends with them ([`Framer::end_datagram`]).
+    fn feed(&mut self, bytes: &[u8], io: &mut impl Io, datagram: bool) -> Option<Request> {
         for &b in bytes {
             self.framer.push(b);
             self.handle_frames(io);
         }
-        self.framer.end_datagram();
-        self.handle_frames(io);
+        if datagram {
+            self.framer.end_datagram();
+            self.handle_frames(io);
+        }
         self.core.link = *self.framer.counters();
         self.core.request.take()
     }

@@ -246,12 +246,7 @@ impl RunClass {
         let d = &g.drawn;
         let s = &g.loaded.scenario;
         let (mean, gust) = forecast_mps(s);
-        let cap = {
-            let mut calm = s.clone();
-            calm.mission.max_wind_mps = Some(0.0);
-            calm.mission.gust_margin_mps = 0.0;
-            sim::wind_preflight(&calm, calm.cables.rated_n).ok().flatten().map_or(f64::NAN, |c| f64::from(c.steady_wind_max_mps))
-        };
+        let cap = sim::wind_check(s, s.cables.rated_n, 0.0, 0.0).map_or(f64::NAN, |c| f64::from(c.steady_wind_max_mps));
         Self {
             tube: d.tube.name().into(),
             n_uavs: d.n_uavs,
@@ -280,14 +275,8 @@ pub fn forecast_mps(s: &scenario::Scenario) -> (f64, f64) {
 /// Why `s` is refused before take-off with its forecast declared (the companions' wind check,
 /// `sim::wind_preflight`), or `None` when the team holds it.
 fn wind_refusal(s: &scenario::Scenario) -> Option<String> {
-    let mut declared = s.clone();
     let (mean, gust) = forecast_mps(s);
-    declared.mission.max_wind_mps = Some(mean);
-    declared.mission.gust_margin_mps = gust;
-    match sim::wind_preflight(&declared, declared.cables.rated_n) {
-        Ok(_) => None,
-        Err(e) => Some(e.to_string()),
-    }
+    sim::wind_check(s, s.cables.rated_n, mean as f32, gust as f32).err().map(|e| e.to_string())
 }
 
 /// The scenario run `(level l, seed)` of `c` flies: the level's, or the one generated from the

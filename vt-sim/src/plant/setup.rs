@@ -5,7 +5,7 @@ use crate::cable::CableParams;
 use crate::disturbance::ParameterDraw;
 use crate::models::{CableModel, UavModel, DEFAULT_BREAKING_FACTOR};
 use crate::scenario::Scenario;
-use crate::quadrotor::{QuadParams, Quadrotor};
+use crate::quadrotor::Quadrotor;
 use crate::sim::Takeoff;
 use nalgebra::Vector3;
 
@@ -71,7 +71,7 @@ pub fn build(
                 .zip(&to.uav_pos_m)
                 .enumerate()
                 .map(|(index, ((k, t), p))| {
-                    let mut q = Quadrotor::new(QuadParams::sized(s.uavs.mass_kg * k, s.uavs.thrust_max_n), *p, Vector3::zeros())
+                    let mut q = Quadrotor::new(s.uavs.airframe(s.uavs.mass_kg * k), *p, Vector3::zeros())
                         .map_err(|error| PlantError::Quadrotor { index, error })?;
                     q.set_thrust_scale(*t);
                     Ok(q)

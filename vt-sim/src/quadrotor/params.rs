@@ -221,6 +221,20 @@ impl QuadParams {
         }
     }
 
+    /// The same airframe behind PX4's stock rate controller (issue 27): PX4 v1.14
+    /// `MC_ROLLRATE_P/I/D = 0.15 / 0.2 / 0.003` (pitch alike), `MC_YAWRATE_P/I/D = 0.2 / 0.1 / 0`,
+    /// which act on torque normalised by the airframe's authority, so in physical units they
+    /// are those times each axis's full-differential angular acceleration (docs/plant.md,
+    /// "Autopilot inner loops"). The attitude gains and limits are already PX4's defaults.
+    #[must_use]
+    pub fn with_px4_default_rate_gains(mut self) -> Self {
+        let authority = self.autopilot.rate_int_lim_radps2 / RATE_INT_LIM_FRACTION;
+        self.autopilot.rate_p_per_s = Vector3::new(0.15, 0.15, 0.2).component_mul(&authority);
+        self.autopilot.rate_i_per_s2 = Vector3::new(0.2, 0.2, 0.1).component_mul(&authority);
+        self.autopilot.rate_d = Vector3::new(0.003, 0.003, 0.0).component_mul(&authority);
+        self
+    }
+
     /// The paper's simulated UAV: 2 kg, 50 N in all (REFERENCE §5, §6).
     #[must_use]
     pub fn paper() -> Self {
@@ -356,6 +370,20 @@ mod tests {
             let omega_max = (p.rotor_thrust_max_n / p.thrust_coeff_n_per_rps2).sqrt();
             assert!((omega_max * p.arm_length_m - REF_OMEGA_MAX_RPS * REF_ARM_M).abs() < 1e-6);
         }
+    }
+
+    /// Stock PX4 rate gains on the paper's airframe (authority about 101 rad/s^2 in roll):
+    /// P about 15 1/s, against the project's tuned 25 (docs/plant.md).
+    #[test]
+    fn px4_default_rate_gains_scale_with_the_authority() {
+        let tuned = QuadParams::paper();
+        let stock = tuned.with_px4_default_rate_gains();
+        let a = tuned.autopilot.rate_int_lim_radps2 / RATE_INT_LIM_FRACTION;
+        assert!((stock.autopilot.rate_p_per_s.x - 15.0).abs() < 1.0, "{}", stock.autopilot.rate_p_per_s.x);
+        assert!((stock.autopilot.rate_i_per_s2.y - 0.2 * a.y).abs() < 1e-9);
+        assert!(stock.autopilot.rate_d.x < 1.0 && stock.autopilot.rate_d.z == 0.0);
+        assert!(stock.validate().is_ok());
+        assert_eq!(stock.autopilot.attitude_gain_per_s, tuned.autopilot.attitude_gain_per_s);
     }
 
     /// Issue 27: the paper's 2 kg airframe measures about 0.83 m from rotor tip to rotor tip

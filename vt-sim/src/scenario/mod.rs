@@ -390,13 +390,38 @@ pub struct UavSpec {
     /// the clearances are measured with [`UavSpec::envelope_radius_m`]'s default.
     #[serde(default)]
     pub body_radius_m: Option<f64>,
+    /// The rigid-body UAVs' autopilot: `tuned` (default, the project's rate gains, docs/plant.md)
+    /// or `px4_default` (PX4's stock rate gains; issue 27).
+    #[serde(default)]
+    pub autopilot: AutopilotPreset,
     /// Battery sag: the fraction of the maximum thrust lost per minute of flight, from the
     /// start of the flight (issue 27; the firmware keeps believing `thrust_max_n`).
     #[serde(default)]
     pub battery_sag_per_min: f64,
 }
 
+/// Rate gains of the rigid-body UAVs' autopilot (`[uavs] autopilot`).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum AutopilotPreset {
+    /// The project's tuned rate loop (rate P 25 1/s on the paper's airframe).
+    #[default]
+    Tuned,
+    /// PX4's stock rate gains (`QuadParams::with_px4_default_rate_gains`).
+    Px4Default,
+}
+
 impl UavSpec {
+    /// The airframe of a rigid-body UAV of mass `mass_kg`: sized from it and `thrust_max_n`,
+    /// behind the autopilot the scenario names.
+    pub fn airframe(&self, mass_kg: f64) -> crate::quadrotor::QuadParams {
+        let q = crate::quadrotor::QuadParams::sized(mass_kg, self.thrust_max_n);
+        match self.autopilot {
+            AutopilotPreset::Tuned => q,
+            AutopilotPreset::Px4Default => q.with_px4_default_rate_gains(),
+        }
+    }
+
     /// The tube barrier's safety radius the companions fly, m: `r_safe_m`, raised to
     /// `body_radius_m + clearance floor` when the UAVs have a body (`vt_companion::Params::r_safe_m`).
     pub fn flown_r_safe_m(&self, r_safe_m: f64, clearance_floor_m: f64) -> f64 {

@@ -63,6 +63,9 @@ pub fn unsupported(ls: &LoadedScenario) -> Option<String> {
     if s.uavs.battery_sag_per_min != 0.0 {
         what.push("[uavs] battery_sag_per_min");
     }
+    if s.uavs.autopilot != crate::scenario::AutopilotPreset::Tuned {
+        what.push("[uavs] autopilot (RotorPy flies its own attitude controller)");
+    }
     if s.sensing.position != crate::sensing::PositionModel::White {
         what.push("[sensing] position");
     }
