@@ -28,3 +28,4 @@ pub mod score;
 pub mod sim;
 pub mod sitl;
 pub mod summary;
+pub mod turbulence;

@@ -251,6 +251,9 @@ impl Metrics {
             failures.push(format!("cable {} broke at t = {:.2} s ({:.1} N > breaking {:.0} N)", b.uav, b.time_s, b.tension_n, b.breaking_n));
         }
         let fin = |x: f64| if x.is_finite() { x } else { -1.0 };
+        // A clearance with nothing to measure against (no obstacles, a single UAV) is NaN
+        // (`null` in summary.json, so that it reads back the same); outside the tube, -1 as above.
+        let clr = |x: f64| if x.is_finite() { x } else if x < 0.0 { -1.0 } else { f64::NAN };
         Summary {
             scenario: s.name.clone(),
             controller: kind.name().into(),
@@ -262,9 +265,9 @@ impl Metrics {
             min_uav_boundary_m: fin(self.min_uav_boundary),
             min_load_boundary_m: fin(self.min_load_boundary),
             min_uav_uav_m: fin(self.min_uav_uav),
-            min_uav_uav_clearance_m: c.uav_uav_m,
-            min_uav_boundary_clearance_m: c.uav_boundary_m,
-            min_obstacle_clearance_m: c.obstacle_m,
+            min_uav_uav_clearance_m: clr(c.uav_uav_m),
+            min_uav_boundary_clearance_m: clr(c.uav_boundary_m),
+            min_obstacle_clearance_m: clr(c.obstacle_m),
             uav_body_radius_m: self.clearances.uav_radius_m(),
             load_radius_m: self.clearances.load_radius_m(),
             max_tension_n: self.max_tension,

@@ -37,7 +37,7 @@ pub struct Summary {
     #[serde(default = "nan", deserialize_with = "f64_or_nan")]
     pub min_uav_boundary_clearance_m: f64,
     /// Smallest clearance of the UAV bodies, the load (`load_radius_m`) and every attached cable
-    /// to the world's real obstacles, at the plant rate, m.
+    /// to the world's real obstacles, at the plant rate, m (`null` when the world has none).
     #[serde(default = "nan", deserialize_with = "f64_or_nan")]
     pub min_obstacle_clearance_m: f64,
     /// UAV envelope radius the clearances used, m (0: points, the paper's).

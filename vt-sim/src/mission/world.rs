@@ -73,6 +73,8 @@ pub struct World<'a> {
     hints: TubeHints,
     /// Scratch: the UAV positions the safety metrics read, m.
     uav_pos_scratch: Vec<V3>,
+    /// Dryden turbulence per body (`None`: off).
+    turbulence: Option<crate::turbulence::Turbulence>,
     /// Which cables are attached (not cut or broken), per plant step.
     attached: Vec<bool>,
     dt: f64,
@@ -162,6 +164,11 @@ impl<'a> World<'a> {
             ls,
             sensors,
             wind: Wind::new(dist, seed),
+            turbulence: {
+                let altitude = takeoff.uav_pos_m.iter().map(|p| p.z).sum::<f64>() / n.max(1) as f64;
+                let mean_wind = nalgebra::Vector3::from(dist.wind_mean_mps) * dist.intensity;
+                crate::turbulence::Turbulence::new(dist.turbulence * dist.intensity, altitude, &mean_wind, s.controller.v_max_mps, 2.0 * s.uavs.formation_radius_m, n, seed)
+            },
             link,
             faults,
             next_fault: 0,
@@ -471,6 +478,10 @@ impl<'a> World<'a> {
             self.next_fault += 1;
         }
         let wind = if self.wind.is_calm() { V3::zeros() } else { self.wind.step(self.dt) };
+        if let Some(t) = &mut self.turbulence {
+            t.step(self.dt);
+            self.plant.set_gusts(t.gusts());
+        }
         self.plant.step_setpoints(setpoints, &self.motors_off, &wind, self.uav_drag_area_m2, self.load_drag_area_m2, self.dt);
         for (i, tension_n, breaking_n) in self.plant.take_breaks() {
             self.metrics.breaks.push(CableBreak { uav: i, time_s: t, tension_n, breaking_n });

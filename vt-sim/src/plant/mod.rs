@@ -199,6 +199,9 @@ pub struct Plant {
     quads: Vec<crate::quadrotor::Quadrotor>,
     /// Each UAV's maximum thrust as built, N ([`Plant::set_thrust_scale`] scales it).
     thrust_built_n: Vec<f64>,
+    /// Turbulent gust of each UAV, then the load's, on top of the uniform wind, m/s
+    /// ([`Plant::set_gusts`]; empty: none).
+    gusts_mps: Vec<Vector3<f64>>,
     /// Last valid setpoint of each quadrotor, held when a setpoint is lost.
     rigid_targets: Vec<crate::quadrotor::AttitudeTarget>,
     /// The setpoint each target was converted from (converted again only when it changes).
@@ -321,6 +324,7 @@ impl Plant {
             rigid_targets: Vec::new(),
             rigid_setpoints: Vec::new(),
             thrust_built_n: Vec::new(),
+            gusts_mps: Vec::new(),
         };
         plant.thrust_built_n = plant.uav_params.iter().map(|p| p.thrust_max_n).collect();
         plant.last_forces = plant.cable_forces();
@@ -342,6 +346,19 @@ impl Plant {
         if let Some(q) = self.quads.get_mut(index) {
             q.set_thrust_scale(scale);
         }
+    }
+
+    /// Sets each body's turbulent gust for the next steps, m/s, world ENU: one per UAV, then the
+    /// load's ([`crate::turbulence`]). Added to the uniform wind in every drag term; missing or
+    /// non-finite entries count as none.
+    pub fn set_gusts(&mut self, gusts_mps: &[Vector3<f64>]) {
+        self.gusts_mps.clear();
+        self.gusts_mps.extend(gusts_mps.iter().map(|g| if finite3(g) { *g } else { Vector3::zeros() }));
+    }
+
+    /// The gust of body `index` (UAVs `0..n`, the load `n`), m/s.
+    fn gust(&self, index: usize) -> Vector3<f64> {
+        self.gusts_mps.get(index).copied().unwrap_or_else(Vector3::zeros)
     }
 
     /// Cuts cable `index` (fault injection): from now on it carries no force.
@@ -579,13 +596,14 @@ impl Plant {
                     .unwrap_or_else(|| Vector3::repeat(f64::NAN))
             }
         }));
-        let calm = *wind_mps == Vector3::zeros();
+        let calm = *wind_mps == Vector3::zeros() && self.gusts_mps.is_empty();
         let mut ext = std::mem::take(&mut self.ext_buf);
         ext.clear();
         if !calm {
-            ext.extend(self.uavs.iter().map(|u| drag_n(wind_mps, &u.vel_mps, uav_drag_area_m2)));
+            ext.extend(self.uavs.iter().enumerate().map(|(i, u)| drag_n(&(wind_mps + self.gust(i)), &u.vel_mps, uav_drag_area_m2)));
         }
-        let ext_load = if calm { Vector3::zeros() } else { drag_n(wind_mps, &self.load.vel_mps, load_drag_area_m2) };
+        let load_wind = wind_mps + self.gust(self.uavs.len());
+        let ext_load = if calm { Vector3::zeros() } else { drag_n(&load_wind, &self.load.vel_mps, load_drag_area_m2) };
         self.step(&thrust, &ext, ext_load, dt_s);
         self.thrust_buf = thrust;
         self.ext_buf = ext;

@@ -120,14 +120,15 @@ impl Plant {
         self.last_forces.truncate(n);
         for _ in 0..self.substeps {
             let (load_pos, load_vel) = (self.load.pos_m, self.load.vel_mps);
-            let mut load_force = self.load_params.mass_kg * g + drag_n(&wind, &load_vel, load_drag_area_m2);
+            let load_wind = wind + self.gusts_mps.get(n).copied().unwrap_or_else(Vector3::zeros);
+            let mut load_force = self.load_params.mass_kg * g + drag_n(&load_wind, &load_vel, load_drag_area_m2);
             for (i, ((q, c), target)) in self.quads.iter_mut().zip(&self.cables).zip(&self.rigid_targets).enumerate() {
                 let f = cable_force(q.attach_point_world_m(), q.attach_velocity_world_mps(), load_pos, load_vel, c);
                 let breaking = self.breaking_n.get(i).copied().unwrap_or(f64::INFINITY);
                 if f.tension_n > breaking {
                     self.breaks.push((i, f.tension_n, breaking));
                 }
-                q.step(target, f.on_uav_n, wind, h);
+                q.step(target, f.on_uav_n, wind + self.gusts_mps.get(i).copied().unwrap_or_else(Vector3::zeros), h);
                 load_force += f.on_load_n;
                 if let Some(slot) = self.last_forces.get_mut(i) {
                     *slot = f;

@@ -201,6 +201,10 @@ pub struct DisturbanceSpec {
     /// Relative load mass error, uniform in +-this.
     #[serde(default)]
     pub load_mass_error: f64,
+    /// Dryden turbulence (MIL-F-8785C low altitude) per UAV and for the load: 0 off, 1 light
+    /// (15 kt at 20 ft), 2 moderate (30 kt); times `intensity` ([`crate::turbulence`]; issue 27).
+    #[serde(default)]
+    pub turbulence: f64,
     /// Relative error of each UAV's maximum thrust, uniform in +-this: the plant's true maximum
     /// differs from `uavs.thrust_max_n`, which the firmware believes (`VL_T_MAX`; issue 27).
     #[serde(default)]
@@ -227,6 +231,7 @@ impl Default for DisturbanceSpec {
             uav_mass_error: 0.0,
             load_mass_error: 0.0,
             thrust_scale_error: 0.0,
+            turbulence: 0.0,
             intensity: 1.0,
         }
     }

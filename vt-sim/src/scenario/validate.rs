@@ -286,6 +286,9 @@ impl Validator<'_> {
                        ("intensity", d.intensity)] {
             self.non_negative("disturbances", k, v)?;
         }
+        if !(d.turbulence.is_finite() && (0.0..=3.0).contains(&(d.turbulence * d.intensity))) {
+            return Err(self.err("disturbances", "turbulence", format!("turbulence x intensity must be in [0, 3] (got {})", d.turbulence * d.intensity)));
+        }
         self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
         if let Some(k) = s.sensing.error_scale {
             if !(k.is_finite() && (0.0..=100.0).contains(&k)) {

@@ -60,6 +60,9 @@ pub fn unsupported(ls: &LoadedScenario) -> Option<String> {
     {
         what.push("[disturbances] parameter errors");
     }
+    if d.intensity != 0.0 && d.turbulence != 0.0 {
+        what.push("[disturbances] turbulence");
+    }
     if s.uavs.battery_sag_per_min != 0.0 {
         what.push("[uavs] battery_sag_per_min");
     }
