@@ -411,7 +411,7 @@ fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut En
         hb = r.heartbeat.or(hb);
     }
     let hb = hb.expect("heartbeat");
-    assert_eq!((hb & 0xFF, hb >> 16), (Mode::Transport as u32, 0));
+    assert_eq!((hb & 0xFF, (hb >> 16) & 0xFF, hb >> 24), (Mode::Transport as u32, 0, 5));
 }
 
 /// Runs `exchange` against a fresh firmware in QEMU (`name`) and shuts it down cleanly.

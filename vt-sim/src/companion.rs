@@ -178,6 +178,9 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::DragQ, f(drag_q)),
         (Param::DragL, f(drag_l)),
         (Param::LoadCda, f(s.disturbances.load_drag_area_m2)),
+        (Param::Start, flag(s.mission.start == crate::scenario::MissionStart::Ground)),
+        (Param::EndTol, f(s.mission.end_tolerance_m)),
+        (Param::TkoS, f(crate::sim::ground_takeoff_s(s))),
         (Param::Ctrl, match kind {
             ControllerKind::Dissipative => 0.0,
             ControllerKind::Baseline => 1.0,

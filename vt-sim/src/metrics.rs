@@ -77,6 +77,8 @@ pub struct Metrics {
     cv_count: u64,
     pub(crate) max_thrust_fraction: f64,
     pub(crate) arrived: bool,
+    /// The load-altitude criterion applies now (a ground start: in its transport phase only).
+    pub(crate) judge_altitude: bool,
     pub(crate) nonfinite: bool,
     pub(crate) invalid_commands: u64,
     /// Surface-to-surface clearances at the plant rate (issue 27).
@@ -115,6 +117,7 @@ impl Metrics {
             cv_count: 0,
             max_thrust_fraction: 0.0,
             arrived: false,
+            judge_altitude: true,
             nonfinite: false,
             invalid_commands: 0,
         }
@@ -161,7 +164,7 @@ impl Metrics {
         self.min_uav_boundary = self.min_uav_boundary.min(ub);
         self.min_load_boundary = self.min_load_boundary.min(lb);
         self.min_uav_uav = self.min_uav_uav.min(uu);
-        if t >= self.settle_s {
+        if t >= self.settle_s && self.judge_altitude {
             self.max_alt_err = self.max_alt_err.max((load_pos_m.z - self.alt_ref).abs());
         }
     }
@@ -296,6 +299,11 @@ impl Metrics {
             cable_breaks: self.breaks,
             cables_cut_by_fault: self.snapped_by_fault,
             outcome: "flown".into(),
+            start: s.mission.start.name().into(),
+            phases: Vec::new(),
+            lift_peak_tension_n: None,
+            lift_share_spread: None,
+            touchdown_speed_mps: None,
         }
     }
 }

@@ -108,6 +108,39 @@ pub enum EventKind {
     Hold,
     /// The UAV's controller left hold (back to transport).
     Resume,
+    /// Ground start: the team's take-off began (the first UAV to enter a phase marks it).
+    PhaseTakeoff,
+    /// Ground start: the tension build-up began.
+    PhaseTension,
+    /// Ground start: the lift began.
+    PhaseLift,
+    /// Ground start: the climb began (the load left the ground).
+    PhaseClimb,
+    /// Ground start: the transport began.
+    PhaseTransport,
+    /// Ground start: the descent began.
+    PhaseDescent,
+    /// Ground start: the load is down, the cables slacken.
+    PhaseSlack,
+    /// Ground start: the team released the load.
+    PhaseReleased,
+}
+
+impl EventKind {
+    /// The event of a ground start's phase change.
+    pub fn of_phase(p: vt_dissipative::Phase) -> Self {
+        use vt_dissipative::Phase;
+        match p {
+            Phase::Takeoff => Self::PhaseTakeoff,
+            Phase::Tension => Self::PhaseTension,
+            Phase::Lift => Self::PhaseLift,
+            Phase::Climb => Self::PhaseClimb,
+            Phase::Transport => Self::PhaseTransport,
+            Phase::Descent => Self::PhaseDescent,
+            Phase::Slack => Self::PhaseSlack,
+            Phase::Released => Self::PhaseReleased,
+        }
+    }
 }
 
 /// One event on the run's timeline.

@@ -122,7 +122,9 @@ pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64
     let k = ((s.load.start_s_m as f32 / tube.ds_m()) as usize).min(tube.samples().len() - 1);
     let smp = tube.samples().get(k).copied().unwrap_or(tube.samples()[0]);
     let heading = f64::from(smp.tangent.y).atan2(f64::from(smp.tangent.x));
-    let load = V3::new(f64::from(smp.pos_m.x), f64::from(smp.pos_m.y), s.load.altitude_m);
+    let ground = s.mission.start == crate::scenario::MissionStart::Ground;
+    let load_z = if ground { s.load.envelope_radius_m() } else { s.load.altitude_m };
+    let load = V3::new(f64::from(smp.pos_m.x), f64::from(smp.pos_m.y), load_z);
     let uav_pos_m = lengths_m
         .iter()
         .zip(stiffness_n_per_m.iter())
@@ -132,10 +134,30 @@ pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64
             let taut = len + share / k;
             let height = taut * cos_lean;
             let offset = r * height / h_tray;
-            load + V3::new(offset * a.cos(), offset * a.sin(), height)
+            // A ground start: the same place, hovering low with a slack cable.
+            let z = if ground { ground_hover_height_m(*len, offset) } else { height };
+            load + V3::new(offset * a.cos(), offset * a.sin(), z)
         })
         .collect();
     Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin }
+}
+
+/// Height above the resting load at which a ground start's UAVs hover before take-off, m:
+/// [`GROUND_HOVER_M`], or half the taut height when that leaves less than 0.5 m of slack.
+pub fn ground_hover_height_m(cable_m: f64, offset_m: f64) -> f64 {
+    let taut = (cable_m * cable_m - offset_m * offset_m).max(0.0).sqrt();
+    if GROUND_HOVER_M <= taut - 0.5 { GROUND_HOVER_M } else { 0.5 * taut }
+}
+
+/// A ground start's hover height before take-off, above the resting load, m.
+pub const GROUND_HOVER_M: f64 = 1.5;
+
+/// Length of a ground start's take-off phase (`VT_TKO_S`), s: the climb from the hover height
+/// to the longest cable's taut height at the vertical speed limit, plus 3 s to settle. A
+/// mission-planning figure, as a waypoint's time is.
+pub fn ground_takeoff_s(s: &Scenario) -> f64 {
+    let longest = s.cables.lengths_m.iter().copied().fold(0.0, f64::max);
+    (longest - GROUND_HOVER_M).max(0.0) / s.controller.vz_max_mps.max(0.1) + 3.0
 }
 
 /// Scale of the take-off formation: the capacity-aware formation's `lambda*` for the declared

@@ -118,10 +118,44 @@ pub struct Summary {
     /// cannot hold: nothing flew, the distances are NaN; issue 29).
     #[serde(default = "flown")]
     pub outcome: String,
+    /// Where the mission started: `air` (the paper) or `ground` (issue 27).
+    #[serde(default = "air")]
+    pub start: String,
+    /// Ground start: each phase the team entered, in order, with when the first UAV entered it
+    /// and the load's swing then (empty for an air start).
+    #[serde(default)]
+    pub phases: Vec<PhaseMark>,
+    /// Ground start: the highest cable tension from the start until the transport began (the
+    /// snatch of the lift), N.
+    #[serde(default)]
+    pub lift_peak_tension_n: Option<f64>,
+    /// Ground start: `(max - min) / mean` of the cable tensions when the load left the ground.
+    #[serde(default)]
+    pub lift_share_spread: Option<f64>,
+    /// Ground start: the load's downward speed when it touched the ground again, m/s.
+    #[serde(default)]
+    pub touchdown_speed_mps: Option<f64>,
 }
 
 fn flown() -> String {
     "flown".into()
+}
+
+fn air() -> String {
+    "air".into()
+}
+
+/// The start of one phase of a ground-start mission.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PhaseMark {
+    /// The phase (`takeoff`, `tension`, `lift`, `climb`, `transport`, `descent`, `slack`,
+    /// `released`).
+    pub name: String,
+    /// When the first UAV entered it, s.
+    pub start_s: f64,
+    /// The load's swing then: the angle from the vertical of the line from the attached UAVs'
+    /// centroid to the load, deg.
+    pub swing_deg: f64,
 }
 
 /// One cable that broke in flight.
@@ -188,6 +222,11 @@ impl Summary {
             cable_breaks: Vec::new(),
             cables_cut_by_fault: 0,
             outcome: "refused".into(),
+            start: s.mission.start.name().into(),
+            phases: Vec::new(),
+            lift_peak_tension_n: None,
+            lift_share_spread: None,
+            touchdown_speed_mps: None,
         }
     }
 

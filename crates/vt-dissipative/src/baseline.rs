@@ -90,6 +90,15 @@ impl BaselineController {
         self.team_hold = hold;
     }
 
+    /// The load altitude reference of the altitude law, m, and its load sharing on or off (as
+    /// [`crate::DissipativeController::set_load_altitude_ref`]).
+    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+        if z_m.is_finite() {
+            self.params.vertical.load_altitude_ref_m = z_m;
+        }
+        self.vertical.set_load_altitude_ref(z_m, sharing);
+    }
+
     /// One step: own velocity command. Same failure handling as the dissipative controller.
     pub fn update<const S: usize>(&mut self, tube: &Tube<S>, m: &Measurements<'_>, dt_s: f32) -> Command {
         let mut status = Status::default();

@@ -261,6 +261,15 @@ impl<const N: usize> DissipativeController<N> {
         self.team_hold
     }
 
+    /// The load altitude reference of the altitude law, m, and its load sharing on or off (the
+    /// ground sequence's ramp, [`crate::phases`]; a non-finite `z_m` is ignored).
+    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+        if z_m.is_finite() {
+            self.params.vertical.load_altitude_ref_m = z_m;
+        }
+        self.vertical.set_load_altitude_ref(z_m, sharing);
+    }
+
     /// Turns on the capacity-aware formation law (docs/design.md, "Capacity-aware formation"):
     /// rest lengths scaled by `scale`'s `lambda`, the passing term by its progress factor.
     /// Without it the controller is the paper's, bit for bit.

@@ -17,6 +17,7 @@
 //! - [`feasibility`]: the pre-flight check that the team can carry the load with margin.
 //! - [`controller`]: one UAV's distributed command, synthesis eq:2-16 and saturation eq:2-21.
 //! - [`baseline`]: traditional virtual-tube control (no springs, robot-robot barrier).
+//! - [`phases`]: the mission from the ground: lift-off, transport, set-down (issue 27).
 //! - [`team_hold`]: the team failsafe's mode and resume hysteresis (`docs/design.md`).
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
@@ -31,6 +32,7 @@ mod error;
 pub mod feasibility;
 pub mod keeping;
 pub mod passing;
+pub mod phases;
 pub mod separation;
 pub mod springs;
 pub mod survey;
@@ -45,6 +47,7 @@ pub use capacity::{CapacityParams, CapacityPlan, FormationScale};
 pub use calibration::{calibrate, Calibration, CalibrationError, CalibrationParams};
 pub use controller::{Command, DissipativeController, DissipativeParams, Measurements};
 pub use error::ControlError;
+pub use phases::{Abort, Phase, PhaseParams, PhaseProfile};
 pub use feasibility::{Feasibility, FeasibilityError, FeasibilityParams};
 pub use springs::Formation;
 pub use status::Status;

@@ -113,12 +113,23 @@ impl VerticalParams {
 pub struct VerticalLoop {
     params: VerticalParams,
     offset_m: f32,
+    sharing_on: bool,
 }
 
 impl VerticalLoop {
     /// A loop with zero sharing offset.
     pub fn new(params: VerticalParams) -> Self {
-        Self { params, offset_m: 0.0 }
+        Self { params, offset_m: 0.0, sharing_on: true }
+    }
+
+    /// Moves the load altitude reference to `z_m` (the ground sequence's ramp,
+    /// [`crate::phases`]) and switches the sharing integrator on or off (off: the offset is
+    /// held; a load resting on the ground or slack cables must not wind it up).
+    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+        if z_m.is_finite() {
+            self.params.load_altitude_ref_m = z_m;
+        }
+        self.sharing_on = sharing;
     }
 
     /// The parameters.
@@ -140,7 +151,7 @@ impl VerticalLoop {
         let p = &self.params;
         let d = uav_m - load_m;
         let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
-        let sharing = p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
+        let sharing = self.sharing_on && p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
         if let (true, Some(f), true) = (sharing, force_n, dt_s.is_finite() && dt_s > 0.0) {
             let len = vt_fpu::sqrt(d.norm_squared());
             if f.iter().all(|x| x.is_finite()) && len > 0.0 {

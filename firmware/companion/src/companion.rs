@@ -169,6 +169,8 @@ struct Core<'t> {
     hl_steps: u32,
     /// Team mode in the last heartbeat decision (a change sends one at once).
     team_mode_sent: TeamMode,
+    /// The phase the last `HEARTBEAT` carried (`custom_mode` bits 24..31).
+    phase_sent: u8,
     hl_cycles: u32,
     ll_cycles: u32,
     ll_cycles_max: u32,
@@ -203,6 +205,7 @@ impl<'t> Companion<'t> {
                 lockstep_now_ms: None,
                 hl_steps: 0,
                 team_mode_sent: TeamMode::Transport,
+                phase_sent: 0,
                 hl_cycles: 0,
                 ll_cycles: 0,
                 ll_cycles_max: 0,
@@ -566,6 +569,7 @@ impl Core<'_> {
             let t0 = io.cycles();
             let v = fl.high_level(tube, &self.sources, now);
             self.hl_cycles = io.cycles().wrapping_sub(t0);
+            let refusal = fl.take_refusal();
             let ned = ned_from_enu(&v);
             let f_hat = ned_from_enu(&fl.cable_force_n());
             self.update_mode();
@@ -590,13 +594,21 @@ impl Core<'_> {
             self.send(io, &DEBUG_VECT_DATA { time_usec, x: f_hat[0], y: f_hat[1], z: f_hat[2], name: NAME_CABLE_FORCE.into() });
             let (x, y, z) = (self.hl_cycles as f32, self.ll_cycles as f32, self.ll_cycles_max as f32);
             self.send(io, &DEBUG_VECT_DATA { time_usec, x, y, z, name: NAME_CYCLES.into() });
+            // A ground start refused at its arming, or its lift abandoned: said once.
+            if let Some(e) = refusal {
+                log!(warn, "ground start refused: {}", e);
+                self.refused(&e, io);
+            }
         }
         // Slow telemetry once per second of high-level steps; the heartbeat also at every step
-        // while holding and on every change of the team mode (docs/protocol.md, "Team failsafe").
+        // while holding and on every change of the team mode or the phase (docs/protocol.md, "Team
+        // failsafe").
         let per_second = self.params.get_u32(Param::HlHz).max(1);
         let team = self.flight.as_ref().map_or(TeamMode::Transport, Flight::team_mode);
-        let beat = team.is_holding() || team != self.team_mode_sent;
+        let phase = self.flight.as_ref().map_or(0, |f| f.phase() as u8);
+        let beat = team.is_holding() || team != self.team_mode_sent || phase != self.phase_sent;
         self.team_mode_sent = team;
+        self.phase_sent = phase;
         if self.hl_steps.is_multiple_of(per_second) {
             self.send_status(io);
         } else if beat {
@@ -720,6 +732,7 @@ impl Core<'_> {
         self.clock_ms = now;
         match Flight::start(&self.params, self.tube(), &self.sources, now) {
             Ok(fl) => {
+                self.phase_sent = fl.phase() as u8;
                 self.flight = Some(fl);
                 self.refusal = 0;
                 self.hl_steps = 0;

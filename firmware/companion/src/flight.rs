@@ -29,9 +29,11 @@
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
+use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
+use vt_dissipative::phases::{tension_climb_mps, LIFT_ABORT_FACTOR};
 use vt_dissipative::{
-    capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, TakeoffSurvey,
-    TeamHoldSupervisor, TeamMode,
+    capacity, Abort, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, Phase,
+    PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode, VerticalParams,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -199,6 +201,9 @@ pub enum StartError {
     /// The pre-flight wind check: the declared wind plus its gust margin is above what the
     /// team can hold in the tube (`vt_dissipative::wind`).
     Wind(vt_dissipative::wind::WindError),
+    /// Ground start: the load did not leave the ground before the lift's allowance (an
+    /// overload or a snagged load; the team slackens its cables with the load down).
+    LiftFailed,
 }
 
 /// What one low-level step produced.
@@ -229,6 +234,13 @@ impl HighLevel {
         }
     }
 
+    fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+        match self {
+            Self::Dissipative(c) => c.set_load_altitude_ref(z_m, sharing),
+            Self::Baseline(c) => c.set_load_altitude_ref(z_m, sharing),
+        }
+    }
+
     fn update(&mut self, tube: &CompanionTube, m: &Measurements<'_>, dt_s: f32) -> Command {
         match self {
             Self::Dissipative(c) => c.update(tube, m, dt_s),
@@ -242,7 +254,8 @@ impl HighLevel {
 pub struct Flight {
     id: usize,
     n: usize,
-    high: HighLevel,
+    /// The high-level law (`None` until a ground start is armed, or after it was refused).
+    high: Option<HighLevel>,
     low: VelocityLoop,
     heading: Unit<Vector2<f32>>,
     thrust_max_n: f32,
@@ -264,6 +277,20 @@ pub struct Flight {
     team_mode: TeamMode,
     invalid_commands: u32,
     operator_hold: bool,
+    /// Ground start: the phases (`None`: an air start, in transport from the start).
+    profile: Option<PhaseProfile>,
+    /// Ground start: what the arming reads (`None` once armed or refused, and in an air start).
+    pending: Option<Pending>,
+    /// Ground start: why the arming refused.
+    refusal: Option<StartError>,
+    /// The refusal is yet to be reported ([`Flight::take_refusal`]).
+    refusal_unreported: bool,
+    /// Arrival: the load within this arc length of the tube's end, m (`VT_END_TOL`).
+    end_tol_m: f32,
+    /// Warm start of the load's tube lookup.
+    load_hint: usize,
+    /// Rated cable tension `VT_CABLE_RATED`, N (the lift's overload abort).
+    rated_n: f32,
 }
 
 impl Flight {
@@ -304,43 +331,23 @@ impl Flight {
         let takeoff = takeoff.get(..n).unwrap_or(&[]);
         let own_pos_m = takeoff.get(id).copied().unwrap_or(own.pos_m);
         let load_pos_m = src.survey.load().unwrap_or(load.pos_m);
-        let cal = vt_dissipative::calibrate(id, takeoff, &load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
-        vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
-        if let Some((wind_mps, gust_mps)) = params.declared_wind_mps() {
-            vt_dissipative::wind::check(&params.wind(cal.cos_lean), wind_mps, gust_mps).map_err(StartError::Wind)?;
-        }
-        let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
-        let tray = params.tray();
-        let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, &load_pos_m, &tray)
-            .map_err(StartError::Controller)?;
-        // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
-        let cap = params.capacity().map_err(StartError::Controller)?;
-        let plan = capacity::plan_from_takeoff(takeoff, &load_pos_m, &tray, &cap)
-            .map_err(StartError::Controller)?;
-        let high = if params.get_u32(Param::Ctrl) == 1 {
-            let baseline = BaselineParams {
-                k1: dissipative.k1,
-                k2: dissipative.k2,
-                k3: dissipative.k3,
-                v_max_mps: dissipative.v_max_mps,
-                // The published radii as given: `VT_BODY_R` shapes the dissipative controller only.
-                r_safe_m: params.get(Param::RSafe),
-                r_active_m: dissipative.r_active_m,
-                vertical: dissipative.vertical,
-            };
-            HighLevel::Baseline(BaselineController::new(id, n, baseline).map_err(StartError::Controller)?)
-        } else {
-            let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
-            high.set_capacity(FormationScale::new(&plan, &cap));
-            HighLevel::Dissipative(high)
-        };
         let vl = params.velocity_loop().map_err(StartError::VelocityLoop)?;
         let supervisor = TeamHoldSupervisor::new(params.get(Param::FsResume), params.high_level_dt_s()).map_err(StartError::Controller)?;
         let mut low = VelocityLoop::new(vl);
-        // Warm start with the declared load's share (bumpless transfer; capacity.rs).
-        if let Some(f) = capacity::takeoff_cable_force_n(&own_pos_m, &load_pos_m, cap.load_mass_kg, n) {
-            low.preload(f);
-        }
+        let (high, profile, pending) = if params.ground_start() {
+            // Ground start (docs/design.md, "Lift-off and set-down"): the arming waits for taut
+            // cables, at the end of the tension build-up.
+            let profile = PhaseProfile::ground(params.phases(load_pos_m.z).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
+            let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX) };
+            (None, Some(profile), Some(pending))
+        } else {
+            let high = arm(params, id, n, takeoff, &load_pos_m)?;
+            // Warm start with the declared load's share (bumpless transfer; capacity.rs).
+            if let Some(f) = params.capacity().ok().and_then(|cap| capacity::takeoff_cable_force_n(&own_pos_m, &load_pos_m, cap.load_mass_kg, n)) {
+                low.preload(f);
+            }
+            (Some(high), None, None)
+        };
         Ok(Self {
             id,
             n,
@@ -366,6 +373,13 @@ impl Flight {
             team_mode: TeamMode::Transport,
             invalid_commands: 0,
             operator_hold: false,
+            profile,
+            pending,
+            refusal: None,
+            refusal_unreported: false,
+            end_tol_m: params.get(Param::EndTol),
+            load_hint: 0,
+            rated_n: params.get(Param::CableRated),
         })
     }
 
@@ -406,8 +420,22 @@ impl Flight {
         self.vel_cmd_mps = Vec3::zeros();
         self.team_mode = self.supervisor.step(reasons != 0, follow);
         if let (Some(own), Some(load)) = (own, load) {
-            // Own and load usable: transport, or the team hold while the team holds.
-            self.high.set_team_hold(self.team_mode.is_holding());
+            let holding = self.team_mode.is_holding();
+            self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding);
+            let phase = self.phase();
+            let z_ref = self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m);
+            let Some(high) = self.high.as_mut() else {
+                // A ground start before its arming (or refused): own and load data only.
+                self.vel_cmd_mps = self.unarmed_command(&own.pos_m, &load.pos_m);
+                self.hl_reasons = HoldReasons(reasons);
+                return self.vel_cmd_mps;
+            };
+            // Own and load usable: transport, or the team hold while the team holds (and in
+            // every phase of a ground start but the transport).
+            high.set_team_hold(holding || phase.passing_off());
+            if let Some(z) = z_ref {
+                high.set_load_altitude_ref(z, phase.sharing());
+            }
             // Measurements carried forward to now (vt_cfo::prediction): own position by the
             // velocity loop's last prediction (made from this same sample), the load at constant
             // velocity.
@@ -421,7 +449,7 @@ impl Flight {
                 neighbours_m: view.get(..self.n).unwrap_or(&[]),
                 own_cable_force_n: Some(self.f_hat_n),
             };
-            let cmd = self.high.update(tube, &m, self.hl_dt_s);
+            let cmd = high.update(tube, &m, self.hl_dt_s);
             self.last_command = Some(cmd);
             if cmd.status.nonfinite_command || !finite3(&cmd.vel_mps) {
                 reasons |= HoldReasons::NONFINITE;
@@ -439,6 +467,123 @@ impl Flight {
         }
         self.hl_reasons = HoldReasons(reasons);
         self.vel_cmd_mps
+    }
+
+    /// The ground sequence's step (nothing in an air start): arrival from the load's place in the
+    /// tube, the ramp, the survey of the tension phase and the arming at its end.
+    fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>], holding: bool) {
+        let Some(profile) = self.profile.as_mut() else {
+            return;
+        };
+        let arrived = profile.phase() == Phase::Transport
+            && tube.locate(load_m.xy(), self.load_hint).is_some_and(|sec| {
+                self.load_hint = sec.segment;
+                sec.remaining_m <= self.end_tol_m
+            });
+        profile.step(self.hl_dt_s, Some(load_m.z), arrived, holding);
+        if profile.phase() == Phase::Lift && load_m.z < profile.params().ground_z_m + profile.params().lift_clear_m {
+            // An overload shows as the own cable's tension passing the abort level with the
+            // load still down (vt_dissipative::phases::LIFT_ABORT_FACTOR).
+            let d = own_m - load_m;
+            let len = vt_fpu::sqrt(d.norm_squared());
+            if len > 0.0 && self.f_hat_n.dot(&d) / len > LIFT_ABORT_FACTOR * self.rated_n {
+                profile.abort_lift();
+            }
+        }
+        if let Some(pending) = self.pending.as_mut() {
+            if profile.surveying() && !holding {
+                pending.survey.push_own(own_m);
+                pending.survey.push_load(load_m);
+                for (j, v) in view.iter().enumerate().take(self.n) {
+                    if let (true, Some(p)) = (j != self.id, v) {
+                        pending.survey.push_member(j, p);
+                    }
+                }
+            }
+            if profile.ready_to_arm() {
+                let mut takeoff = [Vec3::zeros(); MAX_UAVS];
+                for (j, slot) in takeoff.iter_mut().enumerate().take(self.n) {
+                    let last = if j == self.id { Some(*own_m) } else { view.get(j).copied().flatten() };
+                    *slot = pending.survey.member(j).or(if j == self.id { pending.survey.own() } else { None }).or(last).unwrap_or(*own_m);
+                }
+                let ground_load = pending.survey.load().unwrap_or(*load_m);
+                match arm(&pending.params, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load) {
+                    Ok(high) => {
+                        self.high = Some(high);
+                        profile.armed(ground_load.z);
+                    }
+                    Err(e) => {
+                        self.refusal = Some(e);
+                        self.refusal_unreported = true;
+                        profile.refuse();
+                    }
+                }
+                // Keep the nominal law for a refused team's slack; forget the rest.
+                if self.high.is_some() {
+                    self.pending = None;
+                }
+            }
+        }
+        if profile.abort() == Some(Abort::LiftFailed) && self.refusal.is_none() {
+            self.refusal = Some(StartError::LiftFailed);
+            self.refusal_unreported = true;
+        }
+    }
+
+    /// The command of a ground start without its armed law (own and load data only): the own
+    /// horizontal position held; vertically the nominal cable's altitude law on the ramp
+    /// (take-off, slack), or the tension build-up on the observer's tension estimate.
+    fn unarmed_command(&self, own_m: &Vec3, load_m: &Vec3) -> Vec3 {
+        let (Some(profile), Some(pending)) = (self.profile.as_ref(), self.pending.as_ref()) else {
+            return Vec3::zeros();
+        };
+        let vp = VerticalParams { load_altitude_ref_m: profile.load_altitude_ref_m(), ..pending.vertical };
+        let v_max = pending.params.get(Param::VMax);
+        let mut v_xy = (pending.hold_xy_m - own_m.xy()) * HOLD_POSITION_GAIN_PER_S;
+        let speed = vt_fpu::norm(&v_xy);
+        if speed > v_max && speed > 0.0 {
+            v_xy *= v_max / speed;
+        }
+        let d = own_m - load_m;
+        let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
+        let v_z = if profile.phase() == Phase::Tension {
+            let len = vt_fpu::sqrt(d.norm_squared());
+            let tension = if len > 0.0 { self.f_hat_n.dot(&d) / len } else { f32::NAN };
+            // Never above the longest plausible cable's taut altitude.
+            let ceiling = vp.load_altitude_ref_m.max(load_m.z) + vt_fpu::sqrt((pending.params.max_cable_m() * pending.params.max_cable_m() - offset * offset).max(0.0));
+            let v = tension_climb_mps(tension, profile.params());
+            if own_m.z >= ceiling { v.min(0.0) } else { v }
+        } else {
+            vp.vertical_velocity_mps(own_m.z, offset)
+        };
+        let v = Vec3::new(v_xy.x, v_xy.y, v_z);
+        if finite3(&v) { v } else { Vec3::zeros() }
+    }
+
+    /// The mission's phase (an air start: always [`Phase::Transport`]).
+    pub fn phase(&self) -> Phase {
+        self.profile.as_ref().map_or(Phase::Transport, PhaseProfile::phase)
+    }
+
+    /// Ground start: the load altitude reference of the phases, m (`None` in an air start).
+    pub fn load_altitude_ref_m(&self) -> Option<f32> {
+        self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m)
+    }
+
+    /// Why a ground start was refused at its arming or abandoned its lift (the load on the
+    /// ground); `None` while it flies.
+    pub fn refusal(&self) -> Option<&StartError> {
+        self.refusal.as_ref()
+    }
+
+    /// The refusal once, to report (`STATUSTEXT`, heartbeat): `None` afterwards.
+    pub fn take_refusal(&mut self) -> Option<StartError> {
+        if self.refusal_unreported {
+            self.refusal_unreported = false;
+            self.refusal
+        } else {
+            None
+        }
     }
 
     /// One low-level step at `now_ms`: the attitude setpoint.
@@ -525,6 +670,55 @@ impl Flight {
     pub fn low_level_ticks(&self) -> u32 {
         self.ll_ticks
     }
+}
+
+/// The ground start before its arming: what the arming reads and what the UAV flies until then.
+#[derive(Debug, Clone)]
+struct Pending {
+    /// The parameters the arming reads.
+    params: Params,
+    /// The own horizontal position held until the arming, m.
+    hold_xy_m: Vector2<f32>,
+    /// The altitude law of the nominal cable (take-off, and the slack after a refusal).
+    vertical: VerticalParams,
+    /// The survey of the tension phase's last `settle_s` (the arming calibrates from it).
+    survey: TakeoffSurvey<MAX_UAVS>,
+}
+
+/// The arming: the cable calibration from the positions of every UAV and the load
+/// (`vt_dissipative::calibrate`), the pre-flight check at the measured lean
+/// (`vt_dissipative::feasibility::check`), the declared wind's check, the take-off formation
+/// (eq:2-7), then the high-level law (`VT_CTRL`).
+#[inline(never)] // its frame is large: it must not merge into the high-level step's
+fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3) -> Result<HighLevel, StartError> {
+    let cal = vt_dissipative::calibrate(id, takeoff, load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
+    vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
+    if let Some((wind_mps, gust_mps)) = params.declared_wind_mps() {
+        vt_dissipative::wind::check(&params.wind(cal.cos_lean), wind_mps, gust_mps).map_err(StartError::Wind)?;
+    }
+    let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;
+    let tray = params.tray();
+    let formation = Formation::<MAX_UAVS>::from_takeoff(takeoff, load_pos_m, &tray).map_err(StartError::Controller)?;
+    // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
+    let cap = params.capacity().map_err(StartError::Controller)?;
+    let plan = capacity::plan_from_takeoff(takeoff, load_pos_m, &tray, &cap).map_err(StartError::Controller)?;
+    Ok(if params.get_u32(Param::Ctrl) == 1 {
+        let baseline = BaselineParams {
+            k1: dissipative.k1,
+            k2: dissipative.k2,
+            k3: dissipative.k3,
+            v_max_mps: dissipative.v_max_mps,
+            // The published radii as given: `VT_BODY_R` shapes the dissipative controller only.
+            r_safe_m: params.get(Param::RSafe),
+            r_active_m: dissipative.r_active_m,
+            vertical: dissipative.vertical,
+        };
+        HighLevel::Baseline(BaselineController::new(id, n, baseline).map_err(StartError::Controller)?)
+    } else {
+        let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
+        high.set_capacity(FormationScale::new(&plan, &cap));
+        HighLevel::Dissipative(high)
+    })
 }
 
 #[cfg(test)]

@@ -12,7 +12,21 @@ use nalgebra::{Unit, Vector2, Vector3};
 use vt_cfo::{CfoError, CfoParams, PidGains, ThrustLimits, VelocityLoopParams};
 use vt_dissipative::calibration::MIN_COS_LEAN;
 use vt_dissipative::wind::WindParams;
-use vt_dissipative::{Calibration, CalibrationParams, CapacityParams, ControlError, DissipativeParams, FeasibilityParams, TrayParams, VerticalParams};
+use vt_dissipative::{Calibration, CalibrationParams, CapacityParams, ControlError, DissipativeParams, FeasibilityParams, PhaseParams, TrayParams, VerticalParams};
+
+/// Ground start: the tension each cable is brought to before the survey, as a fraction of the
+/// declared share (enough for the observer to see a taut cable, far from lifting).
+pub const PRETENSION_FRACTION: f32 = 0.3;
+/// Ground start: the load counts as lifted this high above the ground, m.
+pub const LIFT_CLEAR_M: f32 = 0.2;
+/// Ground start: the lift is abandoned when the ramp rises this much further first, m.
+pub const LIFT_EXTRA_M: f32 = 0.5;
+/// Ground start: the descent slows to `VT_LIFT_VZ` this high above the ground, m.
+pub const TOUCHDOWN_BAND_M: f32 = 1.0;
+/// Ground start: settling holds (survey at tension, after arrival, after slack), s.
+pub const SETTLE_S: f32 = 2.0;
+/// Ground start: the fastest climb or descent of the load reference, m/s.
+pub const CLIMB_VZ_CAP_MPS: f32 = 0.5;
 
 /// One parameter's description.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -166,6 +180,11 @@ params! {
     LoadCda => real("VT_LOAD_CDA", 0.3, 0.0, 1.0e3), "Drag area of the load `C_dA`, m^2.";
     BodyR => real("VT_BODY_R", 0.0, 0.0, 5.0), "Radius of the sphere that bounds this UAV (rotor tips and guards), m (0: a point, the paper's controller; the 1.47 kg experiment airframe measures 0.40 with a 0.03 m guard). Above 0 it turns on the separation barrier at `2 VT_BODY_R + VT_CLR_MIN` and raises `VT_R_SAFE` and `VT_SEP_MIN` to what the body needs (docs/design.md, \"Envelopes and clearances\").";
     ClrMin => real("VT_CLR_MIN", 0.2, 0.0, 5.0), "Clearance kept between surfaces (UAV to UAV, UAV to tube boundary), m.";
+    Start => int("VT_START", 0.0, 0.0, 1.0), "Mission start: 0 in the air, at the take-off formation with taut cables (the paper); 1 from the ground: the load rests on the ground, the UAVs hover low with slack cables; take-off, tension, lift and climb come before the transport, descent, set-down and slack after it (docs/design.md, \"Lift-off and set-down\").";
+    TkoS => real("VT_TKO_S", 8.0, 0.0, 600.0), "Ground start: length of the take-off phase, s.";
+    LiftVz => real("VT_LIFT_VZ", 0.1, 0.01, 5.0), "Ground start: lift and touchdown speed of the load reference, m/s (the tension build-up climbs at twice it).";
+    SlackM => real("VT_SLACK", 0.5, 0.05, 10.0), "Ground start: how far below taut the UAVs fly with slack cables (take-off, slack), m.";
+    EndTol => real("VT_END_TOL", 1.0, 0.0, 100.0), "Arrival: the load within this arc length of the tube's end, m (ground start: the descent follows).";
     Ctrl => int("VT_CTRL", 0.0, 0.0, 1.0), "High-level controller: 0 the paper's dissipative controller; 1 traditional virtual-tube control (the baseline, REFERENCE §2: `VT_K1`..`VT_R_ACT` are its gains, no springs).";
 }
 
@@ -348,6 +367,56 @@ impl Params {
         };
         params.validate()?;
         Ok(params)
+    }
+
+    /// True for a ground start (`VT_START = 1`).
+    pub fn ground_start(&self) -> bool {
+        self.get_u32(Param::Start) == 1
+    }
+
+    /// The ground sequence's parameters with the load resting at `ground_z_m` (validated by
+    /// `vt-dissipative`): climb and descent at half `VT_VZ_MAX` (at most 0.5 m/s), the tension
+    /// build-up at twice `VT_LIFT_VZ` to [`PRETENSION_FRACTION`] of the declared share
+    /// `VT_LOAD_KG g / VT_N_UAVS`.
+    ///
+    /// # Errors
+    /// The crate's [`ControlError`] naming the field.
+    pub fn phases(&self, ground_z_m: f32) -> Result<PhaseParams, ControlError> {
+        let g = |p| self.get(p);
+        let n = g(Param::NUavs).max(1.0);
+        let p = PhaseParams {
+            ground_z_m,
+            transport_z_m: g(Param::LoadZRef),
+            slack_m: g(Param::SlackM),
+            takeoff_s: g(Param::TkoS),
+            tension_vz_mps: 2.0 * g(Param::LiftVz),
+            pretension_n: PRETENSION_FRACTION * g(Param::LoadKg) * vt_cfo::GRAVITY_MPS2 / n,
+            lift_vz_mps: g(Param::LiftVz),
+            climb_vz_mps: (0.5 * g(Param::VzMax)).min(CLIMB_VZ_CAP_MPS),
+            lift_clear_m: LIFT_CLEAR_M,
+            lift_extra_m: LIFT_EXTRA_M,
+            touchdown_band_m: TOUCHDOWN_BAND_M,
+            settle_s: SETTLE_S,
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// The altitude law before the arming of a ground start: the nominal cable `VT_CABLE_L`,
+    /// no stretch, no load sharing.
+    pub fn nominal_vertical(&self) -> VerticalParams {
+        VerticalParams {
+            load_altitude_ref_m: self.get(Param::LoadZRef),
+            cable_length_m: self.get(Param::CableL),
+            cable_stretch_m: 0.0,
+            kz_per_s: self.get(Param::Kz),
+            vz_max_mps: self.get(Param::VzMax),
+            min_height_m: self.min_height_m(),
+            tension_share_n: 0.0,
+            share_gain_mps_per_n: 0.0,
+            load_altitude_gain_per_s: 0.0,
+            share_offset_max_m: 0.0,
+        }
     }
 
     /// The capacity-aware formation's parameters (validated by `vt-dissipative`; issue 15).

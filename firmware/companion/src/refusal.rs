@@ -125,6 +125,7 @@ impl core::fmt::Display for StartError {
             Self::Calibration(e) => write!(f, "take-off calibration: {e}"),
             Self::Infeasible(e) => write!(f, "pre-flight check: {e}"),
             Self::Wind(e) => write!(f, "pre-flight wind check: {e}"),
+            Self::LiftFailed => f.write_str("lift abandoned: the load did not leave the ground (overload or snagged load)"),
         }
     }
 }
@@ -141,6 +142,7 @@ impl StartError {
             Self::Calibration(_) => 6,
             Self::Infeasible(_) => 7,
             Self::Wind(_) => 8,
+            Self::LiftFailed => 9,
         }
     }
 
@@ -185,6 +187,10 @@ impl StartError {
                 head.push("wind above the team's capacity");
                 wind_detail(e, &mut detail);
                 true
+            }
+            Self::LiftFailed => {
+                head.push("load did not leave the ground");
+                false
             }
         };
         (head, has_detail.then_some(detail))

@@ -643,6 +643,15 @@
       for (const e of run.events) {
         const [col] = EVENT_STYLE[e.kind] || ['#000'];
         if (e.kind === 'hold' || e.kind === 'resume') continue;
+        if (e.kind.startsWith('phase_')) {
+          // Ground start: a thin line and the phase's name at each phase change.
+          const x = tlX(e.time_s);
+          ctx.fillStyle = '#5d6a80';
+          ctx.fillRect(x - 0.5 * dpr, top, dpr, bot - top);
+          ctx.font = 10 * dpr + 'px sans-serif';
+          ctx.fillText(e.kind.slice(6), x + 2 * dpr, top + 10 * dpr);
+          continue;
+        }
         const x = tlX(e.time_s);
         ctx.fillStyle = col;
         ctx.beginPath(); ctx.moveTo(x, top); ctx.lineTo(x - 5 * dpr, top - 5 * dpr + 12 * dpr); ctx.lineTo(x + 5 * dpr, top + 7 * dpr); ctx.closePath(); ctx.fill();
@@ -658,7 +667,7 @@
       const lx = tlX(t) + 2 * dpr + ctx.measureText(label).width > w ? tlX(t) - 2 * dpr - ctx.measureText(label).width : tlX(t) + 2 * dpr;
       ctx.fillText(label, lx, h - 3 * dpr);
     }
-    ctx.fillText('min UAV-boundary distance; faults and hold marked', w - 300 * dpr, 12 * dpr);
+    ctx.fillText('min UAV-boundary distance; faults, hold and phases marked', w - 330 * dpr, 12 * dpr);
   }
   function drawCursor() {
     const ctx = tl.getContext('2d');

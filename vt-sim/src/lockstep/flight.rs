@@ -333,6 +333,13 @@ impl<P: Port> Team for PortTeam<'_, P> {
         // The companion sends a HEARTBEAT at every change of its team mode.
         out.iter_mut().zip(&self.custom_mode).for_each(|(o, m)| *o = team_mode_of(*m));
     }
+
+    fn phases(&self, phases: &mut [u8], refusals: &mut [u8]) {
+        // ... and of its phase (docs/protocol.md).
+        for ((p, r), m) in phases.iter_mut().zip(refusals.iter_mut()).zip(&self.custom_mode) {
+            (*p, *r) = (crate::mission::phase_of(*m), crate::mission::refusal_of(*m));
+        }
+    }
 }
 
 /// Flies the mission through the one mission loop with one port per UAV (lockstep). Ports

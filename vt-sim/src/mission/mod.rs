@@ -9,7 +9,7 @@
 pub mod team;
 pub mod world;
 
-pub use team::{holding_of, team_mode_of, CompanionTeam, Meas, Setpoint, Team, TeamStart, Tick};
+pub use team::{holding_of, phase_of, refusal_of, team_mode_of, CompanionTeam, Meas, Setpoint, Team, TeamStart, Tick};
 pub use world::World;
 
 use crate::record::RunRecord;
@@ -67,6 +67,8 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
             team.team_modes(world.team_mode_slots());
             let tick = world.measure();
             team.step(&tick, &mut setpoints)?;
+            let (phases, refusals) = world.phase_slots();
+            team.phases(phases, refusals);
             if opts.record {
                 world.set_holding(&team.holding());
                 let (vel_cmd, f_hat) = world.controller_slots();

@@ -110,6 +110,21 @@ pub trait Team {
     /// Writes the team mode each UAV broadcasts to its team (docs/design.md, "Team failsafe");
     /// a team without the team failsafe leaves them (transport).
     fn team_modes(&self, _out: &mut [TeamMode]) {}
+
+    /// Writes each UAV's phase (`vt_dissipative::Phase` code) and refusal code, as its last
+    /// `HEARTBEAT.custom_mode` carries them (bits 24..31 and 16..23; docs/protocol.md); a team
+    /// that does not report leaves them 0.
+    fn phases(&self, _phases: &mut [u8], _refusals: &mut [u8]) {}
+}
+
+/// The phase code in a companion's `HEARTBEAT.custom_mode` (bits 24..31; 0: not flying).
+pub fn phase_of(custom_mode: u32) -> u8 {
+    (custom_mode >> 24) as u8
+}
+
+/// The refusal code in a companion's `HEARTBEAT.custom_mode` (bits 16..23; 0: none).
+pub fn refusal_of(custom_mode: u32) -> u8 {
+    (custom_mode >> 16) as u8
 }
 
 /// The board side of a companion whose frames nobody reads: the SIL team takes its results
@@ -293,5 +308,11 @@ impl Team for CompanionTeam {
     fn team_modes(&self, out: &mut [TeamMode]) {
         // What each companion's last HEARTBEAT said (the team network relays it).
         out.iter_mut().zip(self.companions()).for_each(|(o, c)| *o = team_mode_of(c.heartbeat_custom_mode()));
+    }
+
+    fn phases(&self, phases: &mut [u8], refusals: &mut [u8]) {
+        for ((p, r), c) in phases.iter_mut().zip(refusals.iter_mut()).zip(self.companions()) {
+            (*p, *r) = (phase_of(c.heartbeat_custom_mode()), refusal_of(c.heartbeat_custom_mode()));
+        }
     }
 }

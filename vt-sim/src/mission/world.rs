@@ -99,7 +99,18 @@ pub struct World<'a> {
     boot_steps: u64,
     /// The pre-flight's clock, plant steps (`None`: the mission runs).
     pre_step: Option<u64>,
+    /// Ground start: the phases, lift and touchdown (`None`: an air start).
+    ground: Option<crate::phases::GroundRecord>,
+    /// Per UAV, the phase its companion reports (`vt_dissipative::Phase` code; 0 none).
+    phase_codes: Vec<u8>,
+    /// Per UAV, the refusal code its companion reports (0 none).
+    refusal_codes: Vec<u8>,
+    /// Ground start: the plant step at which the whole team was released.
+    released_step: Option<u64>,
 }
+
+/// Flown on after the whole team is released (ground start), s.
+const AFTER_RELEASE_S: f64 = 1.0;
 
 impl<'a> World<'a> {
     /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled:
@@ -119,8 +130,12 @@ impl<'a> World<'a> {
         let true_len: Vec<f64> = s.cables.lengths_m.iter().zip(&draw.cable_length).map(|(l, k)| l * k).collect();
         let true_k: Vec<f64> = draw.cable_stiffness.iter().map(|k| s.cables.stiffness_n_per_m * k).collect();
         let takeoff = sim::takeoff_with(s, &ls.tube, f_max, &true_len, &true_k);
-        let plant = crate::plant::build(s, &draw, &true_len, &true_k, &takeoff, uav_model, cable_model, f_max)
+        let mut plant = crate::plant::build(s, &draw, &true_len, &true_k, &takeoff, uav_model, cable_model, f_max)
             .map_err(|e| SimError(format!("plant: {e}")))?;
+        // The load rests on its envelope (docs/plant.md, "Ground contact").
+        let rest_z = s.load.envelope_radius_m();
+        plant.set_load_rest_z(rest_z);
+        let ground = (s.mission.start == crate::scenario::MissionStart::Ground).then(|| crate::phases::GroundRecord::new(rest_z));
 
         // Sensors first: the controllers calibrate from what they measure at take-off.
         let r = &s.rates;
@@ -215,6 +230,10 @@ impl<'a> World<'a> {
             plant,
             boot_steps,
             pre_step: (boot_steps > 0).then_some(0),
+            ground,
+            phase_codes: vec![0; n],
+            refusal_codes: vec![0; n],
+            released_step: None,
         };
         if boot_steps == 0 {
             world.sample_start()?;
@@ -244,8 +263,22 @@ impl<'a> World<'a> {
             .map(|(i, u)| Meas { pos_m: v3f(&sensors.position(Receiver::Uav(i), &u.pos_m)), vel_mps: v3f(&sensors.velocity(&u.vel_mps)), sample_ms: time_ms })
             .collect();
         let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
+        // A ground start's formation is the one its cables will hold taut: each UAV at its
+        // cable's taut height above the measured load (the companions arm from that geometry).
+        let taut_pos: Vec<V3f> = if self.ground.is_some() {
+            own_pos
+                .iter()
+                .zip(&self.ls.scenario.cables.lengths_m)
+                .map(|(p, &len)| {
+                    let r = (p.xy() - start_load.pos_m.xy()).norm();
+                    V3f::new(p.x, p.y, start_load.pos_m.z + (len as f32 * len as f32 - r * r).max(0.0).sqrt())
+                })
+                .collect()
+        } else {
+            own_pos.clone()
+        };
         self.formation = Some(
-            Formation::<SIM_MAX_UAVS>::from_takeoff(&own_pos, &start_load.pos_m, &sim::tray(&self.ls.scenario))
+            Formation::<SIM_MAX_UAVS>::from_takeoff(&taut_pos, &start_load.pos_m, &sim::tray(&self.ls.scenario))
                 .map_err(|e| SimError(format!("formation: {e}")))?,
         );
         let n = own_pos.len();
@@ -348,6 +381,10 @@ impl<'a> World<'a> {
         if self.step >= self.max_steps || self.metrics.nonfinite {
             return true;
         }
+        if self.ground.is_some() {
+            // A ground start ends with the team released (set down, or refused on the ground).
+            return self.released_step.is_some_and(|r| (self.step - r) as f64 * self.dt >= AFTER_RELEASE_S);
+        }
         self.arrival_step.is_some_and(|a| (self.step - a) as f64 * self.dt >= self.ls.scenario.mission.post_arrival_s)
     }
 
@@ -422,6 +459,13 @@ impl<'a> World<'a> {
         }
     }
 
+    /// Per UAV, the phase (`vt_dissipative::Phase` code) and the refusal code its companion
+    /// reports (`HEARTBEAT.custom_mode` bits 24..31 and 16..23), for the team to fill in before
+    /// [`Self::advance`].
+    pub fn phase_slots(&mut self) -> (&mut [u8], &mut [u8]) {
+        (&mut self.phase_codes, &mut self.refusal_codes)
+    }
+
     /// Mutable views of the per-UAV velocity command and cable-force estimate (ENU, m/s and N)
     /// the team reports for the record.
     pub fn controller_slots(&mut self) -> (&mut [V3f], &mut [V3f]) {
@@ -440,6 +484,25 @@ impl<'a> World<'a> {
             let scale = (1.0 - sag * t / 60.0).max(0.0);
             for i in 0..self.plant.n_uavs() {
                 self.plant.set_thrust_scale(i, scale);
+            }
+        }
+        if let (Some(g), true) = (self.ground.as_mut(), self.step.is_multiple_of(self.ll_every)) {
+            self.uav_pos_scratch.clear();
+            self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
+            let attached: Vec<bool> = self.plant.cable_params().iter().map(|c| c.stiffness_n_per_m > 0.0).collect();
+            let marked = g.marks().len();
+            g.report(t, &self.phase_codes, &self.refusal_codes, &self.uav_pos_scratch, &self.plant.load.pos_m, &attached);
+            if self.record_on {
+                for m in g.marks().iter().skip(marked) {
+                    if let Some(p) = vt_dissipative::Phase::ALL.iter().find(|p| p.name() == m.name) {
+                        let uav = self.phase_codes.iter().position(|&c| c == *p as u8).unwrap_or(0);
+                        self.record.events.push(RecordEvent { time_s: t, kind: EventKind::of_phase(*p), uav });
+                    }
+                }
+            }
+            self.metrics.judge_altitude = g.team_phase() == Some(vt_dissipative::Phase::Transport);
+            if g.team_phase() == Some(vt_dissipative::Phase::Released) && self.released_step.is_none() {
+                self.released_step = Some(self.step);
             }
         }
         if self.step.is_multiple_of(self.hl_every) {
@@ -490,7 +553,10 @@ impl<'a> World<'a> {
                 self.record.events.push(RecordEvent { time_s: t, kind: EventKind::Snap, uav: i });
             }
         }
-        self.plant.ground_contact();
+        let contact = self.plant.ground_contact();
+        if let Some(g) = self.ground.as_mut() {
+            g.step(self.plant.tensions_n(), &self.plant.load.pos_m, contact);
+        }
         self.attached.clear();
         self.attached.extend(self.plant.cable_params().iter().map(|c| c.stiffness_n_per_m > 0.0));
         let uav_pos = &mut self.uav_pos_scratch;
@@ -552,7 +618,52 @@ impl<'a> World<'a> {
             uav_model: self.uav_model.name(),
             cable_model: self.cable_model.name(),
         };
-        (self.metrics.finish(s, &end), self.record)
+        let mut summary = self.metrics.finish(s, &end);
+        summary.start = s.mission.start.name().into();
+        if let Some(g) = &self.ground {
+            ground_verdict(&mut summary, g, self.rated_n);
+        }
+        (summary, self.record)
+    }
+}
+
+/// Largest lift snatch a ground start may show, times the rated tension (issue 27).
+pub const LIFT_PEAK_FACTOR: f64 = 1.5;
+/// Fastest touchdown of the load a ground start may show, m/s (issue 27).
+pub const TOUCHDOWN_MAX_MPS: f64 = 0.5;
+
+/// A ground start's figures and verdict: set down (the whole team released after arrival),
+/// no snatch above [`LIFT_PEAK_FACTOR`] times the rated tension, a touchdown at most
+/// [`TOUCHDOWN_MAX_MPS`]; a refusal on the ground is the outcome `refused`.
+fn ground_verdict(summary: &mut Summary, g: &crate::phases::GroundRecord, rated_n: f64) {
+    let (phases, peak, spread, touchdown) = g.figures();
+    let released = g.team_phase() == Some(vt_dissipative::Phase::Released);
+    summary.phases = phases;
+    summary.lift_peak_tension_n = peak;
+    summary.lift_share_spread = spread;
+    summary.touchdown_speed_mps = touchdown;
+    if let Some((uav, code)) = g.refusal() {
+        summary.outcome = "refused".into();
+        summary.success = false;
+        let what = if code == vt_companion::flight::StartError::LiftFailed.code() { "the load did not leave the ground" } else { "the start checks refused with the load on the ground" };
+        summary.failures.insert(0, format!("refused on the ground: UAV {uav}: {what} (refusal code {code})"));
+        return;
+    }
+    let mut fail = |m: String| {
+        summary.failures.push(m);
+        summary.success = false;
+    };
+    if !released {
+        let at = g.team_phase().map_or("none", vt_dissipative::Phase::name);
+        fail(format!("the load was not set down and released (team in phase {at} at the end)"));
+    }
+    if let Some(p) = peak.filter(|p| *p > LIFT_PEAK_FACTOR * rated_n) {
+        fail(format!("lift snatch {p:.1} N > {LIFT_PEAK_FACTOR} x rated {rated_n} N"));
+    }
+    match touchdown {
+        Some(v) if v > TOUCHDOWN_MAX_MPS => fail(format!("touchdown at {v:.2} m/s > {TOUCHDOWN_MAX_MPS} m/s")),
+        None if released => fail("no touchdown recorded".into()),
+        _ => {}
     }
 }
 

@@ -206,7 +206,13 @@ pub struct Plant {
     rigid_targets: Vec<crate::quadrotor::AttitudeTarget>,
     /// The setpoint each target was converted from (converted again only when it changes).
     rigid_setpoints: Vec<Option<Setpoint>>,
+    /// Altitude of the load's centre resting on the ground, m ([`Plant::set_load_rest_z`]).
+    load_rest_z_m: f64,
 }
+
+/// Coulomb friction coefficient of the load on the ground (a crate on dry soil or grass,
+/// 0.4-0.6; project choice, docs/plant.md "Ground contact").
+pub const GROUND_FRICTION: f64 = 0.5;
 
 #[inline]
 fn finite3(v: &Vector3<f64>) -> bool {
@@ -325,6 +331,7 @@ impl Plant {
             rigid_setpoints: Vec::new(),
             thrust_built_n: Vec::new(),
             gusts_mps: Vec::new(),
+            load_rest_z_m: 0.0,
         };
         plant.thrust_built_n = plant.uav_params.iter().map(|p| p.thrust_max_n).collect();
         plant.last_forces = plant.cable_forces();
@@ -609,8 +616,23 @@ impl Plant {
         self.ext_buf = ext;
     }
 
-    /// The ground (z = 0) stops a falling UAV or load: position clamped, velocity zeroed.
-    pub fn ground_contact(&mut self) {
+    /// The altitude of the load's centre when it rests on the ground, m (its envelope's
+    /// radius above z = 0; 0 until set).
+    pub fn set_load_rest_z(&mut self, z_m: f64) {
+        if z_m.is_finite() && z_m >= 0.0 {
+            self.load_rest_z_m = z_m;
+        }
+    }
+
+    /// The ground (docs/plant.md, "Ground contact"), after each plant step. A UAV below z = 0
+    /// stops there, at rest. The load's centre never goes below its resting altitude: the
+    /// contact takes the velocity into the ground away (a perfectly inelastic normal impulse:
+    /// no penetration, no bounce) and friction takes up to [`GROUND_FRICTION`] times that
+    /// impulse from the horizontal velocity (Coulomb friction in impulse form, as in
+    /// time-stepping rigid-body engines: resting, the normal impulse is `m g dt` per step and
+    /// friction holds up to `mu m g`). Returns the load's speed into the ground when it made
+    /// contact this step, m/s.
+    pub fn ground_contact(&mut self) -> Option<f64> {
         if !self.quads.is_empty() {
             self.ground_quadrotors();
         }
@@ -620,10 +642,21 @@ impl Plant {
                 u.vel_mps = Vector3::zeros();
             }
         }
-        if self.load.pos_m.z < 0.0 {
-            self.load.pos_m.z = 0.0;
-            self.load.vel_mps = Vector3::zeros();
+        let rest = self.load_rest_z_m;
+        let (p, v) = (&mut self.load.pos_m, &mut self.load.vel_mps);
+        if p.z >= rest {
+            return None;
         }
+        p.z = rest;
+        let into = (-v.z).max(0.0);
+        v.z = v.z.max(0.0);
+        let slide = v.x.hypot(v.y);
+        if slide > 0.0 {
+            let keep = (1.0 - GROUND_FRICTION * into / slide).max(0.0);
+            v.x *= keep;
+            v.y *= keep;
+        }
+        Some(into)
     }
 
     /// Every state finite (the `nonfinite` criterion of a mission's success).

@@ -677,6 +677,12 @@ impl Default for LinkSpec {
 pub struct MissionSpec {
     /// Time limit, s.
     pub time_limit_s: f64,
+    /// Where the mission starts (issue 27): in the air at the take-off formation with taut
+    /// cables (the paper), or from the ground: the load resting on the ground, the UAVs hovering
+    /// low with slack cables, the mission ending with the load set down (companion `VT_START`;
+    /// docs/design.md, "Lift-off and set-down").
+    #[serde(default)]
+    pub start: MissionStart,
     /// The load has arrived when its section is within this of the end, m.
     #[serde(default = "one")]
     pub end_tolerance_m: f64,
@@ -711,6 +717,27 @@ pub struct MissionSpec {
     /// Gust margin added to `max_wind_mps` in the start check, m/s (`VT_WIND_GUST`).
     #[serde(default)]
     pub gust_margin_mps: f64,
+}
+
+/// Where a mission starts (`[mission] start`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissionStart {
+    /// In the air at the take-off formation, cables taut, load at its altitude (the paper).
+    #[default]
+    Air,
+    /// From the ground: lift-off, transport, set-down.
+    Ground,
+}
+
+impl MissionStart {
+    /// The scenario-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Air => "air",
+            Self::Ground => "ground",
+        }
+    }
 }
 
 fn default_survey_samples() -> u32 {

@@ -168,5 +168,9 @@ impl Team for RealtimeTeam<'_> {
         self.inner.team_modes(out);
     }
 
+    fn phases(&self, phases: &mut [u8], refusals: &mut [u8]) {
+        self.inner.phases(phases, refusals);
+    }
+
     fn controller_outputs(&self, _vel_cmd_mps: &mut [Vector3<f32>], _f_hat_n: &mut [Vector3<f32>]) {}
 }

@@ -19,7 +19,8 @@ impl Core<'_> {
     }
 
     pub(super) fn send_heartbeat_with(&mut self, io: &mut impl Io, reasons: u8) {
-        self.beacon = u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16);
+        let phase = self.flight.as_ref().map_or(0, |f| f.phase() as u8);
+        self.beacon = u32::from(self.mode as u8) | (u32::from(reasons) << 8) | (u32::from(self.refusal) << 16) | (u32::from(phase) << 24);
         let system_status = match self.mode {
             Mode::Unconfigured | Mode::Ready => MavState::MAV_STATE_STANDBY,
             Mode::Transport => MavState::MAV_STATE_ACTIVE,

@@ -1,0 +1,482 @@
+//! The whole mission from the ground (issue 27 §2; the paper starts in the air): take-off,
+//! tension build-up, lift, climb, transport, descent with set-down, slack, release.
+//!
+//! The sequence is one scalar the team shares: the load altitude reference `z_l,ref(t)` of the
+//! altitude law ([`crate::vertical`]), ramped from below the ground to the transport altitude
+//! and back. Every UAV computes the same ramp from the same inputs (the load's altitude
+//! measured at the start, the shared parameters, the high-level clock since the common start
+//! command), so the team changes phase together without a message; a team hold freezes the
+//! ramp and the timers, so no phase advances while anybody holds.
+//!
+//! | phase | `z_l,ref` | the UAV flies (docs/design.md, "Lift-off and set-down") |
+//! |---|---|---|
+//! | take-off | `z_g - slack` | own horizontal position held; climb to `slack` below taut |
+//! | tension | (not used) | climb at `v_t` until the own cable carries [`PhaseParams::pretension_n`] (tension loop on the observer's estimate); the survey in its last `settle_s` |
+//! | lift | `z_g + v_lift t` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when the ramp passes `lift_clear_m + lift_extra_m` first |
+//! | climb | `+ v_climb t` up to `z_t` | as lift |
+//! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent |
+//! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off |
+//! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
+//! | released | `z_g - slack` | hover with slack cables (`settle_s` after slack) |
+
+use crate::ControlError;
+
+/// A UAV abandons the lift when its own cable's tension estimate passes this many times the
+/// rated tension while the load is still on the ground (an overload shows in every cable at
+/// once, so the team abandons together; below the 1.5 x rated snatch the issue allows).
+pub const LIFT_ABORT_FACTOR: f32 = 1.25;
+
+/// A phase of the mission (numbering: the MAVLink `custom_mode` byte and the record).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Phase {
+    /// UAVs climb to just below taut cables (the load rests on the ground).
+    Takeoff = 1,
+    /// Cables go taut; the tension builds up to the pretension; the team surveys.
+    Tension = 2,
+    /// The load's reference rises slowly until the load leaves the ground.
+    Lift = 3,
+    /// Climb to the transport altitude.
+    Climb = 4,
+    /// The paper's mission (an air start is in this phase from its start).
+    Transport = 5,
+    /// Descent at the goal until the load touches the ground.
+    Descent = 6,
+    /// The UAVs sink until the cables are slack.
+    Slack = 7,
+    /// Done: hovering with slack cables, the load on the ground (released).
+    Released = 8,
+}
+
+impl Phase {
+    /// Every phase in order.
+    pub const ALL: [Phase; 8] =
+        [Phase::Takeoff, Phase::Tension, Phase::Lift, Phase::Climb, Phase::Transport, Phase::Descent, Phase::Slack, Phase::Released];
+
+    /// Lower-case name (record, summary, telemetry).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Takeoff => "takeoff",
+            Self::Tension => "tension",
+            Self::Lift => "lift",
+            Self::Climb => "climb",
+            Self::Transport => "transport",
+            Self::Descent => "descent",
+            Self::Slack => "slack",
+            Self::Released => "released",
+        }
+    }
+
+    /// The phase of a code (`None` for anything else).
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.iter().copied().find(|p| *p as u8 == code)
+    }
+
+    /// True while the armed controller flies with passing off (every phase but transport).
+    pub fn passing_off(self) -> bool {
+        self != Self::Transport
+    }
+
+    /// True while the load-sharing integrator runs (climb and transport: the load hangs).
+    pub fn sharing(self) -> bool {
+        matches!(self, Self::Climb | Self::Transport)
+    }
+}
+
+/// Why the lift was abandoned (the team slackens its cables with the load on the ground).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Abort {
+    /// The start checks refused at the end of the tension build-up (calibration, capacity, wind).
+    Refused,
+    /// The load did not leave the ground before the ramp passed its allowance (overload, a
+    /// snagged load).
+    LiftFailed,
+}
+
+/// Parameters of the ground sequence (every length ENU up, m; speeds m/s; times s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhaseParams {
+    /// The load's altitude resting on the ground `z_g` (measured at the start), m.
+    pub ground_z_m: f32,
+    /// Transport altitude of the load `z_t` (`VT_LOAD_ZREF`), m.
+    pub transport_z_m: f32,
+    /// How far below taut the UAVs fly with slack cables (take-off, slack), m.
+    pub slack_m: f32,
+    /// Length of the take-off phase, s.
+    pub takeoff_s: f32,
+    /// Climb speed while the cables go taut `v_t`, m/s.
+    pub tension_vz_mps: f32,
+    /// Tension each cable is brought to before the survey, N.
+    pub pretension_n: f32,
+    /// Lift and touchdown speed `v_lift`, m/s.
+    pub lift_vz_mps: f32,
+    /// Climb and descent speed `v_climb`, m/s.
+    pub climb_vz_mps: f32,
+    /// Height above `z_g` at which the load counts as lifted, m.
+    pub lift_clear_m: f32,
+    /// How much further the ramp may rise before the lift is abandoned, m.
+    pub lift_extra_m: f32,
+    /// Height above `z_g` below which the descent slows to `v_lift`, m.
+    pub touchdown_band_m: f32,
+    /// Settling hold (survey at tension, after arrival, after slack), s.
+    pub settle_s: f32,
+}
+
+impl PhaseParams {
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`ControlError::InvalidParameter`] naming the bad field.
+    pub fn validate(&self) -> Result<(), ControlError> {
+        let pos = |x: f32| x.is_finite() && x > 0.0;
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let checks: [(bool, &'static str); 12] = [
+            (self.ground_z_m.is_finite(), "phases.ground_z_m"),
+            (self.transport_z_m.is_finite() && self.transport_z_m > self.ground_z_m, "phases.transport_z_m"),
+            (pos(self.slack_m), "phases.slack_m"),
+            (nonneg(self.takeoff_s), "phases.takeoff_s"),
+            (pos(self.tension_vz_mps), "phases.tension_vz_mps"),
+            (nonneg(self.pretension_n), "phases.pretension_n"),
+            (pos(self.lift_vz_mps), "phases.lift_vz_mps"),
+            (pos(self.climb_vz_mps), "phases.climb_vz_mps"),
+            (pos(self.lift_clear_m), "phases.lift_clear_m"),
+            (pos(self.lift_extra_m), "phases.lift_extra_m"),
+            (nonneg(self.touchdown_band_m), "phases.touchdown_band_m"),
+            (nonneg(self.settle_s), "phases.settle_s"),
+        ];
+        for (ok, name) in checks {
+            if !ok {
+                return Err(ControlError::InvalidParameter(name));
+            }
+        }
+        Ok(())
+    }
+
+    /// Length of the tension phase: the climb through the slack at `v_t` (twice over, for the
+    /// tension to build), then the settling survey, s.
+    pub fn tension_s(&self) -> f32 {
+        2.0 * self.slack_m / self.tension_vz_mps + self.settle_s
+    }
+}
+
+/// The ground sequence of one UAV: the phase, the load altitude reference and the timers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhaseProfile {
+    p: PhaseParams,
+    phase: Phase,
+    z_ref_m: f32,
+    timer_s: f32,
+    arrived: bool,
+    abort: Option<Abort>,
+}
+
+impl PhaseProfile {
+    /// A ground start: take-off, the load reference `slack_m` below the ground.
+    ///
+    /// # Errors
+    /// [`ControlError::InvalidParameter`].
+    pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
+        p.validate()?;
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &PhaseParams {
+        &self.p
+    }
+
+    /// The current phase.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// The load altitude reference `z_l,ref`, m.
+    pub fn load_altitude_ref_m(&self) -> f32 {
+        self.z_ref_m
+    }
+
+    /// Why the lift was abandoned, if it was.
+    pub fn abort(&self) -> Option<Abort> {
+        self.abort
+    }
+
+    /// True in the last `settle_s` of the tension phase (the survey the arming calibrates from).
+    pub fn surveying(&self) -> bool {
+        self.phase == Phase::Tension && self.timer_s >= self.p.tension_s() - self.p.settle_s
+    }
+
+    /// True when the tension phase is over: the caller arms ([`Self::armed`]) or refuses
+    /// ([`Self::refuse`]).
+    pub fn ready_to_arm(&self) -> bool {
+        self.phase == Phase::Tension && self.timer_s >= self.p.tension_s()
+    }
+
+    /// Armed: the lift starts from the load's measured ground altitude `load_z_m` (the armed
+    /// altitude law then commands the altitude the UAV flies at: a bumpless start).
+    pub fn armed(&mut self, load_z_m: f32) {
+        if self.phase == Phase::Tension {
+            self.phase = Phase::Lift;
+            self.timer_s = 0.0;
+            self.z_ref_m = if load_z_m.is_finite() { load_z_m } else { self.p.ground_z_m };
+        }
+    }
+
+    /// The own cable is overloaded while the load is still on the ground (the caller's
+    /// detection, [`LIFT_ABORT_FACTOR`]): the lift is abandoned, the cables slacken.
+    pub fn abort_lift(&mut self) {
+        if self.phase == Phase::Lift {
+            self.abort = Some(Abort::LiftFailed);
+            self.to_slack(self.z_ref_m);
+        }
+    }
+
+    /// The start checks refused: the cables slacken with the load on the ground.
+    pub fn refuse(&mut self) {
+        if matches!(self.phase, Phase::Takeoff | Phase::Tension) {
+            self.abort = Some(Abort::Refused);
+            self.to_slack(self.p.ground_z_m);
+        }
+    }
+
+    fn to_slack(&mut self, from_m: f32) {
+        self.phase = Phase::Slack;
+        self.timer_s = 0.0;
+        self.z_ref_m = from_m.min(self.p.ground_z_m);
+    }
+
+    /// One high-level step of `dt_s`: `load_z_m` the measured load altitude (`None`: unknown,
+    /// the ramp waits), `arrived` the load reached the tube's end, `hold` the team holds (ramp
+    /// and timers frozen). Returns the load altitude reference, m.
+    pub fn step(&mut self, dt_s: f32, load_z_m: Option<f32>, arrived: bool, hold: bool) -> f32 {
+        let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
+        self.arrived |= arrived && self.phase == Phase::Transport;
+        if hold || dt == 0.0 {
+            return self.z_ref_m;
+        }
+        let p = self.p;
+        let load_z = load_z_m.filter(|z| z.is_finite());
+        match self.phase {
+            Phase::Takeoff => {
+                self.timer_s += dt;
+                if self.timer_s >= p.takeoff_s {
+                    self.phase = Phase::Tension;
+                    self.timer_s = 0.0;
+                }
+            }
+            Phase::Tension => self.timer_s += dt,
+            Phase::Lift => {
+                if let Some(z) = load_z {
+                    self.z_ref_m += p.lift_vz_mps * dt;
+                    if z >= p.ground_z_m + p.lift_clear_m {
+                        self.phase = Phase::Climb;
+                    } else if self.z_ref_m > p.ground_z_m + p.lift_clear_m + p.lift_extra_m {
+                        self.abort = Some(Abort::LiftFailed);
+                        self.to_slack(self.z_ref_m);
+                    }
+                }
+            }
+            Phase::Climb => {
+                self.z_ref_m = (self.z_ref_m + p.climb_vz_mps * dt).min(p.transport_z_m);
+                if self.z_ref_m >= p.transport_z_m {
+                    self.phase = Phase::Transport;
+                }
+            }
+            Phase::Transport => {
+                if self.arrived {
+                    self.timer_s += dt;
+                    if self.timer_s >= p.settle_s {
+                        self.phase = Phase::Descent;
+                        self.timer_s = 0.0;
+                    }
+                }
+            }
+            Phase::Descent => {
+                let v = if self.z_ref_m > p.ground_z_m + p.touchdown_band_m { p.climb_vz_mps } else { p.lift_vz_mps };
+                self.z_ref_m = (self.z_ref_m - v * dt).max(p.ground_z_m);
+                if self.z_ref_m <= p.ground_z_m {
+                    self.to_slack(p.ground_z_m);
+                }
+            }
+            Phase::Slack => {
+                let bottom = p.ground_z_m - p.slack_m;
+                self.z_ref_m = (self.z_ref_m - p.lift_vz_mps * dt).max(bottom);
+                if self.z_ref_m <= bottom {
+                    self.timer_s += dt;
+                    if self.timer_s >= p.settle_s {
+                        self.phase = Phase::Released;
+                    }
+                }
+            }
+            Phase::Released => {}
+        }
+        self.z_ref_m
+    }
+}
+
+/// Vertical speed of the tension build-up, m/s: climb at `v_t` while the own cable's tension
+/// estimate `tension_n` is below the pretension, proportionally less near it, down when above
+/// (a P law on the observer's tension estimate, gain `v_t / pretension`); a non-finite estimate
+/// holds the altitude.
+pub fn tension_climb_mps(tension_n: f32, p: &PhaseParams) -> f32 {
+    if !tension_n.is_finite() {
+        return 0.0;
+    }
+    let scale = p.pretension_n.max(1.0);
+    vt_tube::limit(p.tension_vz_mps * (p.pretension_n - tension_n) / scale, -p.tension_vz_mps, p.tension_vz_mps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> PhaseParams {
+        PhaseParams {
+            ground_z_m: 0.3,
+            transport_z_m: 3.0,
+            slack_m: 0.5,
+            takeoff_s: 4.0,
+            tension_vz_mps: 0.2,
+            pretension_n: 5.0,
+            lift_vz_mps: 0.1,
+            climb_vz_mps: 0.5,
+            lift_clear_m: 0.2,
+            lift_extra_m: 0.5,
+            touchdown_band_m: 1.0,
+            settle_s: 2.0,
+        }
+    }
+
+    /// Steps until `phase` changes (at most `limit` steps), returning the steps taken.
+    fn run(pr: &mut PhaseProfile, load_z: impl Fn(f32) -> f32, arrived: bool, limit: usize) -> usize {
+        let start = pr.phase();
+        for k in 0..limit {
+            let z = load_z(pr.load_altitude_ref_m());
+            pr.step(0.02, Some(z), arrived, false);
+            if pr.phase() != start {
+                return k + 1;
+            }
+        }
+        limit
+    }
+
+    #[test]
+    fn the_whole_sequence_in_order_with_a_continuous_reference() {
+        let p = params();
+        let mut pr = PhaseProfile::ground(p).unwrap();
+        assert_eq!(pr.phase(), Phase::Takeoff);
+        assert!((pr.load_altitude_ref_m() - (0.3 - 0.5)).abs() < 1e-6);
+        let k = run(&mut pr, |_| 0.3, false, 10_000);
+        assert_eq!(pr.phase(), Phase::Tension);
+        assert!((k as f32 * 0.02 - 4.0).abs() < 0.03, "take-off lasts takeoff_s: {k}");
+        let mut surveyed = 0;
+        while !pr.ready_to_arm() {
+            surveyed += usize::from(pr.surveying());
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        assert!((surveyed as f32 * 0.02 - p.settle_s).abs() < 0.05, "survey lasts settle_s: {surveyed}");
+        pr.armed(0.31);
+        assert_eq!(pr.phase(), Phase::Lift);
+        assert!((pr.load_altitude_ref_m() - 0.31).abs() < 1e-6, "lift starts at the measured load");
+        // The load follows the ramp once it is 1 cm above the ground reference.
+        let follow = |z: f32| z.max(0.3);
+        let mut last = pr.load_altitude_ref_m();
+        let mut order = vec![pr.phase()];
+        for _ in 0..100_000 {
+            let arrived = pr.phase() == Phase::Transport;
+            let z_load = if pr.phase() == Phase::Descent || pr.phase() == Phase::Slack { follow(pr.load_altitude_ref_m()) } else { follow(last) };
+            let z = pr.step(0.02, Some(z_load), arrived, false);
+            assert!((z - last).abs() <= 0.5 * 0.02 + 1e-5, "the reference moves at most v_climb: {last} -> {z}");
+            last = z;
+            if order.last() != Some(&pr.phase()) {
+                order.push(pr.phase());
+            }
+            if pr.phase() == Phase::Released {
+                break;
+            }
+        }
+        assert_eq!(order, vec![Phase::Lift, Phase::Climb, Phase::Transport, Phase::Descent, Phase::Slack, Phase::Released]);
+        assert!((pr.load_altitude_ref_m() - (0.3 - 0.5)).abs() < 1e-5);
+        assert_eq!(pr.abort(), None);
+    }
+
+    #[test]
+    fn a_hold_freezes_the_ramp_and_the_timers() {
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        for _ in 0..1000 {
+            pr.step(0.02, Some(0.3), false, true);
+        }
+        assert_eq!(pr.phase(), Phase::Takeoff);
+        run(&mut pr, |_| 0.3, false, 10_000);
+        while !pr.ready_to_arm() {
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        pr.armed(0.3);
+        let z = pr.load_altitude_ref_m();
+        for _ in 0..100 {
+            assert_eq!(pr.step(0.02, Some(0.3), false, true), z);
+        }
+        // An unknown load altitude also waits.
+        assert_eq!(pr.step(0.02, None, false, false), z);
+    }
+
+    #[test]
+    fn a_load_that_stays_on_the_ground_abandons_the_lift() {
+        let p = params();
+        let mut pr = PhaseProfile::ground(p).unwrap();
+        run(&mut pr, |_| 0.3, false, 10_000);
+        while !pr.ready_to_arm() {
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        pr.armed(0.3);
+        let k = run(&mut pr, |_| 0.3, false, 100_000);
+        assert_eq!(pr.phase(), Phase::Slack);
+        assert_eq!(pr.abort(), Some(Abort::LiftFailed));
+        let expected = (p.lift_clear_m + p.lift_extra_m) / p.lift_vz_mps;
+        assert!((k as f32 * 0.02 - expected).abs() < 0.05, "abandoned after {k} steps");
+        assert!(pr.load_altitude_ref_m() <= p.ground_z_m);
+        run(&mut pr, |_| 0.3, false, 100_000);
+        assert_eq!(pr.phase(), Phase::Released);
+    }
+
+    #[test]
+    fn a_refusal_before_the_lift_slackens_from_the_ground() {
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        pr.refuse();
+        assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::Refused)));
+        // Too late to refuse once lifted: nothing changes.
+        let mut lifted = PhaseProfile::ground(params()).unwrap();
+        run(&mut lifted, |_| 0.3, false, 10_000);
+        while !lifted.ready_to_arm() {
+            lifted.step(0.02, Some(0.3), false, false);
+        }
+        lifted.armed(0.3);
+        lifted.refuse();
+        assert_eq!((lifted.phase(), lifted.abort()), (Phase::Lift, None));
+    }
+
+    #[test]
+    fn tension_law_climbs_holds_and_backs_off() {
+        let p = params();
+        assert!((tension_climb_mps(0.0, &p) - p.tension_vz_mps).abs() < 1e-6);
+        assert!(tension_climb_mps(p.pretension_n, &p).abs() < 1e-6);
+        assert!(tension_climb_mps(50.0, &p) < 0.0);
+        assert_eq!(tension_climb_mps(f32::NAN, &p), 0.0);
+        for code in 0..=255u8 {
+            if let Some(ph) = Phase::from_code(code) {
+                assert_eq!(ph as u8, code);
+            }
+        }
+        assert_eq!(Phase::ALL.iter().filter(|p| p.passing_off()).count(), 7);
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let mut p = params();
+        p.transport_z_m = 0.1;
+        assert_eq!(PhaseProfile::ground(p).err(), Some(ControlError::InvalidParameter("phases.transport_z_m")));
+        let mut p = params();
+        p.lift_vz_mps = f32::NAN;
+        assert_eq!(PhaseProfile::ground(p).err(), Some(ControlError::InvalidParameter("phases.lift_vz_mps")));
+    }
+}
