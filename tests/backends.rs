@@ -79,6 +79,15 @@ fn crates_and_twin_fly_the_experiment_identically_on_the_rigid_body_plant() {
     assert_same("experiment-3uav.toml", UavModel::RigidBody, CableModel::Elastic);
 }
 
+/// Issue 27: the ground start (lift-off, transport, set-down) is the companion's, so the twin
+/// flies it bit for bit too.
+#[test]
+fn crates_and_twin_fly_the_experiment_from_the_ground_identically() {
+    let mut ls = load("experiment-3uav.toml");
+    ls.scenario.mission.start = host_sim::scenario::MissionStart::Ground;
+    assert_same_scenario(&ls, "experiment-3uav.toml (ground)", UavModel::RigidBody, CableModel::Elastic);
+}
+
 #[test]
 fn crates_and_twin_fly_the_paper_mission_identically_on_the_rigid_body_plant() {
     assert_same("paper-10uav.toml", UavModel::RigidBody, CableModel::Elastic);

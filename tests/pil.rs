@@ -158,6 +158,33 @@ fn pil_experiment_3uav_is_bit_exact() {
     assert!(dir.join("pil.mcap").metadata().is_ok_and(|m| m.len() > 10_000), "pil.mcap written");
 }
 
+/// Issue 27: the mission from the ground, flown by the firmware in QEMU: take-off, tension
+/// build-up, lift, climb, transport, descent, set-down and slack, bit for bit as the twin and
+/// the crates fly it (the experiment, its transport shortened to the tube's last part).
+#[test]
+fn pil_ground_start_lifts_off_and_sets_down_bit_exact() {
+    let Some(elf) = firmware() else { return };
+    let mut ls = experiment();
+    ls.scenario.mission.start = host_sim::scenario::MissionStart::Ground;
+    ls.scenario.load.start_s_m = 20.0;
+    let dir = out_dir("ground-start");
+    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir, duration_s: None, uav_model: None, cable_model: None, mcap: None };
+    let r = pil::run(&ls, &opts).unwrap();
+    let s = &r.summary;
+    eprintln!(
+        "PIL ground start: {} commands compared, bit_exact {}, success {} {:?}, phases {:?}, lift peak {:?} N, touchdown {:?} m/s",
+        r.commands_compared, r.bit_exact, s.success, s.failures, s.phases, s.lift_peak_tension_n, s.touchdown_speed_mps
+    );
+    assert!(r.bit_exact, "first difference: {:?}", r.first_difference);
+    assert_eq!(comparable(s), comparable(&r.sil_summary), "PIL and SIL twin summaries");
+    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "PIL and SIL-crates summaries");
+    assert!(s.success, "{:?}", s.failures);
+    let names: Vec<&str> = s.phases.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["takeoff", "tension", "lift", "climb", "transport", "descent", "slack", "released"]);
+    assert!(s.touchdown_speed_mps.is_some_and(|v| v <= 0.5) && s.lift_peak_tension_n.is_some_and(|p| p <= 1.5 * s.rated_n));
+    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3]);
+}
+
 /// The summary without the fields that measure the host (wall time, realtime factor).
 fn comparable(s: &host_sim::summary::Summary) -> serde_json::Value {
     let mut v = serde_json::to_value(s).unwrap();

@@ -56,6 +56,10 @@ impl Team for Recording {
     fn team_modes(&self, out: &mut [TeamMode]) {
         self.team.team_modes(out);
     }
+
+    fn phases(&self, phases: &mut [u8], refusals: &mut [u8]) {
+        self.team.phases(phases, refusals);
+    }
 }
 
 /// Writes `text` as scenario `name` in a temporary folder of its own (`tag`), runs `host-sim run`

@@ -20,6 +20,8 @@ pub(crate) struct GroundRecord {
     /// The load's resting altitude, m.
     rest_z_m: f64,
     marks: Vec<PhaseMark>,
+    /// Bit `code` set: that phase is marked.
+    seen: u16,
     /// The lowest phase any UAV flies (0: not reported yet).
     team_phase: u8,
     lift_peak_n: f64,
@@ -36,6 +38,7 @@ impl GroundRecord {
         Self {
             rest_z_m,
             marks: Vec::new(),
+            seen: 0,
             team_phase: 0,
             lift_peak_n: 0.0,
             spread: None,
@@ -53,11 +56,14 @@ impl GroundRecord {
         }
         self.team_phase = phases.iter().copied().filter(|&c| c != 0).min().unwrap_or(0);
         for &code in phases {
+            let bit = 1u16.checked_shl(u32::from(code)).unwrap_or(0);
+            if self.seen & bit != 0 {
+                continue;
+            }
             if let Some(p) = Phase::from_code(code) {
-                if !self.marks.iter().any(|m| m.name == p.name()) {
-                    let swing_deg = swing_deg(uav_pos_m, load_pos_m, attached);
-                    self.marks.push(PhaseMark { name: p.name().into(), start_s: t, swing_deg });
-                }
+                self.seen |= bit;
+                let swing_deg = swing_deg(uav_pos_m, load_pos_m, attached);
+                self.marks.push(PhaseMark { name: p.name().into(), start_s: t, swing_deg });
             }
         }
     }

@@ -227,7 +227,7 @@ impl PhaseProfile {
     pub fn abort_lift(&mut self) {
         if self.phase == Phase::Lift {
             self.abort = Some(Abort::LiftFailed);
-            self.to_slack(self.z_ref_m);
+            self.enter_slack(self.z_ref_m);
         }
     }
 
@@ -235,11 +235,11 @@ impl PhaseProfile {
     pub fn refuse(&mut self) {
         if matches!(self.phase, Phase::Takeoff | Phase::Tension) {
             self.abort = Some(Abort::Refused);
-            self.to_slack(self.p.ground_z_m);
+            self.enter_slack(self.p.ground_z_m);
         }
     }
 
-    fn to_slack(&mut self, from_m: f32) {
+    fn enter_slack(&mut self, from_m: f32) {
         self.phase = Phase::Slack;
         self.timer_s = 0.0;
         self.z_ref_m = from_m.min(self.p.ground_z_m);
@@ -272,7 +272,7 @@ impl PhaseProfile {
                         self.phase = Phase::Climb;
                     } else if self.z_ref_m > p.ground_z_m + p.lift_clear_m + p.lift_extra_m {
                         self.abort = Some(Abort::LiftFailed);
-                        self.to_slack(self.z_ref_m);
+                        self.enter_slack(self.z_ref_m);
                     }
                 }
             }
@@ -295,7 +295,7 @@ impl PhaseProfile {
                 let v = if self.z_ref_m > p.ground_z_m + p.touchdown_band_m { p.climb_vz_mps } else { p.lift_vz_mps };
                 self.z_ref_m = (self.z_ref_m - v * dt).max(p.ground_z_m);
                 if self.z_ref_m <= p.ground_z_m {
-                    self.to_slack(p.ground_z_m);
+                    self.enter_slack(p.ground_z_m);
                 }
             }
             Phase::Slack => {

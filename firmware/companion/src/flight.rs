@@ -484,9 +484,7 @@ impl Flight {
         if profile.phase() == Phase::Lift && load_m.z < profile.params().ground_z_m + profile.params().lift_clear_m {
             // An overload shows as the own cable's tension passing the abort level with the
             // load still down (vt_dissipative::phases::LIFT_ABORT_FACTOR).
-            let d = own_m - load_m;
-            let len = vt_fpu::sqrt(d.norm_squared());
-            if len > 0.0 && self.f_hat_n.dot(&d) / len > LIFT_ABORT_FACTOR * self.rated_n {
+            if cable_tension_n(&self.f_hat_n, own_m, load_m) > LIFT_ABORT_FACTOR * self.rated_n {
                 profile.abort_lift();
             }
         }
@@ -501,13 +499,18 @@ impl Flight {
                 }
             }
             if profile.ready_to_arm() {
+                // The survey's means (the last sample for a source it has none of); a member
+                // never heard refuses, as at an air start.
                 let mut takeoff = [Vec3::zeros(); MAX_UAVS];
+                let mut complete = true;
                 for (j, slot) in takeoff.iter_mut().enumerate().take(self.n) {
-                    let last = if j == self.id { Some(*own_m) } else { view.get(j).copied().flatten() };
-                    *slot = pending.survey.member(j).or(if j == self.id { pending.survey.own() } else { None }).or(last).unwrap_or(*own_m);
+                    let pos = if j == self.id { pending.survey.own().or(Some(*own_m)) } else { pending.survey.member(j).or(view.get(j).copied().flatten()) };
+                    complete &= pos.is_some();
+                    *slot = pos.unwrap_or(*own_m);
                 }
                 let ground_load = pending.survey.load().unwrap_or(*load_m);
-                match arm(&pending.params, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load) {
+                let armed = if complete { arm(&pending.params, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load) } else { Err(StartError::StaleData) };
+                match armed {
                     Ok(high) => {
                         self.high = Some(high);
                         profile.armed(ground_load.z);
@@ -547,8 +550,7 @@ impl Flight {
         let d = own_m - load_m;
         let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
         let v_z = if profile.phase() == Phase::Tension {
-            let len = vt_fpu::sqrt(d.norm_squared());
-            let tension = if len > 0.0 { self.f_hat_n.dot(&d) / len } else { f32::NAN };
+            let tension = cable_tension_n(&self.f_hat_n, own_m, load_m);
             // Never above the longest plausible cable's taut altitude.
             let ceiling = vp.load_altitude_ref_m.max(load_m.z) + vt_fpu::sqrt((pending.params.max_cable_m() * pending.params.max_cable_m() - offset * offset).max(0.0));
             let v = tension_climb_mps(tension, profile.params());
@@ -670,6 +672,15 @@ impl Flight {
     pub fn low_level_ticks(&self) -> u32 {
         self.ll_ticks
     }
+}
+
+/// The own cable's tension as the observer estimates it: `f_hat` along the unit vector from the
+/// load to the UAV, N (the estimate `vt_dissipative::vertical` shares the load with); NaN with
+/// the UAV on the load.
+fn cable_tension_n(f_hat_n: &Vec3, own_m: &Vec3, load_m: &Vec3) -> f32 {
+    let d = own_m - load_m;
+    let len = vt_fpu::sqrt(d.norm_squared());
+    if len > 0.0 { f_hat_n.dot(&d) / len } else { f32::NAN }
 }
 
 /// The ground start before its arming: what the arming reads and what the UAV flies until then.

@@ -487,3 +487,47 @@ fn the_start_calibrates_from_the_take_off_survey_not_the_last_sample() {
     let w = last.high_level(&t, &sources(0), 0);
     assert!((w - expect).norm() > 1e-2, "one sample should be off: {w:?} vs {expect:?}");
 }
+
+/// A ground start (`VT_START = 1`): no armed law yet, the take-off holds the own horizontal
+/// position and climbs towards the nominal cable's taut height less `VT_SLACK`; with a team
+/// member never heard at the end of the tension build-up the arming refuses (stale data) and
+/// the team slackens with the load on the ground; every command stays finite.
+#[test]
+fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming() {
+    let mut p = params(0.0);
+    p.set(Param::Start, 1.0).unwrap();
+    p.set(Param::TkoS, 1.0).unwrap();
+    let t = tube();
+    // The UAVs hover 1 m above a load resting on the ground.
+    let ground = Vec3::new(5.0, 0.0, 0.3);
+    let mut src = sources(0);
+    let low = |j: usize| Vec3::new(uav_pos(j).x, uav_pos(j).y, 1.3);
+    let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
+    src.own = Some(st(low(0), 0));
+    src.load = Some(st(ground, 0));
+    src.neighbours[1] = Some(Stamped { value: low(1), stamp_ms: 0 });
+    src.neighbours[2] = Some(Stamped { value: low(2), stamp_ms: 0 });
+    let mut fl = Flight::start(&p, Some(&t), &src, 0).unwrap();
+    assert_eq!(fl.phase(), Phase::Takeoff);
+    let slack = p.get(Param::SlackM);
+    assert!((fl.load_altitude_ref_m().unwrap() - (0.3 - slack)).abs() < 1e-6);
+    let v = fl.high_level(&t, &src, 0);
+    assert!(v.z > 0.0 && v.xy().norm() < 1e-6, "climb in place: {v:?}");
+    assert!(fl.last_command().is_none(), "no armed law before the tension build-up");
+    // Run through take-off and tension with member 2 silent from now on.
+    let mut now = 0;
+    while fl.phase() != Phase::Slack && now < 60_000 {
+        now += HL_MS;
+        src.own = Some(st(low(0), now));
+        src.load = Some(st(ground, now));
+        src.neighbours[1] = Some(Stamped { value: low(1), stamp_ms: now });
+        let v = fl.high_level(&t, &src, now);
+        assert!(finite3(&v), "finite command at {now} ms");
+        let sp = fl.low_level(&src, now);
+        assert!(sp.thrust.is_finite() && sp.q_ned.iter().all(|c| c.is_finite()));
+    }
+    assert_eq!(fl.phase(), Phase::Slack, "refused at the arming");
+    assert_eq!(fl.refusal(), Some(&StartError::StaleData));
+    assert_eq!(fl.take_refusal(), Some(StartError::StaleData));
+    assert_eq!(fl.take_refusal(), None, "reported once");
+}

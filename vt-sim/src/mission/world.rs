@@ -489,9 +489,12 @@ impl<'a> World<'a> {
         if let (Some(g), true) = (self.ground.as_mut(), self.step.is_multiple_of(self.ll_every)) {
             self.uav_pos_scratch.clear();
             self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
-            let attached: Vec<bool> = self.plant.cable_params().iter().map(|c| c.stiffness_n_per_m > 0.0).collect();
+            // The cables attached after the last step (all of them before the first).
+            if self.attached.is_empty() {
+                self.attached.extend(self.plant.cable_params().iter().map(|c| c.stiffness_n_per_m > 0.0));
+            }
             let marked = g.marks().len();
-            g.report(t, &self.phase_codes, &self.refusal_codes, &self.uav_pos_scratch, &self.plant.load.pos_m, &attached);
+            g.report(t, &self.phase_codes, &self.refusal_codes, &self.uav_pos_scratch, &self.plant.load.pos_m, &self.attached);
             if self.record_on {
                 for m in g.marks().iter().skip(marked) {
                     if let Some(p) = vt_dissipative::Phase::ALL.iter().find(|p| p.name() == m.name) {

@@ -573,3 +573,63 @@ fn new_rejects_invalid_input_and_names_it() {
     c[0].f_max_n = f64::INFINITY;
     assert_eq!(try_new(u, c, s.load, &s.uav_pos, z, 1), None);
 }
+
+/// Three UAVs hovering with slack cables above a load resting at `rest_z` (1 m below them,
+/// well inside every cable's length), the load given `vel` (m/s) and lifted `lift_m` above
+/// its rest.
+fn resting_load(vel: Vector3<f64>, lift_m: f64) -> (Plant, f64) {
+    let s = setup(3, 500.0, 5.0, f64::INFINITY, 0.0);
+    let rest_z = s.uav_pos[0].z - 1.0;
+    let mut p = plant(&s, Vector3::new(0.0, 0.0, rest_z + lift_m), 1);
+    p.set_load_rest_z(rest_z);
+    p.load.vel_mps = vel;
+    (p, rest_z)
+}
+
+fn step_on_ground(p: &mut Plant, dt: f64) -> Option<f64> {
+    let hover = p.hover_thrust();
+    let zeros = vec![Vector3::zeros(); p.n_uavs()];
+    p.step(&hover, &zeros, Vector3::zeros(), dt);
+    p.ground_contact()
+}
+
+/// A load sliding on the ground decelerates at `mu g` (Coulomb friction), stops, and stays
+/// stopped; it never goes below its resting altitude and never leaves it.
+#[test]
+fn a_sliding_load_decelerates_at_mu_g_and_stops() {
+    let (mut p, rest_z) = resting_load(Vector3::new(2.0, 0.0, 0.0), 0.0);
+    let dt = 0.001;
+    for _ in 0..200 {
+        step_on_ground(&mut p, dt);
+        assert!((p.load.pos_m.z - rest_z).abs() < 1e-12, "no penetration, no hop");
+    }
+    let expected = 2.0 - GROUND_FRICTION * GRAVITY_MPS2 * 0.2;
+    assert!((p.load.vel_mps.x - expected).abs() < 0.02, "speed {} after 0.2 s, expected {expected}", p.load.vel_mps.x);
+    for _ in 0..1000 {
+        step_on_ground(&mut p, dt);
+    }
+    assert!(p.load.vel_mps.norm() < 1e-9, "stopped: {:?}", p.load.vel_mps);
+    let x = p.load.pos_m.x;
+    for _ in 0..1000 {
+        step_on_ground(&mut p, dt);
+    }
+    assert!((p.load.pos_m.x - x).abs() < 1e-9, "no creep at rest");
+}
+
+/// A dropped load meets the ground at `sqrt(2 g h)` and does not bounce: the contact is
+/// perfectly inelastic and reports the impact speed.
+#[test]
+fn a_dropped_load_lands_without_bouncing() {
+    let (mut p, rest_z) = resting_load(Vector3::zeros(), 0.5);
+    let dt = 0.0005;
+    let mut impact = None;
+    for _ in 0..2000 {
+        if let Some(v) = step_on_ground(&mut p, dt) {
+            impact.get_or_insert(v);
+        }
+    }
+    let v = impact.expect("the load hit the ground");
+    let expected = (2.0 * GRAVITY_MPS2 * 0.5).sqrt();
+    assert!((v - expected).abs() < 0.05, "impact {v} m/s, expected {expected}");
+    assert!((p.load.pos_m.z - rest_z).abs() < 1e-12 && p.load.vel_mps.z.abs() < 1e-12, "at rest on the ground, no bounce");
+}

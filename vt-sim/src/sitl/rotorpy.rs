@@ -72,6 +72,9 @@ pub fn unsupported(ls: &LoadedScenario) -> Option<String> {
     if s.sensing.position != crate::sensing::PositionModel::White {
         what.push("[sensing] position");
     }
+    if s.mission.start != crate::scenario::MissionStart::Air {
+        what.push("[mission] start (the RotorPy bridge has no ground)");
+    }
     (!what.is_empty()).then(|| {
         format!("{}: the RotorPy plant models the airframe, cables, load and wind only; remove {} (or fly --plant host)", ls.source_name, what.join(", "))
     })

@@ -1,0 +1,118 @@
+//! The whole mission from the ground (issue 27 §2): `[mission] start = "ground"`. The load rests
+//! on the ground, the UAVs hover low with slack cables; the companions fly take-off, tension
+//! build-up, lift, climb, transport, descent, set-down and slack (`vt_dissipative::phases`).
+//! Plant: the default rigid-body quadrotors behind the PX4-style autopilot on elastic cables,
+//! the load on the ground with Coulomb friction (docs/plant.md, "Ground contact").
+
+use host_sim::scenario::{parse, PAPER_10UAV};
+use host_sim::sim::{self, RunOptions};
+use host_sim::summary::Summary;
+
+const PHASES: [&str; 8] = ["takeoff", "tension", "lift", "climb", "transport", "descent", "slack", "released"];
+
+fn ground(text: &str) -> String {
+    text.replacen("[mission]\n", "[mission]\nstart = \"ground\"\n", 1)
+}
+
+fn fly(text: &str) -> (Summary, host_sim::record::RunRecord) {
+    let ls = parse(text, "ground.toml").expect("valid scenario");
+    let out = sim::run(&ls, &RunOptions { record: true, ..RunOptions::default() }).expect("flies");
+    (out.summary, out.record)
+}
+
+fn names(s: &Summary) -> Vec<&str> {
+    s.phases.iter().map(|m| m.name.as_str()).collect()
+}
+
+/// The paper mission from the ground: every phase in order, no snatch above 1.5 x rated, the
+/// tensions even when the load leaves the ground, a touchdown below 0.5 m/s, the load back on
+/// the ground at the end, inside the tube throughout.
+#[test]
+fn the_paper_mission_lifts_off_transports_and_sets_down() {
+    let (s, rec) = fly(&ground(PAPER_10UAV));
+    println!(
+        "ground start: success {} {:?}, phases {:?}, lift peak {:?} N, spread {:?}, touchdown {:?} m/s, arrival {:?} s, clearances {:.3}/{:.3}/{:.3} m",
+        s.success,
+        s.failures,
+        s.phases,
+        s.lift_peak_tension_n,
+        s.lift_share_spread,
+        s.touchdown_speed_mps,
+        s.completion_time_s,
+        s.min_uav_uav_clearance_m,
+        s.min_uav_boundary_clearance_m,
+        s.min_obstacle_clearance_m
+    );
+    assert!(s.success, "{:?}", s.failures);
+    assert_eq!((s.uav_model.as_str(), s.cable_model.as_str(), s.start.as_str()), ("rigid_body", "elastic", "ground"));
+    assert_eq!(names(&s), PHASES, "every phase, in order");
+    assert!(s.phases.windows(2).all(|w| w[0].start_s < w[1].start_s), "phases in time order: {:?}", s.phases);
+    let peak = s.lift_peak_tension_n.expect("lift peak");
+    assert!(peak > 0.5 * s.load_mass_kg * 9.81 / s.n_uavs as f64, "the cables carried the load at lift: peak {peak:.1} N");
+    assert!(peak <= 1.5 * s.rated_n, "snatch {peak:.1} N > 1.5 x rated {} N", s.rated_n);
+    let spread = s.lift_share_spread.expect("share spread at lift-off");
+    assert!(spread < 0.2, "uneven sharing at lift-off: {spread:.3}");
+    let touchdown = s.touchdown_speed_mps.expect("touchdown");
+    assert!(touchdown <= 0.5, "touchdown at {touchdown:.2} m/s");
+    for m in &s.phases {
+        assert!(m.swing_deg < 10.0, "swing {:.1} deg at {}", m.swing_deg, m.name);
+    }
+    assert!(s.min_load_boundary_m > 0.0 && s.min_uav_boundary_m > 0.0, "inside the tube");
+    // The load started and ended on the ground (its envelope's radius up), and flew at its
+    // altitude in between.
+    let z: Vec<f64> = rec.load_pos_m.iter().map(|p| p[2]).collect();
+    let rest = s.load_radius_m;
+    assert!((z[0] - rest).abs() < 0.02 && (z[z.len() - 1] - rest).abs() < 0.02, "on the ground at both ends: {} / {}", z[0], z[z.len() - 1]);
+    let top = z.iter().copied().fold(f64::MIN, f64::max);
+    assert!(top > 5.0, "transport altitude reached: {top:.2} m");
+    assert!(z.iter().all(|&h| h >= rest - 1e-9), "the load never went into the ground");
+    // The replay timeline carries the phases.
+    let marks = rec.events.iter().filter(|e| format!("{:?}", e.kind).starts_with("Phase")).count();
+    assert_eq!(marks, PHASES.len());
+}
+
+/// A load heavier than declared (26 kg against 18 kg: the pre-flight check passes on the
+/// declaration) does not leave the ground: the team abandons the lift when a cable passes
+/// 1.25 x rated, slackens its cables and releases. Refused, no cable broken, the load never up.
+#[test]
+fn an_undeclared_overload_is_abandoned_on_the_ground() {
+    let text = ground(PAPER_10UAV).replacen("[load]\n", "[load]\ntrue_mass_kg = 26.0\n", 1);
+    let (s, rec) = fly(&text);
+    println!("overload: outcome {}, {:?}, phases {:?}, peak {:?} N", s.outcome, s.failures, names(&s), s.lift_peak_tension_n);
+    assert_eq!(s.outcome, "refused");
+    assert!(s.failures[0].contains("did not leave the ground"), "{:?}", s.failures);
+    assert_eq!(names(&s), ["takeoff", "tension", "lift", "slack", "released"]);
+    assert_eq!(s.cables_broken, 0);
+    let peak = s.lift_peak_tension_n.expect("peak");
+    assert!(peak <= 1.5 * s.rated_n, "snatch {peak:.1} N");
+    let top = rec.load_pos_m.iter().map(|p| p[2]).fold(f64::MIN, f64::max);
+    assert!(top < s.load_radius_m + 0.2, "the load stayed down: {top:.2} m");
+    assert_eq!(s.touchdown_speed_mps, None);
+}
+
+/// The start checks run with the cables taut and the load still down: a declared wind above the
+/// team's capacity is refused there (code 8), and the team slackens and releases. (Scenario
+/// validation refuses such a file before any flight; a campaign's drawn wind reaches the
+/// companions as this one does.)
+#[test]
+fn a_refused_start_check_leaves_the_load_on_the_ground() {
+    let mut ls = parse(&ground(PAPER_10UAV), "ground.toml").expect("valid scenario");
+    ls.scenario.mission.max_wind_mps = Some(30.0);
+    let out = sim::run(&ls, &RunOptions { record: true, ..RunOptions::default() }).expect("flies");
+    let (s, rec) = (out.summary, out.record);
+    println!("wind refusal: outcome {}, {:?}, phases {:?}", s.outcome, s.failures, names(&s));
+    assert_eq!(s.outcome, "refused");
+    assert!(s.failures[0].contains("refusal code 8"), "{:?}", s.failures);
+    assert_eq!(names(&s), ["takeoff", "tension", "slack", "released"]);
+    let top = rec.load_pos_m.iter().map(|p| p[2]).fold(f64::MIN, f64::max);
+    assert!(top < s.load_radius_m + 0.05, "the load stayed down: {top:.2} m");
+}
+
+/// An air start is unchanged: no phases recorded, `start` is `air`.
+#[test]
+fn an_air_start_has_no_ground_figures() {
+    let ls = parse(PAPER_10UAV, "paper.toml").unwrap();
+    let s = sim::run(&ls, &RunOptions { duration_s: Some(5.0), record: false, ..RunOptions::default() }).unwrap().summary;
+    assert_eq!(s.start, "air");
+    assert!(s.phases.is_empty() && s.lift_peak_tension_n.is_none() && s.touchdown_speed_mps.is_none());
+}
