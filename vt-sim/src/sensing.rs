@@ -93,6 +93,24 @@ pub struct SensingSpec {
     /// Multiplies every standard deviation of the preset (default 1; the GNSS survival figure
     /// scales it).
     pub error_scale: Option<f64>,
+    /// What the autopilot's loops read (default `true`: the true attitude and rates; `px4`: a
+    /// noisy, biased gyro behind PX4's 40 Hz low-pass and a lagging, misaligned attitude
+    /// estimate, `quadrotor::imu`). Rigid-body plant only.
+    pub attitude: AttitudeModel,
+    /// Multiplies every standard deviation of the `px4` attitude model (default 1).
+    pub attitude_error_scale: Option<f64>,
+}
+
+/// `[sensing] attitude`: what the autopilot's attitude and rate loops read.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AttitudeModel {
+    /// The true attitude and body rates.
+    #[default]
+    True,
+    /// Gyro noise and bias, PX4's `IMU_GYRO_CUTOFF` low-pass, a lagging and misaligned
+    /// attitude estimate (`quadrotor::imu`).
+    Px4,
 }
 
 impl SensingSpec {
@@ -179,7 +197,7 @@ mod tests {
     use super::*;
 
     fn gnss(n: usize) -> PositionErrors {
-        PositionErrors::new(&SensingSpec { position: PositionModel::Gnss, error_scale: None }, n, 0.1, 7).unwrap()
+        PositionErrors::new(&SensingSpec { position: PositionModel::Gnss, error_scale: None, ..SensingSpec::default() }, n, 0.1, 7).unwrap()
     }
 
     #[test]
@@ -193,7 +211,7 @@ mod tests {
     fn spread_and_correlation_match_the_preset() {
         let (mut s2, mut cov, mut count) = (0.0, 0.0, 0.0);
         for seed in 0..4000 {
-            let mut e = PositionErrors::new(&SensingSpec { position: PositionModel::Gnss, error_scale: None }, 1, 10.0, seed).unwrap();
+            let mut e = PositionErrors::new(&SensingSpec { position: PositionModel::Gnss, error_scale: None, ..SensingSpec::default() }, 1, 10.0, seed).unwrap();
             let x0 = e.of(Receiver::Uav(0)).x;
             e.step();
             let x1 = e.of(Receiver::Uav(0)).x;
@@ -231,7 +249,7 @@ mod tests {
         let a = gnss(3);
         let b = gnss(3);
         assert_eq!(a.of(Receiver::Load), b.of(Receiver::Load));
-        let half = PositionErrors::new(&SensingSpec { position: PositionModel::Gnss, error_scale: Some(0.5) }, 3, 0.1, 7).unwrap();
+        let half = PositionErrors::new(&SensingSpec { position: PositionModel::Gnss, error_scale: Some(0.5), ..SensingSpec::default() }, 3, 0.1, 7).unwrap();
         assert!((half.of(Receiver::Load) - a.of(Receiver::Load) * 0.5).norm() < 1e-12);
     }
 }

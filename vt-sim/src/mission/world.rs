@@ -132,6 +132,9 @@ impl<'a> World<'a> {
         let takeoff = sim::takeoff_with(s, &ls.tube, f_max, &true_len, &true_k);
         let mut plant = crate::plant::build(s, &draw, &true_len, &true_k, &takeoff, uav_model, cable_model, f_max)
             .map_err(|e| SimError(format!("plant: {e}")))?;
+        if s.sensing.attitude == crate::sensing::AttitudeModel::Px4 {
+            plant.fit_imus(seed, s.sensing.attitude_error_scale.unwrap_or(1.0));
+        }
         // The load rests on its envelope (docs/plant.md, "Ground contact").
         let rest_z = s.load.envelope_radius_m();
         plant.set_load_rest_z(rest_z);

@@ -148,6 +148,14 @@ impl Plant {
     /// The ground stops a quadrotor: one whose centre of mass is below z = 0 is put back at
     /// rest, level, on the ground (a crashed vehicle: its autopilot restarts holding level at
     /// zero thrust).
+    /// Every quadrotor's loops read their attitude and rates through its own IMU
+    /// (`quadrotor::imu`), seeded from `seed`, errors scaled by `scale` (issue 27 §3).
+    pub fn fit_imus(&mut self, seed: u64, scale: f64) {
+        for (i, q) in self.quads.iter_mut().enumerate() {
+            q.set_imu(Some(crate::quadrotor::imu::Imu::new(seed, i, scale)));
+        }
+    }
+
     pub(super) fn ground_quadrotors(&mut self) {
         for q in &mut self.quads {
             let p = q.pos_m();

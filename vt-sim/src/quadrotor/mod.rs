@@ -41,6 +41,7 @@
 //! finite and positive does nothing, one longer than [`MAX_SUBSTEP_S`] is split.
 
 mod autopilot;
+pub mod imu;
 mod mixer;
 mod params;
 
@@ -98,6 +99,8 @@ pub struct Quadrotor {
     motor_gain: (f64, f64),
     /// Each rotor's maximum thrust as built, N ([`Self::set_thrust_scale`] scales it).
     nominal_rotor_max_n: f64,
+    /// The gyro and attitude estimate the loops read (`None`: the true state; [`imu`]).
+    imu: Option<imu::Imu>,
 }
 
 impl Quadrotor {
@@ -140,7 +143,14 @@ impl Quadrotor {
             motor_gain: (0.0, 0.0),
             nominal_rotor_max_n: params.rotor_thrust_max_n,
             inv_inertia: params.inertia_kgm2.map(|x| 1.0 / x),
+            imu: None,
         })
+    }
+
+    /// The loops read attitude and rates through `imu` from now on (issue 27 §3; `None`: the
+    /// true state).
+    pub fn set_imu(&mut self, imu: Option<imu::Imu>) {
+        self.imu = imu;
     }
 
     /// Puts the vehicle at rest in the equilibrium that balances gravity and the constant
@@ -191,7 +201,13 @@ impl Quadrotor {
 
     /// One step of at most [`MAX_SUBSTEP_S`] with sanitised inputs.
     fn substep(&mut self, target: &AttitudeTarget, f_ext: &Vector3<f64>, wind: &Vector3<f64>, h: f64) {
-        let (demand, ran) = self.autopilot.update(target, &self.attitude, &self.body_rates_rps, h);
+        let (demand, ran) = match self.imu.as_mut() {
+            Some(imu) => {
+                let (q, w) = imu.measure(&self.attitude, &self.body_rates_rps, h);
+                self.autopilot.update(target, &q, &w, h)
+            }
+            None => self.autopilot.update(target, &self.attitude, &self.body_rates_rps, h),
+        };
         if ran {
             let (cmd, sat) = self.mixer.mix(demand.force_n, [demand.torque_nm.x, demand.torque_nm.y, demand.torque_nm.z]);
             self.rotor_cmd_n = cmd;

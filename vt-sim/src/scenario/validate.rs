@@ -290,10 +290,15 @@ impl Validator<'_> {
             return Err(self.err("disturbances", "turbulence", format!("turbulence x intensity must be in [0, 3] (got {})", d.turbulence * d.intensity)));
         }
         self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
-        if let Some(k) = s.sensing.error_scale {
-            if !(k.is_finite() && (0.0..=100.0).contains(&k)) {
-                return Err(self.err("sensing", "error_scale", format!("must be in [0, 100] (got {k})")));
+        for (field, scale) in [("error_scale", s.sensing.error_scale), ("attitude_error_scale", s.sensing.attitude_error_scale)] {
+            if let Some(k) = scale {
+                if !(k.is_finite() && (0.0..=100.0).contains(&k)) {
+                    return Err(self.err("sensing", field, format!("must be in [0, 100] (got {k})")));
+                }
             }
+        }
+        if s.sensing.attitude != crate::sensing::AttitudeModel::True && s.uavs.model != crate::models::UavModel::RigidBody {
+            return Err(self.err("sensing", "attitude", "the attitude estimate needs the rigid-body plant (`[uavs] model = \"rigid_body\"`): a point mass has no attitude".into()));
         }
         if !d.wind_mean_mps.iter().all(|x| x.is_finite()) {
             return Err(self.err("disturbances", "wind_mean_mps", "must be finite".into()));

@@ -72,6 +72,9 @@ pub fn unsupported(ls: &LoadedScenario) -> Option<String> {
     if s.sensing.position != crate::sensing::PositionModel::White {
         what.push("[sensing] position");
     }
+    if s.sensing.attitude != crate::sensing::AttitudeModel::True {
+        what.push("[sensing] attitude (RotorPy flies its own attitude controller)");
+    }
     if s.mission.start != crate::scenario::MissionStart::Air {
         what.push("[mission] start (the RotorPy bridge has no ground)");
     }
