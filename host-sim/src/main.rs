@@ -683,12 +683,13 @@ fn print_sweep(rep: &host_sim::campaign::SweepReport, wall_s: f64, out: &std::pa
             worst("max_load_altitude_error_m", true),
             if l.failure_reasons.is_empty() { String::new() } else { format!("  failures: {:?}", l.failure_reasons) }
         );
-        if l.refused > 0 || l.out_of_tube > 0 {
+        if l.refused > 0 || l.out_of_tube > 0 || l.set_down > 0 {
             println!(
-                "                  refused before take-off {}, accepted {}: success {:.1} %, out of the tube {}",
+                "                  refused {}, accepted {}: success {:.1} %, set down before the end {}, out of the tube {}",
                 l.refused,
                 l.runs - l.refused,
                 100.0 * l.accepted_success_rate,
+                l.set_down,
                 l.out_of_tube
             );
         }

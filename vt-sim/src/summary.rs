@@ -114,8 +114,10 @@ pub struct Summary {
     pub cable_breaks: Vec<CableBreak>,
     /// Cables cut by injected `cable_snap` faults.
     pub cables_cut_by_fault: usize,
-    /// `flown`, or `refused` before take-off (a campaign's run whose declared wind the team
-    /// cannot hold: nothing flew, the distances are NaN; issue 29).
+    /// `flown`; `refused` before take-off (a campaign's run whose declared wind the team
+    /// cannot hold: nothing flew, the distances are NaN; issue 29) or on the ground (a ground
+    /// start's arming or lift); `set_down`: a ground start set the load down before the end
+    /// because the team could not hold the tube.
     #[serde(default = "flown")]
     pub outcome: String,
     /// Where the mission started: `air` (the paper) or `ground` (issue 27).

@@ -21,6 +21,23 @@
 
 use crate::ControlError;
 
+/// The team cannot hold the tube when the load has been carried this far back along it from the
+/// furthest it reached, m (a wind against the passing direction beyond the team's capacity).
+pub const SET_DOWN_BLOWN_BACK_M: f32 = 2.0;
+/// ... or when the load comes this close to the tube's boundary, m.
+pub const SET_DOWN_LOAD_EDGE_M: f32 = 0.5;
+
+/// True when the team cannot hold the tube and must set the load down (issue 29): the load
+/// carried back `progress_lost_m` along the tube, or within `load_boundary_m` of its boundary
+/// (the load's state: the same numbers on every UAV).
+pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32) -> bool {
+    progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m < SET_DOWN_LOAD_EDGE_M
+}
+
+/// A set-down's slow final band above the ground, m (a normal descent's is
+/// [`PhaseParams::touchdown_band_m`]).
+pub const SET_DOWN_TOUCHDOWN_BAND_M: f32 = 0.3;
+
 /// A UAV abandons the lift when its own cable's tension estimate passes this many times the
 /// rated tension while the load is still on the ground (an overload shows in every cable at
 /// once, so the team abandons together; below the 1.5 x rated snatch the issue allows).
@@ -169,6 +186,8 @@ pub struct PhaseProfile {
     timer_s: f32,
     arrived: bool,
     abort: Option<Abort>,
+    /// The transport was cut short by [`Self::set_down_now`].
+    set_down_early: bool,
 }
 
 impl PhaseProfile {
@@ -178,7 +197,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None })
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false })
     }
 
     /// The parameters.
@@ -220,6 +239,21 @@ impl PhaseProfile {
             self.timer_s = 0.0;
             self.z_ref_m = if load_z_m.is_finite() { load_z_m } else { self.p.ground_z_m };
         }
+    }
+
+    /// The team cannot hold the tube (the caller's detection on the load's state, which every
+    /// UAV shares): the transport ends here, the descent and the set-down start at once.
+    pub fn set_down_now(&mut self) {
+        if self.phase == Phase::Transport {
+            self.phase = Phase::Descent;
+            self.timer_s = 0.0;
+            self.set_down_early = true;
+        }
+    }
+
+    /// True when the transport was cut short by a set-down ([`Self::set_down_now`]).
+    pub fn set_down_early(&self) -> bool {
+        self.set_down_early
     }
 
     /// The own cable is overloaded while the load is still on the ground (the caller's
@@ -292,7 +326,10 @@ impl PhaseProfile {
                 }
             }
             Phase::Descent => {
-                let v = if self.z_ref_m > p.ground_z_m + p.touchdown_band_m { p.climb_vz_mps } else { p.lift_vz_mps };
+                // A set-down in a wind the team cannot hold slows down only in the last
+                // [`SET_DOWN_TOUCHDOWN_BAND_M`]: on the ground, friction holds the load.
+                let band = if self.set_down_early { SET_DOWN_TOUCHDOWN_BAND_M.min(p.touchdown_band_m) } else { p.touchdown_band_m };
+                let v = if self.z_ref_m > p.ground_z_m + band { p.climb_vz_mps } else { p.lift_vz_mps };
                 self.z_ref_m = (self.z_ref_m - v * dt).max(p.ground_z_m);
                 if self.z_ref_m <= p.ground_z_m {
                     self.enter_slack(p.ground_z_m);
@@ -437,6 +474,27 @@ mod tests {
         assert!(pr.load_altitude_ref_m() <= p.ground_z_m);
         run(&mut pr, |_| 0.3, false, 100_000);
         assert_eq!(pr.phase(), Phase::Released);
+    }
+
+    #[test]
+    fn a_set_down_in_transport_descends_at_once_and_only_from_transport() {
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        pr.set_down_now();
+        assert_eq!(pr.phase(), Phase::Takeoff, "nothing before the transport");
+        run(&mut pr, |_| 0.3, false, 10_000);
+        while !pr.ready_to_arm() {
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        pr.armed(0.3);
+        while pr.phase() != Phase::Transport {
+            let z = pr.load_altitude_ref_m();
+            pr.step(0.02, Some(z), false, false);
+        }
+        pr.set_down_now();
+        assert_eq!(pr.phase(), Phase::Descent);
+        assert!(pr.set_down_early());
+        run(&mut pr, |z| z.max(0.3), false, 100_000);
+        assert_eq!(pr.phase(), Phase::Slack);
     }
 
     #[test]

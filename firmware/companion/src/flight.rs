@@ -30,7 +30,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::phases::{tension_climb_mps, LIFT_ABORT_FACTOR};
+use vt_dissipative::phases::{cannot_hold, tension_climb_mps, LIFT_ABORT_FACTOR};
 use vt_dissipative::{
     capacity, Abort, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, Phase,
     PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode, VerticalParams,
@@ -291,6 +291,8 @@ pub struct Flight {
     load_hint: usize,
     /// Rated cable tension `VT_CABLE_RATED`, N (the lift's overload abort).
     rated_n: f32,
+    /// The furthest the load got along the tube in transport, m (the set-down's trigger).
+    load_s_max_m: f32,
 }
 
 impl Flight {
@@ -380,6 +382,7 @@ impl Flight {
             end_tol_m: params.get(Param::EndTol),
             load_hint: 0,
             rated_n: params.get(Param::CableRated),
+            load_s_max_m: f32::MIN,
         })
     }
 
@@ -475,11 +478,19 @@ impl Flight {
         let Some(profile) = self.profile.as_mut() else {
             return;
         };
-        let arrived = profile.phase() == Phase::Transport
-            && tube.locate(load_m.xy(), self.load_hint).is_some_and(|sec| {
+        let mut arrived = false;
+        if profile.phase() == Phase::Transport {
+            if let Some(sec) = tube.locate(load_m.xy(), self.load_hint) {
                 self.load_hint = sec.segment;
-                sec.remaining_m <= self.end_tol_m
-            });
+                arrived = sec.remaining_m <= self.end_tol_m;
+                // The team cannot hold the tube (wind beyond its capacity): set the load down
+                // here, inside the tube (issue 29; vt_dissipative::phases::cannot_hold).
+                self.load_s_max_m = self.load_s_max_m.max(sec.s_m);
+                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, sec.boundary_distance_m(load_m.xy())) {
+                    profile.set_down_now();
+                }
+            }
+        }
         profile.step(self.hl_dt_s, Some(load_m.z), arrived, holding);
         if profile.phase() == Phase::Lift && load_m.z < profile.params().ground_z_m + profile.params().lift_clear_m {
             // An overload shows as the own cable's tension passing the abort level with the
@@ -560,6 +571,12 @@ impl Flight {
         };
         let v = Vec3::new(v_xy.x, v_xy.y, v_z);
         if finite3(&v) { v } else { Vec3::zeros() }
+    }
+
+    /// True when a ground start's transport was cut short by a set-down (the team could not
+    /// hold the tube).
+    pub fn set_down_early(&self) -> bool {
+        self.profile.as_ref().is_some_and(PhaseProfile::set_down_early)
     }
 
     /// The mission's phase (an air start: always [`Phase::Transport`]).

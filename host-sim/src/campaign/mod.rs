@@ -407,8 +407,12 @@ pub struct LevelStats {
     pub failure_reasons: std::collections::BTreeMap<String, usize>,
     /// Runs where a UAV centre or the load left the tube (a boundary distance below 0).
     pub out_of_tube: usize,
-    /// Runs refused before take-off (declared wind above the team's capacity).
+    /// Runs refused before take-off (declared wind above the team's capacity), or on the
+    /// ground (a ground start's arming or lift).
     pub refused: usize,
+    /// Ground starts that set the load down before the end: the team could not hold the tube
+    /// (outcome `set_down`).
+    pub set_down: usize,
     /// successes / (runs - refused): the success rate among the runs the team accepted.
     pub accepted_success_rate: f64,
 }
@@ -559,6 +563,7 @@ fn level_stats(level: Option<f64>, rows: &[&Row]) -> LevelStats {
         failure_reasons: reasons,
         out_of_tube: rows.iter().filter(|r| left_the_tube(&r.summary)).count(),
         refused,
+        set_down: rows.iter().filter(|r| r.summary.outcome == "set_down").count(),
         accepted_success_rate: if rows.len() > refused { successes as f64 / (rows.len() - refused) as f64 } else { 0.0 },
     }
 }

@@ -671,6 +671,13 @@ fn ground_verdict(summary: &mut Summary, g: &crate::phases::GroundRecord, rated_
         None if released => fail("no touchdown recorded".into()),
         _ => {}
     }
+    // Descent before arrival: the companions set the load down because the team could not hold
+    // the tube (issue 29) — a safe outcome, not a success.
+    if !summary.reached_end && summary.phases.iter().any(|m| m.name == vt_dissipative::Phase::Descent.name()) {
+        summary.outcome = "set_down".into();
+        summary.success = false;
+        summary.failures.insert(0, "set the load down before the end: the team could not hold the tube".into());
+    }
 }
 
 /// Plant steps of the pre-flight: whole high-level periods of hover before the start
