@@ -167,22 +167,31 @@ fn pil_ground_start_lifts_off_and_sets_down_bit_exact() {
     let mut ls = experiment();
     ls.scenario.mission.start = host_sim::scenario::MissionStart::Ground;
     ls.scenario.load.start_s_m = 20.0;
-    let dir = out_dir("ground-start");
-    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir, duration_s: None, uav_model: None, cable_model: None, mcap: None };
-    let r = pil::run(&ls, &opts).unwrap();
+    let r = pil_same_as_sil(&ls, elf, "ground-start", None);
     let s = &r.summary;
-    eprintln!(
-        "PIL ground start: {} commands compared, bit_exact {}, success {} {:?}, phases {:?}, lift peak {:?} N, touchdown {:?} m/s",
-        r.commands_compared, r.bit_exact, s.success, s.failures, s.phases, s.lift_peak_tension_n, s.touchdown_speed_mps
-    );
-    assert!(r.bit_exact, "first difference: {:?}", r.first_difference);
-    assert_eq!(comparable(s), comparable(&r.sil_summary), "PIL and SIL twin summaries");
-    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "PIL and SIL-crates summaries");
+    eprintln!("PIL ground start: phases {:?}, lift peak {:?} N, touchdown {:?} m/s", s.phases, s.lift_peak_tension_n, s.touchdown_speed_mps);
     assert!(s.success, "{:?}", s.failures);
     let names: Vec<&str> = s.phases.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, ["takeoff", "tension", "lift", "climb", "transport", "descent", "slack", "released"]);
     assert!(s.touchdown_speed_mps.is_some_and(|v| v <= 0.5) && s.lift_peak_tension_n.is_some_and(|p| p <= 1.5 * s.rated_n));
-    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3]);
+}
+
+/// `ls` flown in PIL (three QEMUs running `elf`) beside the SIL twin and the SIL crates: every
+/// command bit for bit, the three summaries equal, a clean link, every emulator shut down.
+fn pil_same_as_sil(ls: &LoadedScenario, elf: PathBuf, name: &str, duration_s: Option<f64>) -> pil::PilReport {
+    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: out_dir(name), duration_s, uav_model: None, cable_model: None, mcap: None };
+    let r = pil::run(ls, &opts).unwrap();
+    let s = &r.summary;
+    eprintln!(
+        "PIL {name}: {} commands compared, bit_exact {}, success {} {:?}, UAV-UAV {:.3} m, UAV-boundary {:.3} m, events {:?}",
+        r.commands_compared, r.bit_exact, s.success, s.failures, s.min_uav_uav_m, s.min_uav_boundary_m, r.events
+    );
+    assert!(r.bit_exact, "{name}: first difference: {:?}", r.first_difference);
+    assert_eq!(comparable(s), comparable(&r.sil_summary), "{name}: PIL and SIL twin summaries");
+    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "{name}: PIL and SIL-crates summaries");
+    assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "{name}: clean link, no error counted");
+    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "{name}: every emulator shut down on command");
+    r
 }
 
 /// The summary without the fields that measure the host (wall time, realtime factor).
@@ -203,19 +212,7 @@ fn pil_team_failsafe(name: &str, fault: FaultSpec, duration_s: Option<f64>) -> (
     let mut ls = experiment();
     ls.scenario.faults.push(fault);
     ls.scenario.failsafe.stale_neighbour = StaleNeighbour::Hold;
-    let dir = out_dir(name);
-    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: dir, duration_s, uav_model: None, cable_model: None, mcap: None };
-    let r = pil::run(&ls, &opts).unwrap();
-    let s = &r.summary;
-    eprintln!(
-        "PIL {name}: {} commands compared, bit_exact {}, success {} {:?}, UAV-UAV {:.3} m, UAV-boundary {:.3} m, events {:?}",
-        r.commands_compared, r.bit_exact, s.success, s.failures, s.min_uav_uav_m, s.min_uav_boundary_m, r.events
-    );
-    assert!(r.bit_exact, "first difference: {:?}", r.first_difference);
-    assert_eq!(comparable(s), comparable(&r.sil_summary), "PIL and SIL twin summaries");
-    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "PIL and SIL-crates summaries");
-    assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "clean link: no error counted");
-    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3]);
+    let r = pil_same_as_sil(&ls, elf, name, duration_s);
     let mut per_uav = vec![Vec::new(); 3];
     for e in r.events.iter().filter(|e| matches!(e.kind, EventKind::Hold | EventKind::Resume)) {
         per_uav[e.uav].push((e.kind, e.time_s));
