@@ -34,6 +34,10 @@ pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32) -> bool {
     progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m < SET_DOWN_LOAD_EDGE_M
 }
 
+/// A team hold during the lift longer than this abandons it, s (the load is still down; a UAV
+/// that refused its arming holds its team).
+pub const LIFT_HOLD_ABORT_S: f32 = 3.0;
+
 /// A set-down's slow final band above the ground, m (a normal descent's is
 /// [`PhaseParams::touchdown_band_m`]).
 pub const SET_DOWN_TOUCHDOWN_BAND_M: f32 = 0.3;
@@ -285,8 +289,23 @@ impl PhaseProfile {
     pub fn step(&mut self, dt_s: f32, load_z_m: Option<f32>, arrived: bool, hold: bool) -> f32 {
         let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
         self.arrived |= arrived && self.phase == Phase::Transport;
-        if hold || dt == 0.0 {
+        if dt == 0.0 {
             return self.z_ref_m;
+        }
+        // A hold freezes every phase but the slackening with the load down. A lift held longer
+        // than `LIFT_HOLD_ABORT_S` is abandoned: a UAV that refused its arming holds its team.
+        if hold && !matches!(self.phase, Phase::Slack | Phase::Released) {
+            if self.phase == Phase::Lift {
+                self.timer_s += dt;
+                if self.timer_s > LIFT_HOLD_ABORT_S {
+                    self.abort = Some(Abort::LiftFailed);
+                    self.enter_slack(self.z_ref_m);
+                }
+            }
+            return self.z_ref_m;
+        }
+        if self.phase == Phase::Lift {
+            self.timer_s = 0.0;
         }
         let p = self.p;
         let load_z = load_z_m.filter(|z| z.is_finite());
@@ -455,6 +474,32 @@ mod tests {
         }
         // An unknown load altitude also waits.
         assert_eq!(pr.step(0.02, None, false, false), z);
+    }
+
+    #[test]
+    fn a_lift_held_too_long_is_abandoned_and_the_slack_goes_on_in_a_hold() {
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        run(&mut pr, |_| 0.3, false, 10_000);
+        while !pr.ready_to_arm() {
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        pr.armed(0.3);
+        let steps = (LIFT_HOLD_ABORT_S / 0.02) as usize;
+        for _ in 0..steps - 5 {
+            pr.step(0.02, Some(0.3), false, true);
+        }
+        pr.step(0.02, Some(0.3), false, false);
+        for _ in 0..steps - 5 {
+            pr.step(0.02, Some(0.3), false, true);
+        }
+        assert_eq!(pr.phase(), Phase::Lift, "a released hold restarts the count");
+        for _ in 0..10 {
+            pr.step(0.02, Some(0.3), false, true);
+        }
+        assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::LiftFailed)));
+        let z = pr.load_altitude_ref_m();
+        pr.step(0.02, Some(0.3), false, true);
+        assert!(pr.load_altitude_ref_m() < z, "the slack goes on in a hold");
     }
 
     #[test]

@@ -187,6 +187,25 @@ pub fn capacity(p: &WindParams) -> Result<WindCapacity, WindError> {
     Ok(WindCapacity { airspeed_max_mps, steady_wind_max_mps: (airspeed_max_mps - p.progress_mps).max(0.0), horizontal_n, limit })
 }
 
+/// The wind a hovering UAV's observer sees (issue 29: the estimate of the pre-flight hover), m/s:
+/// the observer's force estimate `f_hat_n` (N, ENU, the convention of [`crate::vertical`]: the
+/// cable's tension along `cable_dir`, the unit vector from the load to the UAV) is split into the
+/// cable's part, `T = f_z / u_z`, and a horizontal remainder, the UAV's drag; its airspeed is the
+/// largest `V` with `c_q V^2 + c_l V <= |drag|` (`quad`, `lin`: `VL_DRAG_Q`, `VL_DRAG_L`). At
+/// rest, airspeed is wind. `None` for a cable flatter than 60 deg from vertical (the split is
+/// then ill-conditioned), non-finite input or no drag model.
+pub fn wind_from_observer(f_hat_n: &crate::Vec3, cable_dir: &crate::Vec3, quad: f32, lin: f32) -> Option<f32> {
+    let finite = f_hat_n.iter().chain(cable_dir.iter()).all(|x| x.is_finite());
+    if !(finite && cable_dir.z > 0.5 && quad >= 0.0 && lin >= 0.0 && quad + lin > 0.0) {
+        return None;
+    }
+    let tension = f_hat_n.z / cable_dir.z;
+    let dx = f_hat_n.x - tension * cable_dir.x;
+    let dy = f_hat_n.y - tension * cable_dir.y;
+    let v = largest_speed(quad, lin, vt_fpu::sqrt(dx * dx + dy * dy));
+    v.is_finite().then_some(v)
+}
+
 /// The pre-flight wind check: steady wind `wind_mps` plus `gust_margin_mps` against the
 /// capacity.
 ///
@@ -211,6 +230,22 @@ pub fn check(p: &WindParams, wind_mps: f32, gust_margin_mps: f32) -> Result<Wind
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_observer_split_recovers_the_airspeed_of_a_known_drag() {
+        let (quad, lin) = (0.0103, 0.74);
+        for v in [0.0f32, 3.0, 7.5] {
+            let drag = quad * v * v + lin * v;
+            let dir = crate::Vec3::new(0.3, -0.2, 0.93).normalize();
+            // A 15 N cable along `dir` plus the drag along -x.
+            let f = dir * 15.0 + crate::Vec3::new(-drag, 0.0, 0.0);
+            let est = wind_from_observer(&f, &dir, quad, lin).unwrap();
+            assert!((est - v).abs() < 1e-3, "{v}: {est}");
+        }
+        let flat = crate::Vec3::new(1.0, 0.0, 0.2).normalize();
+        assert_eq!(wind_from_observer(&crate::Vec3::new(1.0, 0.0, 1.0), &flat, quad, lin), None);
+        assert_eq!(wind_from_observer(&crate::Vec3::new(f32::NAN, 0.0, 1.0), &crate::Vec3::z(), quad, lin), None);
+    }
     use proptest::prelude::*;
 
     /// The experiment's team: 3 x 1.47 kg, 30 N, 30 deg tilt, 3.06 kg load, 30 N cables.

@@ -31,6 +31,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::phases::{cannot_hold, tension_climb_mps, LIFT_ABORT_FACTOR};
+use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{
     capacity, Abort, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, Phase,
     PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode, VerticalParams,
@@ -59,6 +60,9 @@ impl HoldReasons {
     /// The operator asked for a hold (`MAV_CMD_DO_PAUSE_CONTINUE` with `param1 = 0`, or the
     /// Linux companion's Ctrl-C); cleared by a continue.
     pub const OPERATOR: u8 = 1 << 5;
+    /// Ground start: this UAV refused its arming or abandoned its lift (its cable slackens);
+    /// the team holds, so its lift is abandoned too (`vt_dissipative::phases::LIFT_HOLD_ABORT_S`).
+    pub const REFUSED: u8 = 1 << 6;
 
     /// True when no reason is set.
     pub fn is_clear(self) -> bool {
@@ -340,10 +344,10 @@ impl Flight {
             // Ground start (docs/design.md, "Lift-off and set-down"): the arming waits for taut
             // cables, at the end of the tension build-up.
             let profile = PhaseProfile::ground(params.phases(load_pos_m.z).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
-            let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX) };
+            let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX), f_hat_sum_n: Vec3::zeros(), f_hat_samples: 0 };
             (None, Some(profile), Some(pending))
         } else {
-            let high = arm(params, id, n, takeoff, &load_pos_m)?;
+            let high = arm(params, id, n, takeoff, &load_pos_m, None)?;
             // Warm start with the declared load's share (bumpless transfer; capacity.rs).
             if let Some(f) = params.capacity().ok().and_then(|cap| capacity::takeoff_cable_force_n(&own_pos_m, &load_pos_m, cap.load_mass_kg, n)) {
                 low.preload(f);
@@ -396,6 +400,9 @@ impl Flight {
     /// or load data; the controller's team hold while the team holds).
     pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
         let mut reasons = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
+        if self.refusal.is_some() {
+            reasons |= HoldReasons::REFUSED;
+        }
         let own = src.own.and_then(|s| s.fresh(now_ms, self.own_tmo_ms));
         let load = src.load.and_then(|s| s.fresh(now_ms, self.load_tmo_ms));
         if own.is_none() {
@@ -503,6 +510,10 @@ impl Flight {
             if profile.surveying() && !holding {
                 pending.survey.push_own(own_m);
                 pending.survey.push_load(load_m);
+                if finite3(&self.f_hat_n) {
+                    pending.f_hat_sum_n += self.f_hat_n;
+                    pending.f_hat_samples = pending.f_hat_samples.saturating_add(1);
+                }
                 for (j, v) in view.iter().enumerate().take(self.n) {
                     if let (true, Some(p)) = (j != self.id, v) {
                         pending.survey.push_member(j, p);
@@ -520,7 +531,15 @@ impl Flight {
                     *slot = pos.unwrap_or(*own_m);
                 }
                 let ground_load = pending.survey.load().unwrap_or(*load_m);
-                let armed = if complete { arm(&pending.params, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load) } else { Err(StartError::StaleData) };
+                // The wind the hover's observer saw (issue 29), with the survey's geometry.
+                let own_mean = takeoff.get(self.id).copied().unwrap_or(*own_m);
+                let dir = (own_mean - ground_load).try_normalize(1e-6);
+                let p = &pending.params;
+                let seen_wind = match (dir, pending.f_hat_samples) {
+                    (Some(u), k) if k > 0 => wind_from_observer(&(pending.f_hat_sum_n / k as f32), &u, p.get(Param::DragQ), p.get(Param::DragL)),
+                    _ => None,
+                };
+                let armed = if complete { arm(p, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load, seen_wind) } else { Err(StartError::StaleData) };
                 match armed {
                     Ok(high) => {
                         self.high = Some(high);
@@ -711,6 +730,10 @@ struct Pending {
     vertical: VerticalParams,
     /// The survey of the tension phase's last `settle_s` (the arming calibrates from it).
     survey: TakeoffSurvey<MAX_UAVS>,
+    /// The observer's force estimate summed over the survey, N, and its samples (the wind
+    /// estimate of the hover, `vt_dissipative::wind::wind_from_observer`).
+    f_hat_sum_n: Vec3,
+    f_hat_samples: u32,
 }
 
 /// The arming: the cable calibration from the positions of every UAV and the load
@@ -718,10 +741,17 @@ struct Pending {
 /// (`vt_dissipative::feasibility::check`), the declared wind's check, the take-off formation
 /// (eq:2-7), then the high-level law (`VT_CTRL`).
 #[inline(never)] // its frame is large: it must not merge into the high-level step's
-fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3) -> Result<HighLevel, StartError> {
+fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3, seen_wind_mps: Option<f32>) -> Result<HighLevel, StartError> {
     let cal = vt_dissipative::calibrate(id, takeoff, load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
     vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
-    if let Some((wind_mps, gust_mps)) = params.declared_wind_mps() {
+    // The declared wind, and the wind a ground start's hover saw: the larger is checked.
+    let declared = params.declared_wind_mps();
+    let wind = match (declared, seen_wind_mps) {
+        (Some((w, g)), seen) => Some((seen.map_or(w, |s| s.max(w)), g)),
+        (None, Some(seen)) => Some((seen, params.get(Param::WindGust))),
+        (None, None) => None,
+    };
+    if let Some((wind_mps, gust_mps)) = wind {
         vt_dissipative::wind::check(&params.wind(cal.cos_lean), wind_mps, gust_mps).map_err(StartError::Wind)?;
     }
     let dissipative = params.dissipative(&cal).map_err(StartError::Controller)?;

@@ -546,7 +546,10 @@ impl<'a> World<'a> {
             }
             self.next_fault += 1;
         }
-        let wind = if self.wind.is_calm() { V3::zeros() } else { self.wind.step(self.dt) };
+        let mut wind = if self.wind.is_calm() { V3::zeros() } else { self.wind.step(self.dt) };
+        if let Some(onset) = self.ls.scenario.disturbances.wind_onset_s {
+            wind *= ((t - onset) / crate::scenario::WIND_ONSET_RAMP_S).clamp(0.0, 1.0);
+        }
         if let Some(t) = &mut self.turbulence {
             t.step(self.dt);
             self.plant.set_gusts(t.gusts());

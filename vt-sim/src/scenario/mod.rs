@@ -183,6 +183,10 @@ pub struct DisturbanceSpec {
     /// Gust correlation time, s.
     #[serde(default = "default_gust_tau")]
     pub gust_tau_s: f64,
+    /// When the wind (mean and gusts) sets in, s of mission time; it builds up linearly over
+    /// [`WIND_ONSET_RAMP_S`] (a gust front; absent: blowing from the start).
+    #[serde(default)]
+    pub wind_onset_s: Option<f64>,
     /// Drag area C_d A of each UAV, m^2.
     #[serde(default = "default_uav_drag")]
     pub uav_drag_area_m2: f64,
@@ -224,6 +228,7 @@ impl Default for DisturbanceSpec {
             wind_mean_mps: [0.0; 3],
             gust_std_mps: 0.0,
             gust_tau_s: default_gust_tau(),
+            wind_onset_s: None,
             uav_drag_area_m2: default_uav_drag(),
             load_drag_area_m2: default_load_drag(),
             cable_length_error: 0.0,
@@ -718,6 +723,9 @@ pub struct MissionSpec {
     #[serde(default)]
     pub gust_margin_mps: f64,
 }
+
+/// How long a wind with `wind_onset_s` takes to build up, s.
+pub const WIND_ONSET_RAMP_S: f64 = 5.0;
 
 /// Where a mission starts (`[mission] start`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]

@@ -290,6 +290,9 @@ impl Validator<'_> {
             return Err(self.err("disturbances", "turbulence", format!("turbulence x intensity must be in [0, 3] (got {})", d.turbulence * d.intensity)));
         }
         self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
+        if let Some(t) = d.wind_onset_s {
+            self.non_negative("disturbances", "wind_onset_s", t)?;
+        }
         for (field, scale) in [("error_scale", s.sensing.error_scale), ("attitude_error_scale", s.sensing.attitude_error_scale)] {
             if let Some(k) = scale {
                 if !(k.is_finite() && (0.0..=100.0).contains(&k)) {
