@@ -592,12 +592,6 @@ impl Flight {
         if finite3(&v) { v } else { Vec3::zeros() }
     }
 
-    /// True when a ground start's transport was cut short by a set-down (the team could not
-    /// hold the tube).
-    pub fn set_down_early(&self) -> bool {
-        self.profile.as_ref().is_some_and(PhaseProfile::set_down_early)
-    }
-
     /// The mission's phase (an air start: always [`Phase::Transport`]).
     pub fn phase(&self) -> Phase {
         self.profile.as_ref().map_or(Phase::Transport, PhaseProfile::phase)
