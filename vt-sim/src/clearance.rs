@@ -32,6 +32,10 @@ fn point_segment_m(p: V2, a: V2, b: V2) -> f64 {
     (p - (a + ab * t)).norm()
 }
 
+/// Relative slack of [`Measured::above`] (on squared distances): far above the rounding of
+/// the distances it compares, so a clearance it skips could not have lowered the minimum.
+const PRUNE_SLACK: f64 = 1e-6;
+
 /// True when the segments `a`-`b` and `c`-`d` cross or touch.
 fn segments_cross(a: V2, b: V2, c: V2, d: V2) -> bool {
     let cross = |o: V2, p: V2, q: V2| (p - o).perp(&(q - o));
@@ -125,8 +129,8 @@ impl Obstacles {
     pub fn of_map(m: &LoadedMap) -> Self {
         let v = |p: &[f64; 2]| V2::new(p[0], p[1]);
         match &m.map {
-            Map::Geometric { shapes, .. } => Self {
-                bodies: shapes
+            Map::Geometric { shapes, .. } => Self::new(
+                shapes
                     .iter()
                     .map(|s| match s {
                         Shape::Circle { center_m, radius_m } => Body::Circle(v(center_m), *radius_m),
@@ -134,10 +138,14 @@ impl Obstacles {
                         Shape::Wall { from_m, to_m, thickness_m } => Body::Wall(v(from_m), v(to_m), *thickness_m),
                     })
                     .collect(),
-                grid: None,
-            },
-            Map::Grid(g) => Self { bodies: Vec::new(), grid: Some(g.clone()) },
+                None,
+            ),
+            Map::Grid(g) => Self::new(Vec::new(), Some(g.clone())),
         }
+    }
+
+    fn new(bodies: Vec<Body>, grid: Option<Grid>) -> Self {
+        Self { bodies, grid }
     }
 
     /// Horizontal clearance of the point `p` (m; negative inside an obstacle, infinite when
@@ -167,6 +175,35 @@ impl Obstacles {
     }
 }
 
+/// The last exact obstacle clearance of a point or a segment (ends `a`, `b`; a point has
+/// `a == b`) and where it was measured. The clearance is 1-Lipschitz in the positions: a point
+/// that moves by `d` comes at most `d` closer to any set, and so does a segment whose ends move
+/// by at most `d` (each of its points moves by at most `d`). Until the ends have moved by more
+/// than the clearance's excess over a limit, the clearance cannot fall below that limit and
+/// need not be measured again.
+#[derive(Debug, Clone, Copy)]
+struct Measured {
+    a: V2,
+    b: V2,
+    clearance_m: f64,
+}
+
+impl Measured {
+    /// Nothing measured yet: never above any limit.
+    const NONE: Self = Self { a: V2::new(0.0, 0.0), b: V2::new(0.0, 0.0), clearance_m: f64::NEG_INFINITY };
+
+    /// True when a point or segment with ends `a`, `b` is certainly at `limit` (m) or more from
+    /// the obstacles (with [`PRUNE_SLACK`] to spare).
+    fn above(&self, a: V2, b: V2, limit: f64) -> bool {
+        let slack = self.clearance_m - limit;
+        if !(slack > 0.0) {
+            return false;
+        }
+        let reach_sq = slack * slack * (1.0 - PRUNE_SLACK);
+        (a - self.a).norm_squared() < reach_sq && (b - self.b).norm_squared() < reach_sq
+    }
+}
+
 /// The smallest clearances of a flight so far, m (`+inf` before the first sample).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MinClearances {
@@ -185,6 +222,12 @@ pub struct Clearances {
     load_radius_m: f64,
     obstacles: Obstacles,
     hints: Vec<usize>,
+    /// Per UAV, its last measured obstacle clearance (centre, before the envelope).
+    uav_measured: Vec<Measured>,
+    /// Per cable, its last measured obstacle clearance (UAV centre to load centre).
+    cable_measured: Vec<Measured>,
+    /// The load centre's last measured obstacle clearance.
+    load_measured: Measured,
     min: MinClearances,
 }
 
@@ -193,7 +236,16 @@ impl Clearances {
     /// `load_radius_m` (m) among `obstacles`.
     pub fn new(n: usize, uav_radius_m: f64, load_radius_m: f64, obstacles: Obstacles) -> Self {
         let inf = f64::INFINITY;
-        Self { uav_radius_m, load_radius_m, obstacles, hints: vec![0; n], min: MinClearances { uav_uav_m: inf, uav_boundary_m: inf, obstacle_m: inf } }
+        Self {
+            uav_radius_m,
+            load_radius_m,
+            obstacles,
+            hints: vec![0; n],
+            uav_measured: vec![Measured::NONE; n],
+            cable_measured: vec![Measured::NONE; n],
+            load_measured: Measured::NONE,
+            min: MinClearances { uav_uav_m: inf, uav_boundary_m: inf, obstacle_m: inf },
+        }
     }
 
     /// The clearances of a flight of `ls` with UAVs flown as `model`, and whether the UAVs have
@@ -212,9 +264,12 @@ impl Clearances {
         let r = self.uav_radius_m;
         let m = &mut self.min;
         let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
+        // The closest pair by squared distance, one square root: `sqrt(x) - 2 r` is monotone,
+        // so this is the minimum over the pairs of `|p_i - p_j| - 2 r`, bit for bit.
+        let mut pair_sq = f64::INFINITY;
         for (i, p) in uav_pos_m.iter().enumerate().filter(|(i, _)| up(*i)) {
             for (_, q) in uav_pos_m.iter().enumerate().skip(i + 1).filter(|(j, _)| up(*j)) {
-                m.uav_uav_m = m.uav_uav_m.min((p - q).norm() - 2.0 * r);
+                pair_sq = pair_sq.min((p - q).norm_squared());
             }
             let xy = p.xy();
             let hint = self.hints.get(i).copied().unwrap_or(0);
@@ -228,12 +283,28 @@ impl Clearances {
                 }
                 None => m.uav_boundary_m = f64::NEG_INFINITY,
             }
-            m.obstacle_m = m.obstacle_m.min(self.obstacles.point_m(xy) - r);
+            if let Some(seen) = self.uav_measured.get_mut(i) {
+                if !seen.above(xy, xy, m.obstacle_m + r) {
+                    *seen = Measured { a: xy, b: xy, clearance_m: self.obstacles.point_m(xy) };
+                    m.obstacle_m = m.obstacle_m.min(seen.clearance_m - r);
+                }
+            }
+        }
+        if pair_sq < f64::INFINITY {
+            m.uav_uav_m = m.uav_uav_m.min(pair_sq.sqrt() - 2.0 * r);
         }
         let load_xy = load_pos_m.xy();
-        m.obstacle_m = m.obstacle_m.min(self.obstacles.point_m(load_xy) - self.load_radius_m);
-        for (p, _) in uav_pos_m.iter().zip(attached).filter(|(_, a)| **a) {
-            m.obstacle_m = m.obstacle_m.min(self.obstacles.segment_m(p.xy(), load_xy));
+        let rl = self.load_radius_m;
+        if !self.load_measured.above(load_xy, load_xy, m.obstacle_m + rl) {
+            self.load_measured = Measured { a: load_xy, b: load_xy, clearance_m: self.obstacles.point_m(load_xy) };
+            m.obstacle_m = m.obstacle_m.min(self.load_measured.clearance_m - rl);
+        }
+        for ((p, _), seen) in uav_pos_m.iter().zip(attached).zip(self.cable_measured.iter_mut()).filter(|((_, a), _)| **a) {
+            let xy = p.xy();
+            if !seen.above(xy, load_xy, m.obstacle_m) {
+                *seen = Measured { a: xy, b: load_xy, clearance_m: self.obstacles.segment_m(xy, load_xy) };
+                m.obstacle_m = m.obstacle_m.min(seen.clearance_m);
+            }
         }
     }
 
@@ -288,7 +359,7 @@ mod tests {
         let mut occ = vec![false; 100];
         occ[5 * 10 + 5] = true;
         let g = Grid::new(10, 10, 0.5, [0.0, 0.0], occ).unwrap();
-        let o = Obstacles { bodies: Vec::new(), grid: Some(g) };
+        let o = Obstacles::new(Vec::new(), Some(g));
         let exact = Body::Polygon(vec![V2::new(2.5, 2.5), V2::new(3.0, 2.5), V2::new(3.0, 3.0), V2::new(2.5, 3.0)]);
         for (a, b) in [((0.2, 1.0), (4.8, 1.0)), ((0.5, 4.5), (4.5, 0.5)), ((1.0, 4.0), (1.0, 4.0))] {
             let (a, b) = (V2::new(a.0, a.1), V2::new(b.0, b.1));
@@ -301,7 +372,7 @@ mod tests {
     #[test]
     fn clearances_subtract_the_envelopes() {
         let tube = SimTube::from_waypoints(&[vt_tube::Waypoint::new(0.0, 0.0, 3.0, 3.0), vt_tube::Waypoint::new(20.0, 0.0, 3.0, 3.0)]).unwrap();
-        let obstacles = Obstacles { bodies: vec![Body::Circle(V2::new(10.0, 6.0), 1.0)], grid: None };
+        let obstacles = Obstacles::new(vec![Body::Circle(V2::new(10.0, 6.0), 1.0)], None);
         let mut c = Clearances::new(3, 0.4, 0.3, obstacles);
         let uavs = [V3::new(10.0, 2.0, 8.0), V3::new(11.0, 2.0, 8.0), V3::new(5.0, 0.0, 8.0)];
         c.sample(&uavs, &V3::new(10.0, 0.0, 2.0), &[false, false, false], &[true, true, true], &tube);
@@ -311,8 +382,51 @@ mod tests {
         // UAV 0 at 4 m from the circle's centre: 3 m from its rim, 2.6 m from its body.
         assert!((m.obstacle_m - 2.6).abs() < 1e-9, "{m:?}");
         // A UAV that is down, and a cut cable, are left out.
-        let mut c2 = Clearances::new(3, 0.4, 0.3, Obstacles { bodies: vec![Body::Circle(V2::new(10.0, 6.0), 1.0)], grid: None });
+        let mut c2 = Clearances::new(3, 0.4, 0.3, Obstacles::new(vec![Body::Circle(V2::new(10.0, 6.0), 1.0)], None));
         c2.sample(&uavs, &V3::new(10.0, 0.0, 2.0), &[false, true, false], &[true, true, false], &tube);
         assert!(c2.min().uav_uav_m > 4.0);
+    }
+
+    #[test]
+    fn skipping_what_cannot_be_closer_gives_the_brute_force_minimum_bit_for_bit() {
+        let bodies = vec![
+            Body::Circle(V2::new(10.0, 6.0), 1.0),
+            Body::Circle(V2::new(3.0, -4.0), 0.5),
+            Body::Wall(V2::new(15.0, -5.0), V2::new(18.0, 3.0), 0.3),
+            Body::Polygon(vec![V2::new(5.0, 2.0), V2::new(7.0, 2.5), V2::new(6.0, 4.0)]),
+        ];
+        let tube = SimTube::from_waypoints(&[vt_tube::Waypoint::new(0.0, 0.0, 6.0, 6.0), vt_tube::Waypoint::new(20.0, 0.0, 6.0, 6.0)]).unwrap();
+        let (r, rl) = (0.4, 0.3);
+        let mut c = Clearances::new(4, r, rl, Obstacles::new(bodies.clone(), None));
+        let mut brute = f64::INFINITY;
+        let mut seed = 12345_u64;
+        let mut rnd = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        // Random walks (the skip's case: small moves between samples) with a jump every
+        // 500 samples.
+        let mut uavs: Vec<V3> = Vec::new();
+        let mut load = V3::zeros();
+        for k in 0..20_000 {
+            if k % 500 == 0 {
+                uavs = (0..4).map(|_| V3::new(rnd(0.0, 20.0), rnd(-6.0, 6.0), 8.0)).collect();
+                load = V3::new(rnd(0.0, 20.0), rnd(-5.0, 5.0), 2.0);
+            }
+            for u in uavs.iter_mut().chain(std::iter::once(&mut load)) {
+                *u += V3::new(rnd(-0.03, 0.03), rnd(-0.03, 0.03), 0.0);
+            }
+            c.sample(&uavs, &load, &[false; 4], &[true; 4], &tube);
+            let (lx, ly) = (load.x, load.y);
+            for u in &uavs {
+                for b in &bodies {
+                    brute = brute.min(b.point_m(u.xy()) - r).min(b.segment_m(u.xy(), V2::new(lx, ly)));
+                }
+            }
+            for b in &bodies {
+                brute = brute.min(b.point_m(V2::new(lx, ly)) - rl);
+            }
+            assert_eq!(c.min().obstacle_m.to_bits(), brute.to_bits());
+        }
     }
 }

@@ -91,6 +91,9 @@ pub struct Autopilot {
     thrust_max_total_n: f64,
     /// Last valid target (held when a non-finite one arrives).
     target: AttitudeTarget,
+    /// The target as last received, before sanitising (the plant steps faster than setpoints
+    /// change: an unchanged one is not sanitised again).
+    received: Option<AttitudeTarget>,
     /// Body-rate setpoint from the attitude loop, rad/s.
     rate_sp_rps: Vector3<f64>,
     /// Rate integral, rad/s^2.
@@ -117,6 +120,7 @@ impl Autopilot {
             inertia_kgm2,
             thrust_max_total_n,
             target,
+            received: None,
             rate_sp_rps: Vector3::zeros(),
             rate_int_radps2: Vector3::zeros(),
             rate_prev_rps: Vector3::zeros(),
@@ -133,6 +137,7 @@ impl Autopilot {
     /// torque `torque_nm` (N m, FLU; clamped to the integral limit) at zero rate error.
     pub fn reset(&mut self, target: AttitudeTarget, torque_nm: Vector3<f64>) {
         self.target = target.sanitised().unwrap_or(self.target);
+        self.received = None;
         let lim = self.params.rate_int_lim_radps2;
         let int = torque_nm.component_div(&self.inertia_kgm2);
         self.rate_int_radps2 = int.zip_map(&lim, |x, l| if x.is_finite() { x.clamp(-l, l) } else { 0.0 });
@@ -153,8 +158,11 @@ impl Autopilot {
     /// shorter than `h_s` runs every call). Returns the demand and whether the rate loop ran
     /// (the mixer need only run then).
     pub fn update(&mut self, target: &AttitudeTarget, q: &UnitQuaternion<f64>, omega_rps: &Vector3<f64>, h_s: f64) -> (AutopilotOutput, bool) {
-        if let Some(t) = target.sanitised() {
-            self.target = t;
+        if self.received != Some(*target) {
+            self.received = Some(*target);
+            if let Some(t) = target.sanitised() {
+                self.target = t;
+            }
         }
         let p = &self.params;
         let att_period = 1.0 / p.attitude_rate_hz;
