@@ -196,11 +196,89 @@ impl Measured {
     /// the obstacles (with [`PRUNE_SLACK`] to spare).
     fn above(&self, a: V2, b: V2, limit: f64) -> bool {
         let slack = self.clearance_m - limit;
-        if !(slack > 0.0) {
+        if slack.is_nan() || slack <= 0.0 {
             return false;
         }
         let reach_sq = slack * slack * (1.0 - PRUNE_SLACK);
         (a - self.a).norm_squared() < reach_sq && (b - self.b).norm_squared() < reach_sq
+    }
+}
+
+/// How far any UAV may move from the pair epoch's positions before a new epoch, m.
+const EPOCH_MOVE_M: f64 = 0.25;
+
+/// The closest pair of a team without all `n (n - 1) / 2` distances at every sample. At an
+/// epoch every pair is measured and each UAV keeps its nearest neighbour's distance `D_i`;
+/// after UAV `i` has moved `d_i` and the farthest-moved UAV `d_max`, every pair with `i` is at
+/// least `D_i - d_i - d_max` apart (the triangle inequality), so only the pairs between UAVs
+/// whose bound does not clear the limit are measured. The minimum is the brute force's, bit for
+/// bit (tested).
+#[derive(Debug, Clone, Default)]
+struct ClosestPair {
+    /// Positions at the epoch, m (empty: no epoch yet).
+    at: Vec<V3>,
+    /// Which UAVs were left out at the epoch.
+    lost: Vec<bool>,
+    /// Each UAV's nearest-neighbour distance at the epoch, m.
+    nearest_m: Vec<f64>,
+    /// Scratch: the UAVs whose pairs are measured this sample.
+    near: Vec<usize>,
+}
+
+impl ClosestPair {
+    /// The smallest squared centre distance (m^2) among the pairs of UAVs not `lost` that could
+    /// be closer than `limit_m` (m), or `+inf`; a value at or above `limit_m^2` may also come
+    /// back (it changes no minimum below the limit).
+    fn min_sq(&mut self, pos: &[V3], lost: &[bool], limit_m: f64) -> f64 {
+        let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
+        let same_team = self.at.len() == pos.len() && self.lost.len() == pos.len() && self.lost.iter().zip(0..).all(|(l, i)| *l != up(i));
+        let moved = |(p, a): (&V3, &V3)| (p - a).norm();
+        let d_max = if same_team { pos.iter().zip(&self.at).map(moved).fold(0.0, f64::max) } else { f64::INFINITY };
+        if d_max.is_nan() || d_max > EPOCH_MOVE_M {
+            return self.epoch(pos, lost);
+        }
+        self.near.clear();
+        for (i, ((p, a), d)) in pos.iter().zip(&self.at).zip(&self.nearest_m).enumerate() {
+            let clears = d - moved((p, a)) - d_max > limit_m * (1.0 + PRUNE_SLACK) + PRUNE_SLACK;
+            if up(i) && !clears {
+                self.near.push(i);
+            }
+        }
+        let mut best = f64::INFINITY;
+        for (k, &i) in self.near.iter().enumerate() {
+            for &j in self.near.iter().skip(k + 1) {
+                if let (Some(p), Some(q)) = (pos.get(i), pos.get(j)) {
+                    best = best.min((p - q).norm_squared());
+                }
+            }
+        }
+        best
+    }
+
+    /// Every pair measured; the epoch restarts at `pos`.
+    fn epoch(&mut self, pos: &[V3], lost: &[bool]) -> f64 {
+        let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
+        let n = pos.len();
+        self.at.clear();
+        self.at.extend_from_slice(pos);
+        self.lost.clear();
+        self.lost.extend((0..n).map(|i| !up(i)));
+        self.nearest_m.clear();
+        self.nearest_m.resize(n, f64::INFINITY);
+        let mut best = f64::INFINITY;
+        for (i, p) in pos.iter().enumerate().filter(|(i, _)| up(*i)) {
+            for (j, q) in pos.iter().enumerate().skip(i + 1).filter(|(j, _)| up(*j)) {
+                let d2 = (p - q).norm_squared();
+                best = best.min(d2);
+                let d = d2.sqrt();
+                for k in [i, j] {
+                    if let Some(near) = self.nearest_m.get_mut(k) {
+                        *near = near.min(d);
+                    }
+                }
+            }
+        }
+        best
     }
 }
 
@@ -228,6 +306,8 @@ pub struct Clearances {
     cable_measured: Vec<Measured>,
     /// The load centre's last measured obstacle clearance.
     load_measured: Measured,
+    /// The closest pair's bookkeeping.
+    pairs: ClosestPair,
     min: MinClearances,
 }
 
@@ -244,6 +324,7 @@ impl Clearances {
             uav_measured: vec![Measured::NONE; n],
             cable_measured: vec![Measured::NONE; n],
             load_measured: Measured::NONE,
+            pairs: ClosestPair::default(),
             min: MinClearances { uav_uav_m: inf, uav_boundary_m: inf, obstacle_m: inf },
         }
     }
@@ -266,11 +347,8 @@ impl Clearances {
         let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
         // The closest pair by squared distance, one square root: `sqrt(x) - 2 r` is monotone,
         // so this is the minimum over the pairs of `|p_i - p_j| - 2 r`, bit for bit.
-        let mut pair_sq = f64::INFINITY;
+        let pair_sq = self.pairs.min_sq(uav_pos_m, lost, m.uav_uav_m + 2.0 * r);
         for (i, p) in uav_pos_m.iter().enumerate().filter(|(i, _)| up(*i)) {
-            for (_, q) in uav_pos_m.iter().enumerate().skip(i + 1).filter(|(j, _)| up(*j)) {
-                pair_sq = pair_sq.min((p - q).norm_squared());
-            }
             let xy = p.xy();
             let hint = self.hints.get(i).copied().unwrap_or(0);
             let q = vt_tube::Vec2::new(xy.x as f32, xy.y as f32);
@@ -399,6 +477,7 @@ mod tests {
         let (r, rl) = (0.4, 0.3);
         let mut c = Clearances::new(4, r, rl, Obstacles::new(bodies.clone(), None));
         let mut brute = f64::INFINITY;
+        let mut brute_pair = f64::INFINITY;
         let mut seed = 12345_u64;
         let mut rnd = |lo: f64, hi: f64| {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -426,7 +505,13 @@ mod tests {
             for b in &bodies {
                 brute = brute.min(b.point_m(V2::new(lx, ly)) - rl);
             }
+            for (i, p) in uavs.iter().enumerate() {
+                for q in uavs.iter().skip(i + 1) {
+                    brute_pair = brute_pair.min((p - q).norm() - 2.0 * r);
+                }
+            }
             assert_eq!(c.min().obstacle_m.to_bits(), brute.to_bits());
+            assert_eq!(c.min().uav_uav_m.to_bits(), brute_pair.to_bits());
         }
     }
 }

@@ -354,10 +354,11 @@ fn table(doc: &Map<String, Value>, budgets: &[Value], notes: &BTreeMap<String, S
     );
     let _ = writeln!(
         t,
-        "mission realtime factor (point mass): 10 UAVs {}, 100 UAVs {}; 10 UAVs rigid body: {} (point mass {})",
+        "mission realtime factor (point mass): 10 UAVs {}, 100 UAVs {}; 10 UAVs rigid body: {} ({}; point mass {})",
         fmt_num(num(doc, "sil_realtime_factor_10uav"), "x"),
         fmt_num(num(doc, "sil_realtime_factor_100uav"), "x"),
-        fmt_num(num(doc, "sil_realtime_factor_10uav_rigid"), " UAV-s/s"),
+        fmt_num(num(doc, "sil_realtime_factor_10uav_rigid"), "x"),
+        fmt_num(num(doc, "sil_uav_seconds_per_s_10uav_rigid"), " UAV-s/s"),
         fmt_num(num(doc, "sil_uav_seconds_per_s_10uav_point_mass"), " UAV-s/s")
     );
     for board in BOARDS {
