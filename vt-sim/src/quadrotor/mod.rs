@@ -31,7 +31,8 @@
 //! `omega_mid = I^-1 R(q exp(omega h / 4))^T L`, `omega = I^-1 R^T L` (the turn half a step
 //! ahead by Rodrigues' formula to second order), then `omega` again from the new `q`.
 //! Integrating `L` in the world frame keeps the momentum of a torque-free body exact (an
-//! explicit body-frame Euler step of `omega` grows the energy by `h^2 |omega'|^2` per step); the exponential map keeps `q` on the unit sphere for any rate.
+//! explicit body-frame Euler step of `omega` grows the energy by `h^2 |omega'|^2` per step);
+//! the exponential map keeps `q` on the unit sphere for any rate.
 //!
 //! # Defined behaviour on bad input
 //!
