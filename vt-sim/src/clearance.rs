@@ -16,164 +16,17 @@
 //!   lower bound, and a cable on a grid is sampled every half cell, less half a sample spacing,
 //!   so it too is a lower bound.
 
-use crate::map::{Grid, LoadedMap, Map, Shape};
 use crate::scenario::{LoadedScenario, SimTube};
 use nalgebra::{Vector2, Vector3};
-use vt_plan::ClearanceMap;
+
+pub use crate::obstacles::Obstacles;
 
 type V2 = Vector2<f64>;
 type V3 = Vector3<f64>;
 
-/// Distance from `p` to the segment `a`-`b`, m.
-fn point_segment_m(p: V2, a: V2, b: V2) -> f64 {
-    let ab = b - a;
-    let len2 = ab.norm_squared();
-    let t = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    (p - (a + ab * t)).norm()
-}
-
 /// Relative slack of [`Measured::above`] (on squared distances): far above the rounding of
 /// the distances it compares, so a clearance it skips could not have lowered the minimum.
 const PRUNE_SLACK: f64 = 1e-6;
-
-/// True when the segments `a`-`b` and `c`-`d` cross or touch.
-fn segments_cross(a: V2, b: V2, c: V2, d: V2) -> bool {
-    let cross = |o: V2, p: V2, q: V2| (p - o).perp(&(q - o));
-    let (d1, d2) = (cross(c, d, a), cross(c, d, b));
-    let (d3, d4) = (cross(a, b, c), cross(a, b, d));
-    d1 * d2 <= 0.0 && d3 * d4 <= 0.0
-}
-
-/// Distance between two segments, m (0 when they cross).
-fn segment_segment_m(a: V2, b: V2, c: V2, d: V2) -> f64 {
-    if segments_cross(a, b, c, d) {
-        return 0.0;
-    }
-    point_segment_m(a, c, d).min(point_segment_m(b, c, d)).min(point_segment_m(c, a, b)).min(point_segment_m(d, a, b))
-}
-
-/// Even-odd point-in-polygon test.
-fn inside(poly: &[V2], p: V2) -> bool {
-    let mut c = false;
-    let mut j = poly.len().wrapping_sub(1);
-    for (i, vi) in poly.iter().enumerate() {
-        if let Some(vj) = poly.get(j) {
-            if (vi.y > p.y) != (vj.y > p.y) && p.x < (vj.x - vi.x) * (p.y - vi.y) / (vj.y - vi.y) + vi.x {
-                c = !c;
-            }
-        }
-        j = i;
-    }
-    c
-}
-
-/// Each edge of a closed polygon.
-fn edges(poly: &[V2]) -> impl Iterator<Item = (V2, V2)> + '_ {
-    poly.iter().zip(poly.iter().cycle().skip(1)).map(|(a, b)| (*a, *b))
-}
-
-/// One obstacle of the world, in the form the clearances need.
-#[derive(Debug, Clone)]
-enum Body {
-    Circle(V2, f64),
-    Polygon(Vec<V2>),
-    Wall(V2, V2, f64),
-}
-
-impl Body {
-    /// Signed horizontal distance from `p`, m (negative inside).
-    fn point_m(&self, p: V2) -> f64 {
-        match self {
-            Self::Circle(c, r) => (p - c).norm() - r,
-            Self::Wall(a, b, t) => point_segment_m(p, *a, *b) - 0.5 * t,
-            Self::Polygon(v) => {
-                let d = edges(v).map(|(a, b)| point_segment_m(p, a, b)).fold(f64::INFINITY, f64::min);
-                if inside(v, p) { -d } else { d }
-            }
-        }
-    }
-
-    /// Smallest signed horizontal distance of the segment `a`-`b`, m (negative: it enters).
-    fn segment_m(&self, a: V2, b: V2) -> f64 {
-        match self {
-            Self::Circle(c, r) => point_segment_m(*c, a, b) - r,
-            Self::Wall(p, q, t) => segment_segment_m(a, b, *p, *q) - 0.5 * t,
-            Self::Polygon(v) => {
-                if inside(v, a) || inside(v, b) {
-                    return self.point_m(a).min(self.point_m(b)).min(0.0);
-                }
-                edges(v).map(|(p, q)| segment_segment_m(a, b, p, q)).fold(f64::INFINITY, f64::min)
-            }
-        }
-    }
-}
-
-/// The real obstacles of a scenario's world: its planning map when the tube was planned on
-/// one, else its `[world]` obstacles.
-#[derive(Debug, Clone)]
-pub struct Obstacles {
-    bodies: Vec<Body>,
-    grid: Option<Grid>,
-}
-
-impl Obstacles {
-    /// The obstacles of `ls`.
-    pub fn of(ls: &LoadedScenario) -> Self {
-        match &ls.plan {
-            Some(p) => Self::of_map(&p.map),
-            None => Self::of_map(&LoadedMap::from_world(&ls.scenario, &ls.source_name)),
-        }
-    }
-
-    /// The obstacles of a map.
-    pub fn of_map(m: &LoadedMap) -> Self {
-        let v = |p: &[f64; 2]| V2::new(p[0], p[1]);
-        match &m.map {
-            Map::Geometric { shapes, .. } => Self::new(
-                shapes
-                    .iter()
-                    .map(|s| match s {
-                        Shape::Circle { center_m, radius_m } => Body::Circle(v(center_m), *radius_m),
-                        Shape::Polygon(p) => Body::Polygon(p.iter().map(v).collect()),
-                        Shape::Wall { from_m, to_m, thickness_m } => Body::Wall(v(from_m), v(to_m), *thickness_m),
-                    })
-                    .collect(),
-                None,
-            ),
-            Map::Grid(g) => Self::new(Vec::new(), Some(g.clone())),
-        }
-    }
-
-    fn new(bodies: Vec<Body>, grid: Option<Grid>) -> Self {
-        Self { bodies, grid }
-    }
-
-    /// Horizontal clearance of the point `p` (m; negative inside an obstacle, infinite when
-    /// there is none).
-    pub fn point_m(&self, p: V2) -> f64 {
-        let d = self.bodies.iter().map(|b| b.point_m(p)).fold(f64::INFINITY, f64::min);
-        match &self.grid {
-            Some(g) => d.min(f64::from(g.view().clearance_m(vt_plan::Vec2::new(p.x as f32, p.y as f32)))),
-            None => d,
-        }
-    }
-
-    /// Horizontal clearance of the segment `a`-`b`, m (a lower bound on a grid).
-    pub fn segment_m(&self, a: V2, b: V2) -> f64 {
-        let mut d = self.bodies.iter().map(|o| o.segment_m(a, b)).fold(f64::INFINITY, f64::min);
-        if let Some(g) = &self.grid {
-            let spacing = 0.5 * g.resolution_m;
-            let samples = ((b - a).norm() / spacing).ceil().max(1.0) as usize;
-            let view = g.view();
-            for k in 0..=samples {
-                let p = a + (b - a) * (k as f64 / samples as f64);
-                let c = f64::from(view.clearance_m(vt_plan::Vec2::new(p.x as f32, p.y as f32)));
-                d = d.min(c - 0.5 * spacing);
-            }
-        }
-        d
-    }
-}
 
 /// The last exact obstacle clearance of a point or a segment (ends `a`, `b`; a point has
 /// `a == b`) and where it was measured. The clearance is 1-Lipschitz in the positions: a point
@@ -405,52 +258,12 @@ impl Clearances {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn sq() -> Body {
-        Body::Polygon(vec![V2::new(0.0, 0.0), V2::new(2.0, 0.0), V2::new(2.0, 2.0), V2::new(0.0, 2.0)])
-    }
-
-    #[test]
-    fn point_distances_by_hand() {
-        assert!((Body::Circle(V2::new(0.0, 0.0), 1.0).point_m(V2::new(3.0, 4.0)) - 4.0).abs() < 1e-12);
-        assert!((sq().point_m(V2::new(3.0, 1.0)) - 1.0).abs() < 1e-12);
-        assert!((sq().point_m(V2::new(1.0, 1.5)) + 0.5).abs() < 1e-12, "inside: negative depth");
-        assert!((Body::Wall(V2::new(0.0, 0.0), V2::new(4.0, 0.0), 0.4).point_m(V2::new(2.0, 1.0)) - 0.8).abs() < 1e-12);
-    }
-
-    #[test]
-    fn a_cable_passing_an_obstacle_is_closer_than_its_ends() {
-        let c = Body::Circle(V2::new(0.0, 0.0), 1.0);
-        // Ends 5 m from the centre, the segment passes 2 m from it.
-        let (a, b) = (V2::new(-4.58, 2.0), V2::new(4.58, 2.0));
-        assert!((c.point_m(a) - 4.0).abs() < 0.01);
-        assert!((c.segment_m(a, b) - 1.0).abs() < 1e-12);
-        // Through the square: 0 (crossing), and a wall crossed gives minus its half thickness.
-        assert_eq!(sq().segment_m(V2::new(-1.0, 1.0), V2::new(3.0, 1.0)), 0.0);
-        assert!((Body::Wall(V2::new(0.0, -1.0), V2::new(0.0, 1.0), 0.4).segment_m(V2::new(-1.0, 0.0), V2::new(1.0, 0.0)) + 0.2).abs() < 1e-12);
-    }
-
-    #[test]
-    fn a_grid_gives_a_lower_bound_along_a_cable() {
-        // One occupied cell at (5, 5) of a 10 x 10 grid of 0.5 m cells: its square spans
-        // [2.5, 3.0] x [2.5, 3.0] m.
-        let mut occ = vec![false; 100];
-        occ[5 * 10 + 5] = true;
-        let g = Grid::new(10, 10, 0.5, [0.0, 0.0], occ).unwrap();
-        let o = Obstacles::new(Vec::new(), Some(g));
-        let exact = Body::Polygon(vec![V2::new(2.5, 2.5), V2::new(3.0, 2.5), V2::new(3.0, 3.0), V2::new(2.5, 3.0)]);
-        for (a, b) in [((0.2, 1.0), (4.8, 1.0)), ((0.5, 4.5), (4.5, 0.5)), ((1.0, 4.0), (1.0, 4.0))] {
-            let (a, b) = (V2::new(a.0, a.1), V2::new(b.0, b.1));
-            let lb = o.segment_m(a, b);
-            let truth = exact.segment_m(a, b);
-            assert!(lb <= truth + 1e-6 && lb > truth - 0.6, "{lb} vs {truth}");
-        }
-    }
+    use crate::map::Shape;
 
     #[test]
     fn clearances_subtract_the_envelopes() {
         let tube = SimTube::from_waypoints(&[vt_tube::Waypoint::new(0.0, 0.0, 3.0, 3.0), vt_tube::Waypoint::new(20.0, 0.0, 3.0, 3.0)]).unwrap();
-        let obstacles = Obstacles::new(vec![Body::Circle(V2::new(10.0, 6.0), 1.0)], None);
+        let obstacles = Obstacles::of_shapes(&[Shape::Circle { center_m: [10.0, 6.0], radius_m: 1.0 }]);
         let mut c = Clearances::new(3, 0.4, 0.3, obstacles);
         let uavs = [V3::new(10.0, 2.0, 8.0), V3::new(11.0, 2.0, 8.0), V3::new(5.0, 0.0, 8.0)];
         c.sample(&uavs, &V3::new(10.0, 0.0, 2.0), &[false, false, false], &[true, true, true], &tube);
@@ -460,7 +273,7 @@ mod tests {
         // UAV 0 at 4 m from the circle's centre: 3 m from its rim, 2.6 m from its body.
         assert!((m.obstacle_m - 2.6).abs() < 1e-9, "{m:?}");
         // A UAV that is down, and a cut cable, are left out.
-        let mut c2 = Clearances::new(3, 0.4, 0.3, Obstacles::new(vec![Body::Circle(V2::new(10.0, 6.0), 1.0)], None));
+        let mut c2 = Clearances::new(3, 0.4, 0.3, Obstacles::of_shapes(&[Shape::Circle { center_m: [10.0, 6.0], radius_m: 1.0 }]));
         c2.sample(&uavs, &V3::new(10.0, 0.0, 2.0), &[false, true, false], &[true, true, false], &tube);
         assert!(c2.min().uav_uav_m > 4.0);
     }
@@ -468,14 +281,15 @@ mod tests {
     #[test]
     fn skipping_what_cannot_be_closer_gives_the_brute_force_minimum_bit_for_bit() {
         let bodies = vec![
-            Body::Circle(V2::new(10.0, 6.0), 1.0),
-            Body::Circle(V2::new(3.0, -4.0), 0.5),
-            Body::Wall(V2::new(15.0, -5.0), V2::new(18.0, 3.0), 0.3),
-            Body::Polygon(vec![V2::new(5.0, 2.0), V2::new(7.0, 2.5), V2::new(6.0, 4.0)]),
+            Shape::Circle { center_m: [10.0, 6.0], radius_m: 1.0 },
+            Shape::Circle { center_m: [3.0, -4.0], radius_m: 0.5 },
+            Shape::Wall { from_m: [15.0, -5.0], to_m: [18.0, 3.0], thickness_m: 0.3 },
+            Shape::Polygon(vec![[5.0, 2.0], [7.0, 2.5], [6.0, 4.0]]),
         ];
         let tube = SimTube::from_waypoints(&[vt_tube::Waypoint::new(0.0, 0.0, 6.0, 6.0), vt_tube::Waypoint::new(20.0, 0.0, 6.0, 6.0)]).unwrap();
         let (r, rl) = (0.4, 0.3);
-        let mut c = Clearances::new(4, r, rl, Obstacles::new(bodies.clone(), None));
+        let mut c = Clearances::new(4, r, rl, Obstacles::of_shapes(&bodies));
+        let bodies: Vec<Obstacles> = bodies.iter().map(|b| Obstacles::of_shapes(std::slice::from_ref(b))).collect();
         let mut brute = f64::INFINITY;
         let mut brute_pair = f64::INFINITY;
         let mut seed = 12345_u64;
