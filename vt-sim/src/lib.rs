@@ -18,6 +18,7 @@ pub mod map;
 pub mod metrics;
 pub mod mission;
 pub mod models;
+pub mod obstacles;
 pub mod phases;
 pub mod plan;
 pub mod plant;
