@@ -1,0 +1,404 @@
+//! The log-odds occupancy grid: fixed capacity, runtime size, one `i8` per cell.
+//!
+//! # Frames
+//! World ENU, metres, horizontal plane. Cell `(i, j)` is column `i` (east) and row `j` (north),
+//! stored row-major at `j * width + i`, and covers the half-open square
+//! `origin_m + [i, i+1) x [j, j+1) * resolution_m` (the same layout as `vt_plan::GridMap`).
+
+use core::fmt;
+
+use crate::{ray, MapError, Vec2};
+
+/// Largest `width` or `height`, cells: cell indices stay exact in `f32` (2^24).
+const MAX_SIDE_CELLS: usize = 1 << 24;
+
+/// A log-odds occupancy grid of at most `CELLS` cells (see [`crate::log_odds`]).
+///
+/// A cell holds log-odds in 1/16 nat: `> 0` occupied, `< 0` free, `0` unknown. On the MCU,
+/// build it in place: `static` or a field initialised with [`OccupancyGrid::empty`], then
+/// [`OccupancyGrid::reset`]; [`OccupancyGrid::new`] returns the whole array by value.
+#[derive(Clone)]
+pub struct OccupancyGrid<const CELLS: usize> {
+    /// Log-odds, 1/16 nat, row-major; only the first `width * height` are in use.
+    pub(crate) cells: [i8; CELLS],
+    /// Columns (east).
+    pub(crate) width: usize,
+    /// Rows (north).
+    pub(crate) height: usize,
+    /// Cell side, m.
+    pub(crate) resolution_m: f32,
+    /// Lower-left corner of cell `(0, 0)`, world ENU, m.
+    pub(crate) origin_m: Vec2,
+    /// Cells with log-odds > 0.
+    pub(crate) occupied: usize,
+}
+
+impl<const CELLS: usize> fmt::Debug for OccupancyGrid<CELLS> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("OccupancyGrid")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("resolution_m", &self.resolution_m)
+            .field("origin_m", &(self.origin_m.x, self.origin_m.y))
+            .field("occupied", &self.occupied)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<const CELLS: usize> Default for OccupancyGrid<CELLS> {
+    fn default() -> Self {
+        Self::empty()
+    }
+}
+
+impl<const CELLS: usize> OccupancyGrid<CELLS> {
+    /// A grid of no cells (every query `None`, every scan ignored) until
+    /// [`OccupancyGrid::reset`]; usable in a `static`.
+    pub const fn empty() -> Self {
+        const { assert!(CELLS > 0, "an occupancy grid needs at least one cell") };
+        Self {
+            cells: [0; CELLS],
+            width: 0,
+            height: 0,
+            resolution_m: 1.0,
+            origin_m: Vec2::new(0.0, 0.0),
+            occupied: 0,
+        }
+    }
+
+    /// A `width x height` grid of unknown cells of side `resolution_m` (m), cell `(0, 0)`'s
+    /// lower-left corner at `origin_m` (world ENU, m).
+    ///
+    /// # Errors
+    /// As [`OccupancyGrid::reset`].
+    pub fn new(
+        width: usize,
+        height: usize,
+        resolution_m: f32,
+        origin_m: Vec2,
+    ) -> Result<Self, MapError> {
+        let mut g = Self::empty();
+        g.reset(width, height, resolution_m, origin_m)?;
+        Ok(g)
+    }
+
+    /// Re-sizes the grid in place and forgets every cell (all unknown); on error nothing changes.
+    ///
+    /// # Errors
+    /// [`MapError::BadParams`] for a zero `width` or `height` (or above 2^24), a non-finite or
+    /// non-positive `resolution_m`, a non-finite `origin_m` or far corner;
+    /// [`MapError::TooManyCells`] when `width * height > CELLS`.
+    pub fn reset(
+        &mut self,
+        width: usize,
+        height: usize,
+        resolution_m: f32,
+        origin_m: Vec2,
+    ) -> Result<(), MapError> {
+        let bad = |field| Err(MapError::BadParams { field });
+        if width == 0 || width > MAX_SIDE_CELLS {
+            return bad("width");
+        }
+        if height == 0 || height > MAX_SIDE_CELLS {
+            return bad("height");
+        }
+        let needed = width.saturating_mul(height);
+        if needed > CELLS {
+            return Err(MapError::TooManyCells {
+                needed,
+                capacity: CELLS,
+            });
+        }
+        if !(resolution_m.is_finite() && resolution_m > 0.0) {
+            return bad("resolution_m");
+        }
+        if !(origin_m.x.is_finite() && origin_m.y.is_finite()) {
+            return bad("origin_m");
+        }
+        let far = origin_m + Vec2::new(width as f32, height as f32) * resolution_m;
+        if !(far.x.is_finite() && far.y.is_finite()) {
+            return bad("resolution_m");
+        }
+        self.width = width;
+        self.height = height;
+        self.resolution_m = resolution_m;
+        self.origin_m = origin_m;
+        self.clear();
+        Ok(())
+    }
+
+    /// Forgets every cell (all unknown), keeping the geometry.
+    pub fn clear(&mut self) {
+        self.cells.fill(0);
+        self.occupied = 0;
+    }
+
+    /// Bytes of RAM the grid takes (`size_of::<Self>()`).
+    pub const fn ram_bytes() -> usize {
+        core::mem::size_of::<Self>()
+    }
+
+    /// Columns (east), cells.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Rows (north), cells.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Cell side, m.
+    pub fn resolution_m(&self) -> f32 {
+        self.resolution_m
+    }
+
+    /// Lower-left corner of cell `(0, 0)`, world ENU, m.
+    pub fn origin_m(&self) -> Vec2 {
+        self.origin_m
+    }
+
+    /// Log-odds of the cells in use, 1/16 nat, row-major (`j * width + i`).
+    pub fn cells(&self) -> &[i8] {
+        self.cells.get(..self.width * self.height).unwrap_or(&[])
+    }
+
+    /// Grid coordinates of a world point: `(p - origin) / resolution`, cells.
+    pub(crate) fn to_grid(&self, p_m: Vec2) -> Vec2 {
+        (p_m - self.origin_m) / self.resolution_m
+    }
+
+    /// The cell holding world point `p_m` (ENU, m); `None` outside the grid or for NaN.
+    pub fn cell_of(&self, p_m: Vec2) -> Option<(usize, usize)> {
+        ray::cell_at(self.to_grid(p_m), self.width, self.height)
+    }
+
+    /// Row-major index of cell `(i, j)` if inside.
+    pub(crate) fn index(&self, i: usize, j: usize) -> Option<usize> {
+        (i < self.width && j < self.height).then(|| j * self.width + i)
+    }
+
+    /// Log-odds of cell `(i, j)`, 1/16 nat; `None` outside the grid.
+    pub fn log_odds(&self, i: usize, j: usize) -> Option<i8> {
+        self.cells.get(self.index(i, j)?).copied()
+    }
+
+    /// Whether cell `(i, j)` is occupied (log-odds > 0); `false` outside the grid.
+    pub fn is_occupied(&self, i: usize, j: usize) -> bool {
+        self.log_odds(i, j).is_some_and(|l| l > 0)
+    }
+
+    /// Whether cell `(i, j)` is free (log-odds < 0); `false` outside the grid.
+    pub fn is_free(&self, i: usize, j: usize) -> bool {
+        self.log_odds(i, j).is_some_and(|l| l < 0)
+    }
+
+    /// Centre of cell `(i, j)`, world ENU, m; `None` outside the grid.
+    pub fn cell_center_m(&self, i: usize, j: usize) -> Option<Vec2> {
+        self.index(i, j)?;
+        Some(self.origin_m + Vec2::new(i as f32 + 0.5, j as f32 + 0.5) * self.resolution_m)
+    }
+
+    /// Cells with log-odds > 0 (kept up to date by every update, O(1)).
+    pub fn occupied_count(&self) -> usize {
+        self.occupied
+    }
+
+    /// Writes the planner's grid, `coarsen` times coarser, into `out`: `0.0` where any fine
+    /// cell it covers is occupied, `f32::INFINITY` elsewhere (unknown counts as free: optimistic
+    /// planning, the team re-plans as it sees more). Returns its `(width, height)`,
+    /// `ceil(width / coarsen) x ceil(height / coarsen)`, row-major in `out[..width * height]`
+    /// (the rest of `out` untouched): the input of `vt_plan::distance_transform`, with the same
+    /// origin and resolution `coarsen * resolution_m` (the last column and row may reach past
+    /// this grid; they count as free there). O(width x height).
+    ///
+    /// # Errors
+    /// [`MapError::BadParams`] for `coarsen == 0`; [`MapError::EmptyGrid`] before `reset`;
+    /// [`MapError::OutputTooShort`] when `out` is shorter than the coarse grid.
+    pub fn write_planner_cells(
+        &self,
+        coarsen: usize,
+        out: &mut [f32],
+    ) -> Result<(usize, usize), MapError> {
+        if coarsen == 0 {
+            return Err(MapError::BadParams { field: "coarsen" });
+        }
+        if self.width == 0 || self.height == 0 {
+            return Err(MapError::EmptyGrid);
+        }
+        let (cw, ch) = (self.width.div_ceil(coarsen), self.height.div_ceil(coarsen));
+        let needed = cw * ch;
+        let Some(coarse) = out.get_mut(..needed) else {
+            return Err(MapError::OutputTooShort {
+                needed,
+                len: out.len(),
+            });
+        };
+        coarse.fill(f32::INFINITY);
+        for (j, row) in self.cells().chunks_exact(self.width).enumerate() {
+            for (i, &l) in row.iter().enumerate() {
+                if l > 0 {
+                    if let Some(c) = coarse.get_mut((j / coarsen) * cw + i / coarsen) {
+                        *c = 0.0;
+                    }
+                }
+            }
+        }
+        Ok((cw, ch))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Resolution of the test grids, m.
+    const RES_M: f32 = 0.25;
+
+    #[test]
+    fn constructor_rejects_bad_geometry() {
+        type G = OccupancyGrid<100>;
+        let o = Vec2::new(0.0, 0.0);
+        assert_eq!(
+            G::new(11, 10, RES_M, o).err(),
+            Some(MapError::TooManyCells {
+                needed: 110,
+                capacity: 100
+            })
+        );
+        assert_eq!(
+            G::new(usize::MAX, 2, RES_M, o).err(),
+            Some(MapError::BadParams { field: "width" }),
+            "above 2^24 columns"
+        );
+        assert_eq!(
+            G::new(1 << 20, 1 << 20, RES_M, o).err(),
+            Some(MapError::TooManyCells {
+                needed: 1 << 40,
+                capacity: 100
+            })
+        );
+        assert_eq!(
+            G::new(0, 10, RES_M, o).err(),
+            Some(MapError::BadParams { field: "width" })
+        );
+        assert_eq!(
+            G::new(10, 0, RES_M, o).err(),
+            Some(MapError::BadParams { field: "height" })
+        );
+        for res in [0.0, -0.25, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                G::new(10, 10, res, o).err(),
+                Some(MapError::BadParams {
+                    field: "resolution_m"
+                })
+            );
+        }
+        assert_eq!(
+            G::new(10, 10, 1e38, o).err(),
+            Some(MapError::BadParams {
+                field: "resolution_m"
+            })
+        );
+        assert_eq!(
+            G::new(10, 10, RES_M, Vec2::new(f32::NAN, 0.0)).err(),
+            Some(MapError::BadParams { field: "origin_m" })
+        );
+        assert!(G::new(10, 10, RES_M, o).is_ok());
+        assert!(G::new(100, 1, RES_M, o).is_ok());
+    }
+
+    #[test]
+    fn failed_reset_leaves_the_grid_unchanged() {
+        let mut g = OccupancyGrid::<100>::new(5, 4, RES_M, Vec2::new(1.0, 2.0)).unwrap();
+        g.cells[3] = 20;
+        assert!(g.reset(20, 20, RES_M, Vec2::new(0.0, 0.0)).is_err());
+        assert_eq!((g.width(), g.height(), g.log_odds(3, 0)), (5, 4, Some(20)));
+    }
+
+    #[test]
+    fn empty_grid_answers_nothing() {
+        static EMPTY: OccupancyGrid<16> = OccupancyGrid::empty();
+        assert_eq!(EMPTY.cell_of(Vec2::new(0.5, 0.5)), None);
+        assert_eq!(EMPTY.log_odds(0, 0), None);
+        assert!(EMPTY.cells().is_empty());
+        let mut out = [0.0; 4];
+        assert_eq!(
+            EMPTY.write_planner_cells(1, &mut out),
+            Err(MapError::EmptyGrid)
+        );
+    }
+
+    #[test]
+    fn cell_geometry_round_trips() {
+        let g = OccupancyGrid::<1200>::new(40, 30, RES_M, Vec2::new(-3.0, 5.0)).unwrap();
+        assert_eq!(g.cell_of(Vec2::new(-3.0, 5.0)), Some((0, 0)));
+        assert_eq!(g.cell_of(Vec2::new(-2.74, 5.26)), Some((1, 1)));
+        assert_eq!(
+            g.cell_of(Vec2::new(7.0, 5.0)),
+            None,
+            "x = origin + width * res is outside"
+        );
+        assert_eq!(g.cell_of(Vec2::new(-3.01, 6.0)), None);
+        assert_eq!(g.cell_of(Vec2::new(f32::NAN, 6.0)), None);
+        for (i, j) in [(0, 0), (39, 29), (17, 4)] {
+            let c = g.cell_center_m(i, j).unwrap();
+            assert_eq!(g.cell_of(c), Some((i, j)));
+        }
+        assert_eq!(g.cell_center_m(40, 0), None);
+        assert!(!g.is_occupied(40, 0) && !g.is_free(0, 30));
+    }
+
+    #[test]
+    fn ram_is_the_cells_and_a_few_words() {
+        let bytes = OccupancyGrid::<33_600>::ram_bytes();
+        assert!((33_600..33_600 + 64).contains(&bytes), "{bytes}");
+    }
+
+    #[test]
+    fn planner_cells_fine_and_coarse() {
+        let mut g = OccupancyGrid::<100>::new(5, 3, RES_M, Vec2::new(0.0, 0.0)).unwrap();
+        let occupied = [(1, 0), (4, 2)];
+        for &(i, j) in &occupied {
+            g.cells[j * 5 + i] = 10;
+        }
+        g.cells[2] = -10; // free
+        let mut out = [-1.0_f32; 16];
+        assert_eq!(g.write_planner_cells(1, &mut out), Ok((5, 3)));
+        for j in 0..3 {
+            for i in 0..5 {
+                let want = if occupied.contains(&(i, j)) {
+                    0.0
+                } else {
+                    f32::INFINITY
+                };
+                assert_eq!(out[j * 5 + i], want, "({i}, {j})");
+            }
+        }
+        assert_eq!(out[15], -1.0, "beyond the grid untouched");
+        let mut out = [-1.0_f32; 6];
+        assert_eq!(g.write_planner_cells(2, &mut out), Ok((3, 2)));
+        assert_eq!(
+            out,
+            [
+                0.0,
+                f32::INFINITY,
+                f32::INFINITY,
+                f32::INFINITY,
+                f32::INFINITY,
+                0.0
+            ]
+        );
+        assert_eq!(
+            g.write_planner_cells(2, &mut out[..5]),
+            Err(MapError::OutputTooShort { needed: 6, len: 5 })
+        );
+        assert_eq!(
+            g.write_planner_cells(0, &mut out),
+            Err(MapError::BadParams { field: "coarsen" })
+        );
+        let mut one = [-1.0_f32; 1];
+        assert_eq!(g.write_planner_cells(7, &mut one), Ok((1, 1)));
+        assert_eq!(one, [0.0]);
+    }
+}
