@@ -12,6 +12,7 @@ pub mod cable;
 pub mod clearance;
 pub mod companion;
 pub mod disturbance;
+pub mod lidar;
 pub mod link;
 pub mod lockstep;
 pub mod map;

@@ -74,7 +74,13 @@ pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Res
     }
     let params = params_of(s, &spec);
     let m = scenario_map(s, &spec, source_name)?;
-    let t = m.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", m.source_name)))?;
+    // Issue 28: a team that does not know the map plans before take-off on its bounds alone
+    // (the map stays the world's truth: the LiDARs and the clearances measure against it).
+    let known = match s.perception.map {
+        crate::scenario::MapKnowledge::Known => m.clone(),
+        crate::scenario::MapKnowledge::Unknown => LoadedMap { source_name: format!("{} (bounds only)", m.source_name), map: crate::map::Map::Geometric { bounds_m: m.bounds_m(), shapes: Vec::new() } },
+    };
+    let t = known.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", known.source_name)))?;
     s.tube.waypoints = waypoints_f64(&t);
     Ok(Some(PlanScene { map: m, tube: t }))
 }

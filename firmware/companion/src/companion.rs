@@ -370,6 +370,29 @@ impl<'t> Companion<'t> {
         }
     }
 
+    /// Issue 28: switches to the tube the caller built in `candidate` when
+    /// [`crate::perception::accept`] allows it for this UAV's and the load's last positions
+    /// (margin: the flown `r_safe`; the barrier may rise to its value halfway through the
+    /// activation band at most). On success `candidate` holds the old tube's storage.
+    ///
+    /// # Errors
+    /// Why the old tube is kept (no own or load position yet counts as outside).
+    pub fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
+        use crate::perception::{accept, Keep};
+        let core = &mut self.core;
+        let own = core.sources.own.map(|s| s.value.pos_m).ok_or(Keep::OwnOutside)?;
+        let load = core.sources.load.map(|s| s.value.pos_m).ok_or(Keep::LoadOutside)?;
+        let r_safe = core.params.r_safe_m();
+        let band_mid = 0.5 * (r_safe + core.params.get(Param::RActive));
+        accept(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid)?;
+        core::mem::swap(&mut core.tube, candidate);
+        core.tube_ok = true;
+        if let Some(fl) = core.flight.as_mut() {
+            fl.tube_switched();
+        }
+        Ok(())
+    }
+
     /// `MAV_CMD_MISSION_START` without the acknowledgement (a refusal still sends its
     /// `STATUSTEXT` lines and heartbeat).
     ///

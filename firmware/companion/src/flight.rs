@@ -63,6 +63,9 @@ impl HoldReasons {
     /// Ground start: this UAV refused its arming or abandoned its lift (its cable slackens);
     /// the team holds, so its lift is abandoned too (`vt_dissipative::phases::LIFT_HOLD_ABORT_S`).
     pub const REFUSED: u8 = 1 << 6;
+    /// Issue 28: the planner found no route to the goal on the map as seen; the team holds in
+    /// place (the mission fails with this reason, never by a collision).
+    pub const NO_ROUTE: u8 = 1 << 7;
 
     /// True when no reason is set.
     pub fn is_clear(self) -> bool {
@@ -281,6 +284,8 @@ pub struct Flight {
     team_mode: TeamMode,
     invalid_commands: u32,
     operator_hold: bool,
+    /// Issue 28: no route to the goal ([`HoldReasons::NO_ROUTE`]).
+    no_route: bool,
     /// Ground start: the phases (`None`: an air start, in transport from the start).
     profile: Option<PhaseProfile>,
     /// Ground start: what the arming reads (`None` once armed or refused, and in an air start).
@@ -379,6 +384,7 @@ impl Flight {
             team_mode: TeamMode::Transport,
             invalid_commands: 0,
             operator_hold: false,
+            no_route: false,
             profile,
             pending,
             refusal: None,
@@ -400,6 +406,9 @@ impl Flight {
     /// or load data; the controller's team hold while the team holds).
     pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
         let mut reasons = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
+        if self.no_route {
+            reasons |= HoldReasons::NO_ROUTE;
+        }
         if self.refusal.is_some() {
             reasons |= HoldReasons::REFUSED;
         }
@@ -658,7 +667,8 @@ impl Flight {
     /// Current hold reasons (high and low level).
     pub fn hold_reasons(&self) -> HoldReasons {
         let operator = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
-        HoldReasons(self.hl_reasons.0 | self.ll_reasons.0 | operator)
+        let no_route = if self.no_route { HoldReasons::NO_ROUTE } else { 0 };
+        HoldReasons(self.hl_reasons.0 | self.ll_reasons.0 | operator | no_route)
     }
 
     /// The team mode decided at the last high-level step (what this UAV broadcasts).
@@ -686,6 +696,19 @@ impl Flight {
     /// later, as after any alarm.
     pub fn set_operator_hold(&mut self, on: bool) {
         self.operator_hold = on;
+    }
+
+    /// Issue 28: the team's planner found no route (on: hold in place, as the operator's hold
+    /// does; off: a later plan found one).
+    pub fn set_no_route(&mut self, on: bool) {
+        self.no_route = on;
+    }
+
+    /// The tube was switched (issue 28): the load's progress restarts on the new tube (the
+    /// set-down's drift trigger compares arc lengths of one tube), its lookup from anywhere.
+    pub fn tube_switched(&mut self) {
+        self.load_s_max_m = 0.0;
+        self.load_hint = 0;
     }
 
     /// True while the operator's hold is on.

@@ -18,6 +18,7 @@
 //! - [`params`]: [`Params`], the parameter table (`PARAM_SET` names, ranges, defaults).
 //! - [`mission`]: [`MissionUpload`], the tube's waypoints over the MAVLink mission protocol.
 //! - [`flight`]: [`Flight`], the armed controllers: high-level step, low-level step, failsafe.
+//! - [`perception`]: [`perception::Perception`], the onboard map and in-flight re-planning (issue 28).
 //! - [`refusal`]: why a mission start was refused, as telemetry (code and `STATUSTEXT` lines).
 //! - [`companion`]: [`Companion`], message dispatch, lockstep ticks, telemetry.
 //! - [`frames`]: NED/ENU and FRD/FLU conversions.
@@ -32,6 +33,7 @@ pub mod framer;
 pub mod frames;
 pub mod mission;
 pub mod params;
+pub mod perception;
 pub mod refusal;
 
 pub use companion::{Companion, Io, Mode, Request, Source};

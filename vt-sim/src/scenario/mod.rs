@@ -102,6 +102,12 @@ pub struct Scenario {
     /// The pre-flight feasibility check (docs/design.md, "Pre-flight feasibility check").
     #[serde(default)]
     pub preflight: PreflightSpec,
+    /// What the team knows of the map and how it re-plans (issue 28).
+    #[serde(default)]
+    pub perception: PerceptionSpec,
+    /// Sensors beyond the autopilot's: the LiDAR (issue 28).
+    #[serde(default)]
+    pub sensors: SensorsSpec,
 }
 
 /// What a UAV does when a neighbour's data go stale (`link.stale_timeout_s`).
@@ -202,6 +208,9 @@ pub struct World {
     /// Vertical cylindrical obstacles.
     #[serde(default)]
     pub obstacles: Vec<ObstacleSpec>,
+    /// Obstacles that appear in flight (issue 28).
+    #[serde(default)]
+    pub appear: Vec<AppearSpec>,
 }
 
 fn default_ceiling() -> f64 {
@@ -730,9 +739,11 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
 mod capacity;
 mod disturbances;
 pub mod generate;
+mod perception;
 mod validate;
 
 pub use capacity::CapacitySpec;
 pub use disturbances::{DisturbanceSpec, WIND_ONSET_RAMP_S};
+pub use perception::{AppearSpec, MapKnowledge, PerceptionSpec, SensorsSpec};
 
 use validate::{field_at_line, line_of_offset, Validator};

@@ -362,7 +362,12 @@ impl Validator<'_> {
         }
         // Geometry: tube, obstacles, formation, cables.
         let tube = self.check_tube(s)?;
-        self.check_obstacles(s, &tube)?;
+        self.check_perception(s)?;
+        // An unknown map's tube is planned on the bounds alone: the real obstacles may cross it
+        // (the team finds them in flight).
+        if s.perception.map == MapKnowledge::Known {
+            self.check_obstacles(s, &tube)?;
+        }
         self.check_formation(s, &tube)?;
         self.check_preflight(s)?;
         Ok(tube)
@@ -423,6 +428,48 @@ impl Validator<'_> {
                 tube.min_half_width_m())));
         }
         Ok(tube)
+    }
+
+    /// Issue 28: `[perception]`, `[sensors.lidar]`, `[[world.appear]]`.
+    fn check_perception(&self, s: &Scenario) -> Result<(), ScenarioError> {
+        let p = &s.perception;
+        if let Some(l) = &s.sensors.lidar {
+            if let Some((key, message)) = l.invalid(f64::from(s.rates.high_level_hz)) {
+                return Err(self.err("sensors.lidar", key, message));
+            }
+        }
+        if !(p.replan_hz > 0.0 && p.replan_hz <= 10.0) {
+            return Err(self.err("perception", "replan_hz", format!("must be in (0, 10] Hz (got {})", p.replan_hz)));
+        }
+        if !(p.cell_m >= 0.05 && p.cell_m <= 2.0) {
+            return Err(self.err("perception", "cell_m", format!("must be in [0.05, 2] m (got {})", p.cell_m)));
+        }
+        if p.map == MapKnowledge::Unknown {
+            if s.sensors.lidar.is_none() {
+                return Err(self.err("perception", "map", "`unknown` needs a sensor to map with: add `[sensors.lidar]`".into()));
+            }
+            if s.tube.plan.is_none() {
+                return Err(self.err("perception", "map", "`unknown` needs `[tube] plan = { start, goal }`: the team plans its own tube".into()));
+            }
+            let b = s.world.bounds_m;
+            let cells = ((b[1] - b[0]) / p.cell_m).ceil() * ((b[3] - b[2]) / p.cell_m).ceil();
+            if cells > vt_companion::perception::MAP_CELLS as f64 {
+                return Err(self.err("perception", "cell_m", format!(
+                    "the onboard map of the {:.0} x {:.0} m world at {} m needs {cells:.0} cells, more than its {} (use coarser cells)",
+                    b[1] - b[0], b[3] - b[2], p.cell_m, vt_companion::perception::MAP_CELLS)));
+            }
+        }
+        for (i, a) in s.world.appear.iter().enumerate() {
+            if let Err((key, message)) = a.shape() {
+                return Err(ScenarioError {
+                    source_name: self.source_name.into(),
+                    line: nth_table_key_line(self.text, "world.appear", i, key),
+                    field: Some(format!("world.appear[{i}].{key}")),
+                    message,
+                });
+            }
+        }
+        Ok(())
     }
 
     fn check_obstacles(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {

@@ -1,0 +1,259 @@
+//! Tubes generated in flight (issue 28; the paper's future work): each companion fuses range
+//! scans into its occupancy map (`vt_map`), the team's designated planner re-plans the tube on
+//! it (`vt_plan`), and every companion takes a new tube only when it is safe to
+//! (docs/design.md, "Tubes generated in flight").
+//!
+//! - **Who plans**: the lowest id among the healthy members (own data fresh, in the view):
+//!   [`designated_planner`]. When it goes silent, the next id finds itself lowest and plans.
+//! - **When**: every `1 / replan_hz`, and at once when a newly occupied cell lies in the current
+//!   tube ahead of the load ([`Perception::integrate`] sets [`Perception::blocked`]).
+//! - **Where from**: the new tube starts at the team's current section, [`BACKOFF_M`] behind
+//!   the load along the current tube, so the whole formation starts inside it; it ends at the
+//!   mission's goal.
+//! - **Unknown cells are free**: the plan is optimistic and is corrected as the team sees more.
+//! - **Accepting** ([`accept`]): a companion switches only when the new tube holds its own
+//!   centre and the load's with the barrier no closer than before (or outside the activation
+//!   band); otherwise it keeps the old one. The barrier term can only fall at a switch, so no
+//!   UAV is suddenly "outside".
+//!
+//! The map and the planner's work space are sized for a 70 x 30 m world at 0.25 m
+//! ([`MAP_CELLS`]); the planner works on a grid [`PLAN_COARSEN`] times coarser, where a coarse
+//! cell is occupied when any of its cells is (conservative).
+
+use crate::{CompanionTube, Vec3};
+use vt_map::{LogOddsParams, OccupancyGrid, Scan};
+use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
+use vt_tube::Waypoint;
+
+/// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
+pub const MAP_CELLS: usize = 33_600;
+/// The planner's grid is this many map cells on a side coarser (0.5 m at 0.25 m cells).
+pub const PLAN_COARSEN: usize = 2;
+/// Cells of the planner's grid: the map's, coarsened, with room for the rounding up.
+pub const PLAN_CELLS: usize = MAP_CELLS / (PLAN_COARSEN * PLAN_COARSEN) + 512;
+/// Longest row or column of the planner's grid (the distance transform's line buffers).
+pub const PLAN_LINE: usize = 512;
+/// Lattice nodes of the planner's search (a coarser lattice is used when the map needs more).
+pub const LATTICE_NODES: usize = 4_096;
+/// The new tube starts this far behind the load along the current tube, m.
+pub const BACKOFF_M: f32 = 4.0;
+
+/// The onboard map's configuration (from the `PR_*` parameters).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PerceptionConfig {
+    /// World bounds `[x_min, x_max, y_min, y_max]`, ENU, m.
+    pub bounds_m: [f32; 4],
+    /// Map cell side, m.
+    pub cell_m: f32,
+    /// The mission's goal, ENU, m.
+    pub goal_m: [f32; 2],
+    /// Scheduled re-plan period, ms.
+    pub replan_period_ms: u32,
+    /// The planner's parameters (half-width the team needs, margin, caps).
+    pub plan: PlanParams,
+}
+
+/// Why a companion kept its tube.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Keep {
+    /// The new tube does not contain this UAV with its margin.
+    OwnOutside,
+    /// The new tube does not contain the load with its margin.
+    LoadOutside,
+    /// The new tube would bring the barrier closer than the old one did.
+    BarrierJump,
+}
+
+/// The onboard map, the trigger and the planner's work space.
+pub struct Perception {
+    cfg: PerceptionConfig,
+    map: OccupancyGrid<MAP_CELLS>,
+    log_odds: LogOddsParams,
+    plan_cells: [f32; PLAN_CELLS],
+    line: [f32; 3 * PLAN_LINE + 1],
+    envelope: [usize; PLAN_LINE + 1],
+    breaks: [f32; PLAN_LINE + 2],
+    floats: [f32; 3 * LATTICE_NODES],
+    ints: [u32; 3 * LATTICE_NODES],
+    blocked: bool,
+    next_plan_ms: u32,
+    replans: u32,
+}
+
+impl Perception {
+    /// An empty map of `cfg`'s world.
+    ///
+    /// # Errors
+    /// The world does not fit [`MAP_CELLS`] at `cfg.cell_m`, or the figures are not finite.
+    pub fn new(cfg: PerceptionConfig) -> Result<Self, vt_map::MapError> {
+        let [x0, x1, y0, y1] = cfg.bounds_m;
+        let w = libm::ceilf((x1 - x0) / cfg.cell_m);
+        let h = libm::ceilf((y1 - y0) / cfg.cell_m);
+        if !(w >= 1.0 && h >= 1.0 && w * h <= MAP_CELLS as f32) {
+            return Err(vt_map::MapError::TooManyCells { needed: if w * h >= 0.0 { (w * h) as usize } else { 0 }, capacity: MAP_CELLS });
+        }
+        let map = OccupancyGrid::new(w as usize, h as usize, cfg.cell_m, vt_map::Vec2::new(x0, y0))?;
+        Ok(Self {
+            cfg,
+            map,
+            log_odds: LogOddsParams::default(),
+            plan_cells: [0.0; PLAN_CELLS],
+            line: [0.0; 3 * PLAN_LINE + 1],
+            envelope: [0; PLAN_LINE + 1],
+            breaks: [0.0; PLAN_LINE + 2],
+            floats: [0.0; 3 * LATTICE_NODES],
+            ints: [0; 3 * LATTICE_NODES],
+            blocked: false,
+            next_plan_ms: 0,
+            replans: 0,
+        })
+    }
+
+    /// Fuses one scan (own or relayed). With the current `tube` and the load's arc length
+    /// `load_s_m` along it, a newly occupied cell inside the tube (with the planner's margin)
+    /// ahead of the team's back-off point raises [`Self::blocked`].
+    ///
+    /// A beam is a sector, as `OBSTACLE_DISTANCE` defines it: the *closest* obstacle within
+    /// the sector's angle is at the reported range. So the whole sector is free up to that
+    /// range and the obstacle lies somewhere on its arc there: the map is updated along
+    /// [`sub_rays`] rays spread across each sector, each with the sector's range (a single
+    /// centre ray would leave gaps of `range x increment`, 1.3 m at 15 m and 5 deg, that a
+    /// tube could cut through).
+    pub fn integrate(&mut self, scan: &Scan, tube: Option<&CompanionTube>, load_s_m: f32) {
+        let margin = self.cfg.plan.margin_m + 0.71 * self.cfg.cell_m;
+        let mut blocked = false;
+        let map = &mut self.map;
+        let (res, origin) = (map.resolution_m(), map.origin_m());
+        let m = sub_rays(scan, res);
+        let mut sub = scan.clone();
+        for u in 0..m {
+            sub.first_angle_rad = scan.first_angle_rad + scan.increment_rad * ((u as f32 + 0.5) / m as f32 - 0.5);
+            map.integrate(&sub, &self.log_odds, |i, j| {
+                let Some(tube) = tube else {
+                    return;
+                };
+                let c = origin + vt_map::Vec2::new((i as f32 + 0.5) * res, (j as f32 + 0.5) * res);
+                if let Some(sec) = tube.locate(c, 0) {
+                    if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m - BACKOFF_M {
+                        blocked = true;
+                    }
+                }
+            });
+        }
+        self.blocked |= blocked;
+    }
+
+    /// A newly seen obstacle lies in the tube ahead: re-plan now.
+    pub fn blocked(&self) -> bool {
+        self.blocked
+    }
+
+    /// A re-plan is due at `now_ms` (scheduled, or [`Self::blocked`]).
+    pub fn replan_due(&self, now_ms: u32) -> bool {
+        self.blocked || now_ms >= self.next_plan_ms
+    }
+
+    /// Re-plans from the team's current section of `tube` (the load at `load_m`) to the goal
+    /// on the map as seen so far. The schedule restarts and the trigger clears whatever the
+    /// outcome (a failed plan is retried on schedule).
+    ///
+    /// # Errors
+    /// The planner's: no route (the team holds), a start inside an obstacle.
+    pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32) -> Result<PlannedTube, PlanError> {
+        self.blocked = false;
+        self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
+        self.replans = self.replans.saturating_add(1);
+        let start = start_point(tube, load_m);
+        let (w, h) = self.map.write_planner_cells(PLAN_COARSEN, &mut self.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
+        let cells = self.plan_cells.get_mut(..w * h).ok_or(PlanError::BadParams { field: "plan cells" })?;
+        vt_plan::distance_transform(cells, w, h, &mut self.line, &mut self.envelope, &mut self.breaks)?;
+        let grid = GridMap {
+            dist_cells: cells,
+            width: w,
+            height: h,
+            resolution_m: self.map.resolution_m() * PLAN_COARSEN as f32,
+            origin_m: self.map.origin_m(),
+        };
+        let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
+        let goal = vt_plan::Vec2::new(self.cfg.goal_m[0], self.cfg.goal_m[1]);
+        vt_plan::plan(&grid, start, goal, &self.cfg.plan, &mut ws)
+    }
+
+    /// Re-plans started so far.
+    pub fn replans(&self) -> u32 {
+        self.replans
+    }
+
+    /// The map.
+    pub fn map(&self) -> &OccupancyGrid<MAP_CELLS> {
+        &self.map
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PerceptionConfig {
+        &self.cfg
+    }
+}
+
+/// Rays per sector of `scan` on a map of `cell_m` cells: enough that the rays at the sensor's
+/// range are at most a cell apart (1 to [`MAX_SUB_RAYS`]).
+pub fn sub_rays(scan: &Scan, cell_m: f32) -> usize {
+    let spread = libm::fabsf(scan.increment_rad) * scan.max_range_m / cell_m;
+    if spread.is_finite() && spread >= 1.0 {
+        (libm::ceilf(spread) as usize).min(MAX_SUB_RAYS)
+    } else {
+        1
+    }
+}
+
+/// Most rays a sector is spread into.
+pub const MAX_SUB_RAYS: usize = 8;
+
+/// Where a re-planned tube starts: the current tube's generator [`BACKOFF_M`] behind the
+/// load's section (its start when the load is nearer to it).
+pub fn start_point(tube: &CompanionTube, load_m: &Vec3) -> vt_plan::Vec2 {
+    let s = tube.locate(load_m.xy(), 0).map_or(0.0, |sec| sec.s_m);
+    let k = libm::floorf((s - BACKOFF_M).max(0.0) / tube.ds_m().max(f32::MIN_POSITIVE)) as usize;
+    let samples = tube.samples();
+    samples.get(k.min(samples.len().saturating_sub(1))).map_or(load_m.xy(), |p| p.pos_m)
+}
+
+/// The lowest id among `healthy` members (`healthy(j)`: fresh own data, or in the view):
+/// the team's planner (`None`: no one is healthy).
+pub fn designated_planner(n: usize, healthy: impl Fn(usize) -> bool) -> Option<usize> {
+    (0..n).find(|&j| healthy(j))
+}
+
+/// Whether a companion at `own_m`, with the load at `load_m`, may switch from `old` to `new`
+/// (module docs): both inside `new` by `margin_m`, and the own barrier distance on `new` at
+/// least `min(d_old, r_active_m)`.
+///
+/// # Errors
+/// Why the old tube is kept.
+pub fn accept(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &Vec3, load_m: &Vec3, margin_m: f32, r_active_m: f32) -> Result<(), Keep> {
+    let d = |t: &CompanionTube, p: &Vec3| t.locate(p.xy(), 0).map_or(f32::NEG_INFINITY, |sec| sec.boundary_distance_m(p.xy()));
+    let d_new = d(new, own_m);
+    if !(d_new >= margin_m) {
+        return Err(Keep::OwnOutside);
+    }
+    if !(d(new, load_m) >= margin_m) {
+        return Err(Keep::LoadOutside);
+    }
+    if let Some(old) = old {
+        let d_old = d(old, own_m);
+        if d_new < d_old.min(r_active_m) {
+            return Err(Keep::BarrierJump);
+        }
+    }
+    Ok(())
+}
+
+/// A planned tube's waypoints as the tube is built from them.
+pub fn waypoints(t: &PlannedTube) -> &[Waypoint] {
+    &t.waypoints
+}
+
+#[cfg(test)]
+#[path = "perception_tests.rs"]
+mod tests;

@@ -1,0 +1,125 @@
+//! Tests of the onboard perception: the planner's election, the trigger, a re-plan around an
+//! obstacle the map has only seen, and the accept rule.
+
+use super::*;
+use vt_map::Return;
+
+type V2 = vt_plan::Vec2;
+
+fn straight(y: f32, half_width_m: f32) -> CompanionTube {
+    CompanionTube::from_waypoints(&[Waypoint::new(3.0, y, half_width_m, half_width_m), Waypoint::new(47.0, y, half_width_m, half_width_m)]).unwrap()
+}
+
+fn config() -> PerceptionConfig {
+    PerceptionConfig {
+        bounds_m: [0.0, 50.0, 0.0, 20.0],
+        cell_m: 0.25,
+        goal_m: [47.0, 10.0],
+        replan_period_ms: 1000,
+        plan: PlanParams { need_half_width_m: 1.6, ..PlanParams::default() },
+    }
+}
+
+/// A 72-sector, 15 m scan from `o` of the circles `(centre, radius)`: each sector the closest
+/// of 11 rays across it (0.5 deg apart), cast analytically, as `OBSTACLE_DISTANCE` carries it.
+fn scan(o: V2, circles: &[(V2, f32)]) -> Scan {
+    let mut s = Scan::new(o, 0.0, 5f32.to_radians(), 15.0);
+    for k in 0..72 {
+        let hit = (0..11).map(|u| sector_ray(o, circles, (k as f32 * 5.0 - 2.5 + u as f32 * 0.5).to_radians())).fold(f32::INFINITY, f32::min);
+        s.returns.push(if hit <= 15.0 { Return::Hit(hit) } else { Return::Clear }).unwrap();
+    }
+    s
+}
+
+fn sector_ray(o: V2, circles: &[(V2, f32)], a: f32) -> f32 {
+    let d = V2::new(a.cos(), a.sin());
+    circles
+        .iter()
+        .filter_map(|(c, r)| {
+            let oc = o - c;
+            let b = d.dot(&oc);
+            let disc = b * b - (oc.norm_squared() - r * r);
+            (b < 0.0 && disc >= 0.0).then(|| -b - disc.sqrt())
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+#[test]
+fn the_lowest_healthy_id_plans_and_the_next_takes_over() {
+    assert_eq!(designated_planner(5, |_| true), Some(0));
+    assert_eq!(designated_planner(5, |j| j != 0), Some(1));
+    assert_eq!(designated_planner(5, |j| j >= 3), Some(3));
+    assert_eq!(designated_planner(5, |_| false), None);
+}
+
+#[test]
+fn a_world_too_large_for_the_map_is_refused() {
+    let cfg = PerceptionConfig { bounds_m: [0.0, 100.0, 0.0, 100.0], ..config() };
+    assert!(matches!(Perception::new(cfg), Err(vt_map::MapError::TooManyCells { .. })));
+    let cfg = PerceptionConfig { cell_m: f32::NAN, ..config() };
+    assert!(Perception::new(cfg).is_err());
+}
+
+#[test]
+fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
+    let mut p = Box::new(Perception::new(config()).unwrap());
+    let tube = straight(10.0, 3.0);
+    let rock = (V2::new(20.0, 10.5), 1.5);
+    let load = Vec3::new(8.0, 10.0, 3.0);
+    assert!(!p.blocked());
+    // An obstacle off the tube does not trigger: a scan that only sees a circle far north.
+    p.integrate(&scan(V2::new(8.0, 10.0), &[(V2::new(8.0, 18.5), 1.0)]), Some(&tube), 5.0);
+    assert!(!p.blocked(), "an obstacle outside the tube");
+    p.integrate(&scan(V2::new(8.0, 10.0), &[rock]), Some(&tube), 5.0);
+    assert!(p.blocked(), "the rock lies in the tube ahead");
+    assert!(p.replan_due(0));
+    let planned = p.replan(&tube, &load, 0).unwrap();
+    assert!(!p.blocked() && !p.replan_due(999) && p.replan_due(1000), "the schedule restarts");
+    assert_eq!(p.replans(), 1);
+    let new = CompanionTube::from_waypoints(&planned.waypoints).unwrap();
+    // Starts at the team's section, 4 m behind the load, and ends at the goal.
+    let first = planned.waypoints[0].pos_m;
+    assert!((first - V2::new(4.0, 10.0)).norm() < 0.3, "{first:?}");
+    assert!((planned.waypoints.last().unwrap().pos_m - V2::new(47.0, 10.0)).norm() < 0.3);
+    // No part of the new tube comes within the planner's margin of the rock (less one coarse
+    // cell of rasterisation: the map knows the rock only through its cells).
+    for smp in new.samples() {
+        for b in [smp.left_boundary_m(), smp.right_boundary_m()] {
+            let d = (b - rock.0).norm() - rock.1;
+            assert!(d > 0.4 - 0.5, "boundary point {b:?} is {d} m from the rock");
+        }
+    }
+    // The team (load and a UAV 1.5 m to its side) is inside the new tube with margin.
+    assert_eq!(accept(&new, Some(&tube), &Vec3::new(8.0, 11.5, 7.0), &load, 0.5, 1.2), Ok(()));
+}
+
+#[test]
+fn no_route_is_an_error_not_a_tube() {
+    let mut p = Box::new(Perception::new(config()).unwrap());
+    let tube = straight(10.0, 3.0);
+    // A wall of circles across the whole world at x = 25 (0.9 m apart: no gap the team fits).
+    let wall: Vec<(V2, f32)> = (0..23).map(|k| (V2::new(25.0, k as f32 * 0.9), 0.6)).collect();
+    for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
+        p.integrate(&scan(V2::new(18.0, y), &wall), Some(&tube), 15.0);
+    }
+    assert!(p.blocked());
+    let r = p.replan(&tube, &Vec3::new(18.0, 10.0, 3.0), 0);
+    assert!(matches!(r, Err(PlanError::TooNarrow { .. })), "{r:?}");
+}
+
+#[test]
+fn a_tube_is_kept_when_it_would_leave_a_uav_or_the_load_outside_or_bring_the_barrier_closer() {
+    let (wide, narrow, off) = (straight(10.0, 3.0), straight(10.0, 1.6), straight(14.0, 3.0));
+    let load = Vec3::new(20.0, 10.0, 3.0);
+    let margin = 0.5;
+    // A UAV 1 m left of the centreline: 2 m from the wide tube's boundary, 0.6 m from the narrow's.
+    let own = Vec3::new(20.0, 11.0, 7.0);
+    assert_eq!(accept(&wide, Some(&narrow), &own, &load, margin, 1.2), Ok(()), "wider is always fine");
+    assert_eq!(accept(&narrow, Some(&wide), &own, &load, margin, 1.2), Err(Keep::BarrierJump));
+    // Outside the activation band on both, the barrier is off either way.
+    assert_eq!(accept(&narrow, Some(&wide), &own, &load, margin, 0.5), Ok(()));
+    assert_eq!(accept(&off, Some(&wide), &Vec3::new(20.0, 16.0, 7.0), &load, margin, 1.2), Err(Keep::LoadOutside));
+    assert_eq!(accept(&off, Some(&wide), &Vec3::new(20.0, 7.5, 7.0), &load, margin, 1.2), Err(Keep::OwnOutside));
+    assert_eq!(accept(&wide, None, &Vec3::new(20.0, 10.0, f32::NAN), &load, margin, 1.2), Ok(()), "height does not matter");
+    assert_eq!(accept(&wide, None, &Vec3::new(f32::NAN, 10.0, 7.0), &load, margin, 1.2), Err(Keep::OwnOutside));
+}
