@@ -4,7 +4,7 @@
 //! re-exported here under their own names.
 #![forbid(unsafe_code)]
 
-pub use vt_sim::{cable, clearance, companion, sensing, disturbance, link, lockstep, map, metrics, mission, models, phases, plan, plant, quadrotor, record, scenario, score, sim, summary};
+pub use vt_sim::{cable, clearance, companion, sensing, disturbance, lidar, link, lockstep, map, metrics, mission, models, obstacles, phases, plan, plant, quadrotor, record, scenario, score, sim, summary};
 
 pub mod campaign;
 pub mod mcap_log;

@@ -239,6 +239,13 @@ impl Clearances {
         }
     }
 
+    /// Adds an obstacle that appeared (issue 28): every body is measured against it anew.
+    pub fn add_obstacle(&mut self, shape: &crate::map::Shape) {
+        self.obstacles.add(shape);
+        self.uav_measured.iter_mut().chain(self.cable_measured.iter_mut()).for_each(|m| *m = Measured::NONE);
+        self.load_measured = Measured::NONE;
+    }
+
     /// The smallest clearances so far.
     pub fn min(&self) -> MinClearances {
         self.min

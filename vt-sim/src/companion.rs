@@ -226,6 +226,11 @@ static TUBE_POOL: std::sync::Mutex<Vec<&'static mut CompanionTube>> = std::sync:
 pub struct HostCompanion {
     /// Always `Some` until dropped.
     companion: Option<Box<Companion<'static>>>,
+    /// Issue 28: where a re-planned tube is built before the companion switches to it (taken
+    /// from the pool at the first offer).
+    spare: Option<&'static mut CompanionTube>,
+    /// The spare holds a tube the companion declined, to retry.
+    declined: bool,
 }
 
 impl Default for HostCompanion {
@@ -237,9 +242,36 @@ impl Default for HostCompanion {
 impl HostCompanion {
     /// A fresh companion: default parameters, no tube.
     pub fn new() -> Self {
-        let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
-        let tube: &'static mut CompanionTube = pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())));
-        Self { companion: Some(Box::new(Companion::new(tube))) }
+        Self { companion: Some(Box::new(Companion::new(pooled_tube()))), spare: None, declined: false }
+    }
+
+    /// Issue 28: offers the companion a re-planned tube (waypoints on the mission protocol's
+    /// grid, as an upload carries them): built in the spare storage, switched to when
+    /// `vt_companion::perception::accept` allows.
+    ///
+    /// # Errors
+    /// The tube does not build (`None`), or why the companion kept its tube.
+    pub fn offer_tube(&mut self, waypoints: &[vt_tube::Waypoint]) -> Result<(), Option<vt_companion::perception::Keep>> {
+        let spare = self.spare.get_or_insert_with(pooled_tube);
+        self.declined = false;
+        spare.rebuild(waypoints).map_err(|_| None)?;
+        let c = self.companion.as_deref_mut().ok_or(None)?;
+        let r = c.switch_tube(spare).map_err(Some);
+        self.declined = r.is_err();
+        r
+    }
+
+    /// Offers the last declined tube again; true when the companion switched to it.
+    pub fn retry_offer(&mut self) -> bool {
+        if !self.declined {
+            return false;
+        }
+        let (Some(spare), Some(c)) = (self.spare.as_mut(), self.companion.as_deref_mut()) else {
+            return false;
+        };
+        let ok = c.switch_tube(spare).is_ok();
+        self.declined = !ok;
+        ok
     }
 
     /// The companion (`None` only while being dropped).
@@ -255,13 +287,17 @@ impl HostCompanion {
 
 impl Drop for HostCompanion {
     fn drop(&mut self) {
-        if let Some(c) = self.companion.take() {
-            let tube = c.into_tube();
-            if let Ok(mut pool) = TUBE_POOL.lock() {
-                pool.push(tube);
-            }
+        let tube = self.companion.take().map(|c| c.into_tube());
+        if let Ok(mut pool) = TUBE_POOL.lock() {
+            pool.extend(tube.into_iter().chain(self.spare.take()));
         }
     }
+}
+
+/// Tube storage from the pool, or a new one (leaked once: the pool bounds the memory).
+fn pooled_tube() -> &'static mut CompanionTube {
+    let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
+    pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())))
 }
 
 #[cfg(test)]

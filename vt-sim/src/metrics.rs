@@ -62,6 +62,11 @@ pub struct Metrics {
     settle_s: f64,
     alt_ref: f64,
     end_s: f32,
+    /// The load's horizontal path so far, m, and where it was last sampled.
+    pub(crate) load_path_m: f64,
+    load_last_xy: Option<(f64, f64)>,
+    /// `mission.end_tolerance_m`, m.
+    end_tol: f32,
     now_uav_boundary: f64,
     now_load_boundary: f64,
     now_uav_uav: f64,
@@ -102,6 +107,9 @@ impl Metrics {
             settle_s: s.mission.settle_time_s,
             alt_ref: s.load.altitude_m,
             end_s: tube_len - s.mission.end_tolerance_m as f32,
+            end_tol: s.mission.end_tolerance_m as f32,
+            load_path_m: 0.0,
+            load_last_xy: None,
             now_uav_boundary: f64::INFINITY,
             now_load_boundary: f64::INFINITY,
             now_uav_uav: f64::INFINITY,
@@ -139,6 +147,10 @@ impl Metrics {
                 None => ub = f64::NEG_INFINITY,
             }
         }
+        if let Some((x, y)) = self.load_last_xy {
+            self.load_path_m += (load_pos_m.x - x).hypot(load_pos_m.y - y);
+        }
+        self.load_last_xy = Some((load_pos_m.x, load_pos_m.y));
         let ql = xy(load_pos_m);
         let lb = match tube.locate(ql, *load_hint) {
             Some(sec) => {
@@ -193,6 +205,11 @@ impl Metrics {
             self.cv_sum += var.sqrt() / mean;
             self.cv_count += 1;
         }
+    }
+
+    /// The tube flown changed (issue 28): arrival is at the new tube's end.
+    pub(crate) fn set_tube_length(&mut self, tube_len: f32) {
+        self.end_s = tube_len - self.end_tol;
     }
 
     /// Sets the rated capacity, N (time above it is reported).
@@ -304,6 +321,7 @@ impl Metrics {
             lift_peak_tension_n: None,
             lift_share_spread: None,
             touchdown_speed_mps: None,
+            perception: None,
         }
     }
 }

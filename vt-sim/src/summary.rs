@@ -137,6 +137,33 @@ pub struct Summary {
     /// Ground start: the load's downward speed when it touched the ground again, m/s.
     #[serde(default)]
     pub touchdown_speed_mps: Option<f64>,
+    /// Issue 28: what the team's onboard perception did (`None`: the map was known).
+    #[serde(default)]
+    pub perception: Option<PerceptionSummary>,
+}
+
+/// Issue 28: a flight whose tube was generated in flight.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PerceptionSummary {
+    /// Re-plans started by the team's planner.
+    pub replans: u32,
+    /// Re-plans that gave a tube.
+    pub planned: u32,
+    /// Switches to a new tube, summed over the companions.
+    pub tube_switches: u32,
+    /// Offers a companion declined (it kept its tube), summed over the companions.
+    pub tubes_kept: u32,
+    /// The flight ended with no route to the goal (the team held in place).
+    pub no_route: bool,
+    /// The onboard occupancy map's RAM per companion, bytes.
+    pub map_ram_bytes: usize,
+    /// The load's horizontal path, m.
+    pub load_path_m: f64,
+    /// What the load would fly on the known map's plan: its generator from the load's start
+    /// to the arrival point (`start_s_m` and `end_tolerance_m` off its length), m.
+    pub known_plan_path_m: f64,
+    /// `load_path_m / known_plan_path_m` (issue 28's target: <= 1.3).
+    pub path_ratio: f64,
 }
 
 fn flown() -> String {
@@ -229,6 +256,7 @@ impl Summary {
             lift_peak_tension_n: None,
             lift_share_spread: None,
             touchdown_speed_mps: None,
+            perception: None,
         }
     }
 
@@ -289,4 +317,43 @@ fn nan() -> f64 {
 /// The value is neither a number nor `null`.
 pub fn f64_or_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+impl Summary {
+    /// Issue 28: adds what the team's perception did; a flight that ended without a route is
+    /// a failure with that reason (outcome `no_route`).
+    pub fn perception(&mut self, ls: &crate::scenario::LoadedScenario, r: &crate::mission::replan::ReplanStats, load_path_m: f64) {
+        let s = &ls.scenario;
+        let known = s.tube.plan.as_ref().and_then(|spec| {
+            let m = ls.plan.as_ref().map(|p| p.map.clone())?;
+            m.plan(spec.start, spec.goal, &crate::plan::params_of(s, spec)).ok().map(|t| crate::scenario::SimTube::from_waypoints(&t.waypoints).map(|t| f64::from(t.length_m())))
+        });
+        let known_plan_path_m = match known {
+            Some(Ok(len)) => len - s.load.start_s_m - s.mission.end_tolerance_m,
+            _ => f64::NAN,
+        };
+        // The tube is the only guard a team has against what it has not seen: in a flight that
+        // generates its tube, a body or cable touching an obstacle is a failure whatever the
+        // clearance floor.
+        if self.min_obstacle_clearance_m < 0.0 {
+            self.success = false;
+            self.failures.push(format!("touched an obstacle (clearance {:.2} m)", self.min_obstacle_clearance_m));
+        }
+        if r.no_route {
+            self.success = false;
+            self.outcome = "no_route".into();
+            self.failures.insert(0, "no route to the goal on the map as seen: the team held in place".into());
+        }
+        self.perception = Some(PerceptionSummary {
+            replans: r.replans,
+            planned: r.planned,
+            tube_switches: r.switches,
+            tubes_kept: r.kept,
+            no_route: r.no_route,
+            map_ram_bytes: r.map_ram_bytes,
+            load_path_m,
+            known_plan_path_m,
+            path_ratio: load_path_m / known_plan_path_m,
+        });
+    }
 }

@@ -370,6 +370,17 @@ impl<'t> Companion<'t> {
         }
     }
 
+    /// The tube flown (`None`: none uploaded or accepted yet).
+    pub fn tube(&self) -> Option<&CompanionTube> {
+        self.core.tube()
+    }
+
+    /// Issue 28: the team's planner found no route (on) or a route again (off): this UAV
+    /// holds in place with [`crate::HoldReasons::NO_ROUTE`]. False when no mission runs.
+    pub fn set_no_route(&mut self, on: bool) -> bool {
+        self.core.flight.as_mut().map(|fl| fl.set_no_route(on)).is_some()
+    }
+
     /// Issue 28: switches to the tube the caller built in `candidate` when
     /// [`crate::perception::accept`] allows it for this UAV's and the load's last positions
     /// (margin: the flown `r_safe`; the barrier may rise to its value halfway through the

@@ -21,14 +21,14 @@
 //! cell is occupied when any of its cells is (conservative).
 
 use crate::{CompanionTube, Vec3};
-use vt_map::{LogOddsParams, OccupancyGrid, Scan};
+use vt_map::{LogOddsParams, OccupancyGrid, Return, Scan};
 use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
 use vt_tube::Waypoint;
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
 pub const MAP_CELLS: usize = 33_600;
 /// The planner's grid is this many map cells on a side coarser (0.5 m at 0.25 m cells).
-pub const PLAN_COARSEN: usize = 2;
+pub const PLAN_COARSEN: usize = 1;
 /// Cells of the planner's grid: the map's, coarsened, with room for the rounding up.
 pub const PLAN_CELLS: usize = MAP_CELLS / (PLAN_COARSEN * PLAN_COARSEN) + 512;
 /// Longest row or column of the planner's grid (the distance transform's line buffers).
@@ -37,6 +37,18 @@ pub const PLAN_LINE: usize = 512;
 pub const LATTICE_NODES: usize = 4_096;
 /// The new tube starts this far behind the load along the current tube, m.
 pub const BACKOFF_M: f32 = 4.0;
+/// A scheduled re-plan replaces a tube that nothing blocks only when it is at least this much
+/// shorter (fraction of the current tube's remaining length): tubes are not churned for
+/// centimetres, every switch is a step in the barrier.
+pub const SHORTER_TO_SWITCH: f32 = 0.1;
+/// Triggered re-plans come at most this often, ms (cells at an obstacle's edge flip as scans
+/// arrive; a re-plan per scan would only repeat itself).
+pub const MIN_REPLAN_GAP_MS: u32 = 200;
+/// A failed re-plan holds the team when a known obstacle lies in its current tube less than
+/// this far ahead of the load along it, m (the formation's front, a stop and a margin). A
+/// bottleneck farther off is not final: the map there is seen from afar, through sectors
+/// metres wide, and sharpens as the team comes closer, so the team flies on and re-plans.
+pub const HOLD_AHEAD_M: f32 = 8.0;
 
 /// The onboard map's configuration (from the `PR_*` parameters).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,7 +89,10 @@ pub struct Perception {
     floats: [f32; 3 * LATTICE_NODES],
     ints: [u32; 3 * LATTICE_NODES],
     blocked: bool,
+    /// Arc length along the tube of the nearest obstacle cell seen in it ahead of the load, m.
+    blocked_s_m: f32,
     next_plan_ms: u32,
+    last_plan_ms: Option<u32>,
     replans: u32,
 }
 
@@ -105,14 +120,17 @@ impl Perception {
             floats: [0.0; 3 * LATTICE_NODES],
             ints: [0; 3 * LATTICE_NODES],
             blocked: false,
+            blocked_s_m: f32::INFINITY,
             next_plan_ms: 0,
+            last_plan_ms: None,
             replans: 0,
         })
     }
 
     /// Fuses one scan (own or relayed). With the current `tube` and the load's arc length
-    /// `load_s_m` along it, a newly occupied cell inside the tube (with the planner's margin)
-    /// ahead of the team's back-off point raises [`Self::blocked`].
+    /// `load_s_m` along it, a newly occupied cell whose square reaches into the tube ahead of
+    /// the team's back-off point raises [`Self::blocked`] (the planner keeps its margin outside
+    /// the tube: cells flickering there do not block it).
     ///
     /// A beam is a sector, as `OBSTACLE_DISTANCE` defines it: the *closest* obstacle within
     /// the sector's angle is at the reported range. So the whole sector is free up to that
@@ -121,27 +139,46 @@ impl Perception {
     /// centre ray would leave gaps of `range x increment`, 1.3 m at 15 m and 5 deg, that a
     /// tube could cut through).
     pub fn integrate(&mut self, scan: &Scan, tube: Option<&CompanionTube>, load_s_m: f32) {
-        let margin = self.cfg.plan.margin_m + 0.71 * self.cfg.cell_m;
+        // A cell's square reaches into the tube when its centre is within half a diagonal.
+        let margin = 0.71 * self.cfg.cell_m;
         let mut blocked = false;
+        let mut blocked_s = self.blocked_s_m;
         let map = &mut self.map;
         let (res, origin) = (map.resolution_m(), map.origin_m());
         let m = sub_rays(scan, res);
         let mut sub = scan.clone();
         for u in 0..m {
             sub.first_angle_rad = scan.first_angle_rad + scan.increment_rad * ((u as f32 + 0.5) / m as f32 - 0.5);
+            // Off the sector's centre a far hit's place on its arc is a guess a metre wide:
+            // only the free space before it counts there (see `SPREAD_RANGE_M`).
+            let centre = m == 1 || u == m / 2;
+            for (r, orig) in sub.returns.iter_mut().zip(&scan.returns) {
+                *r = match *orig {
+                    Return::Hit(d) if !centre && d > SPREAD_RANGE_M => Return::Unknown,
+                    other => other,
+                };
+            }
             map.integrate(&sub, &self.log_odds, |i, j| {
                 let Some(tube) = tube else {
                     return;
                 };
                 let c = origin + vt_map::Vec2::new((i as f32 + 0.5) * res, (j as f32 + 0.5) * res);
                 if let Some(sec) = tube.locate(c, 0) {
-                    if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m - BACKOFF_M {
+                    if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m {
                         blocked = true;
+                        blocked_s = blocked_s.min(sec.s_m);
                     }
                 }
             });
         }
         self.blocked |= blocked;
+        self.blocked_s_m = blocked_s;
+    }
+
+    /// How far ahead of the load (arc length `load_s_m` on the current tube) the nearest
+    /// obstacle seen in that tube lies, m (infinite: none seen since the last re-plan).
+    pub fn blocked_ahead_m(&self, load_s_m: f32) -> f32 {
+        self.blocked_s_m - load_s_m
     }
 
     /// A newly seen obstacle lies in the tube ahead: re-plan now.
@@ -151,7 +188,8 @@ impl Perception {
 
     /// A re-plan is due at `now_ms` (scheduled, or [`Self::blocked`]).
     pub fn replan_due(&self, now_ms: u32) -> bool {
-        self.blocked || now_ms >= self.next_plan_ms
+        let gap_ok = self.last_plan_ms.is_none_or(|t| now_ms.wrapping_sub(t) >= MIN_REPLAN_GAP_MS);
+        (self.blocked && gap_ok) || now_ms >= self.next_plan_ms
     }
 
     /// Re-plans from the team's current section of `tube` (the load at `load_m`) to the goal
@@ -162,6 +200,7 @@ impl Perception {
     /// The planner's: no route (the team holds), a start inside an obstacle.
     pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32) -> Result<PlannedTube, PlanError> {
         self.blocked = false;
+        self.last_plan_ms = Some(now_ms);
         self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
         self.replans = self.replans.saturating_add(1);
         let start = start_point(tube, load_m);
@@ -178,6 +217,24 @@ impl Perception {
         let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
         let goal = vt_plan::Vec2::new(self.cfg.goal_m[0], self.cfg.goal_m[1]);
         vt_plan::plan(&grid, start, goal, &self.cfg.plan, &mut ws)
+    }
+
+    /// Whether the team should switch from `current` to `planned` (the load at `load_m`): an
+    /// obstacle was seen in `current` since the last switch, or `planned` is
+    /// [`SHORTER_TO_SWITCH`] shorter than what remains of `current`.
+    pub fn worth_switching(&self, current: &CompanionTube, planned: &PlannedTube, load_m: &Vec3) -> bool {
+        let remaining = current.locate(load_m.xy(), 0).map_or(f32::INFINITY, |sec| sec.remaining_m);
+        let len: f32 = planned.waypoints.windows(2).map(|w| match w {
+            [a, b] => (b.pos_m - a.pos_m).norm(),
+            _ => 0.0,
+        }).sum::<f32>() - BACKOFF_M;
+        self.blocked_s_m.is_finite() || len < (1.0 - SHORTER_TO_SWITCH) * remaining
+    }
+
+    /// The planned tube went to the team: what blocks a tube is measured along the new one
+    /// from now on.
+    pub fn handed_over(&mut self) {
+        self.blocked_s_m = f32::INFINITY;
     }
 
     /// Re-plans started so far.
@@ -206,6 +263,12 @@ pub fn sub_rays(scan: &Scan, cell_m: f32) -> usize {
         1
     }
 }
+
+/// Hits farther than this mark their sector's whole arc only through the centre ray (the
+/// free space before them through every ray): at 6 m a 5 deg arc is 0.52 m, two cells; beyond,
+/// the arc would paint obstacles a metre wider than they are, closing passages the team sees
+/// open once it is nearer.
+pub const SPREAD_RANGE_M: f32 = 6.0;
 
 /// Most rays a sector is spread into.
 pub const MAX_SUB_RAYS: usize = 8;

@@ -6,6 +6,8 @@
 //! under the setpoints it holds. Rates, sensing and the order of events are the world's; what
 //! differs between backends is only how the setpoints are computed.
 
+pub mod replan;
+pub mod scans;
 pub mod team;
 pub mod world;
 
@@ -61,6 +63,11 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
     let mut setpoints = vec![Setpoint { q_ned: [1.0, 0.0, 0.0, 0.0], thrust: 0.0 }; n];
     let bar = crate::sim::progress_bar(opts.progress, world.max_steps(), "{spinner} simulating [{bar:40}] {percent:>3}% (time limit) {elapsed}");
     let wall = Instant::now();
+    let mut tube_version = 0;
+    if let Some((version, tube)) = team.published_tube() {
+        tube_version = version;
+        world.set_team_tube(tube);
+    }
     while !world.done() {
         if world.low_level_due() {
             // What each UAV broadcasts travels with its position (team failsafe).
@@ -75,6 +82,12 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
                 team.controller_outputs(vel_cmd, f_hat);
             }
         }
+        if let Some((version, tube)) = team.published_tube() {
+            if version != tube_version {
+                tube_version = version;
+                world.set_team_tube(tube);
+            }
+        }
         world.advance(&setpoints);
         if world.step_count() % 2000 == 0 {
             if let Some(b) = &bar {
@@ -86,6 +99,10 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
         b.finish_and_clear();
     }
     let kind: ControllerKind = opts.controller;
-    let (summary, record) = world.finish(kind, wall.elapsed().as_secs_f64(), team.invalid_commands());
+    let load_path_m = world.load_path_m();
+    let (mut summary, record) = world.finish(kind, wall.elapsed().as_secs_f64(), team.invalid_commands());
+    if let Some(r) = team.replan_stats() {
+        summary.perception(ls, &r, load_path_m);
+    }
     Ok(Flown { summary, record })
 }

@@ -54,6 +54,9 @@ pub struct Tick<'a> {
     /// Per UAV, the team mode each other UAV broadcast with the position in `views` (`None`
     /// with it; docs/design.md, "Team failsafe"; valid when `high_level`).
     pub modes: &'a [Vec<Option<TeamMode>>],
+    /// Issue 28: per UAV, the LiDAR scan taken this high-level period (empty or `None`: none;
+    /// origin at the UAV's measured position, as its companion knows it).
+    pub scans: &'a [Option<vt_map::Scan>],
 }
 
 /// What the team knows at take-off, before its first tick.
@@ -115,6 +118,17 @@ pub trait Team {
     /// `HEARTBEAT.custom_mode` carries them (bits 24..31 and 16..23; docs/protocol.md); a team
     /// that does not report leaves them 0.
     fn phases(&self, _phases: &mut [u8], _refusals: &mut [u8]) {}
+
+    /// Issue 28: the tube the team re-planned and switched to last, with a version that
+    /// changes at each new one (`None`: the scenario's tube; a team that does not re-plan).
+    fn published_tube(&self) -> Option<(u32, &crate::scenario::SimTube)> {
+        None
+    }
+
+    /// Issue 28: what the team's perception did (`None`: it does not re-plan).
+    fn replan_stats(&self) -> Option<super::replan::ReplanStats> {
+        None
+    }
 }
 
 /// The phase code in a companion's `HEARTBEAT.custom_mode` (bits 24..31; 0: not flying).
@@ -168,6 +182,8 @@ pub fn holding_of(custom_mode: u32) -> bool {
 pub struct CompanionTeam {
     kind: ControllerKind,
     uavs: Vec<HostCompanion>,
+    /// Issue 28: the onboard maps and re-planning (`None`: the map is known).
+    perception: Option<super::replan::TeamPerception>,
     /// Each companion's low-level step count before the tick (reused buffer).
     before: Vec<Option<u32>>,
 }
@@ -175,7 +191,7 @@ pub struct CompanionTeam {
 impl CompanionTeam {
     /// A team flying `kind`, configured at the first [`Team::preflight`] or [`Team::start`].
     pub fn new(kind: ControllerKind) -> Self {
-        Self { kind, uavs: Vec::new(), before: Vec::new() }
+        Self { kind, uavs: Vec::new(), perception: None, before: Vec::new() }
     }
 
     /// UAV `i`'s companion (for inspection).
@@ -201,6 +217,7 @@ impl CompanionTeam {
             c.upload_tube(&items, &mut Unlinked).map_err(|e| SimError(format!("UAV {i}: tube refused ({e:?})")))?;
             self.uavs.push(uav);
         }
+        self.perception = super::replan::TeamPerception::new(ls, n)?;
         Ok(())
     }
 
@@ -256,7 +273,11 @@ impl CompanionTeam {
 impl Team for CompanionTeam {
     fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
         self.configure(ls, at.cable_rated_n)?;
-        self.each(&at.tick)
+        self.each(&at.tick)?;
+        if let Some(p) = self.perception.as_mut() {
+            p.step(&at.tick, &mut self.uavs, true);
+        }
+        Ok(())
     }
 
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
@@ -278,6 +299,11 @@ impl Team for CompanionTeam {
         let ticks = |c: &vt_companion::Companion<'static>| c.flight().map(vt_companion::Flight::low_level_ticks);
         self.before.clear();
         self.before.extend(self.uavs.iter().filter_map(HostCompanion::get).map(ticks));
+        // The perception task runs before this period's high level (a tube handed over now is
+        // flown now).
+        if let Some(p) = self.perception.as_mut() {
+            p.step(tick, &mut self.uavs, false);
+        }
         self.each(tick)?;
         let companions = self.uavs.iter().filter_map(HostCompanion::get);
         for (i, ((slot, c), before)) in out.iter_mut().zip(companions).zip(&self.before).enumerate() {
@@ -314,5 +340,13 @@ impl Team for CompanionTeam {
         for ((p, r), c) in phases.iter_mut().zip(refusals.iter_mut()).zip(self.companions()) {
             (*p, *r) = (phase_of(c.heartbeat_custom_mode()), refusal_of(c.heartbeat_custom_mode()));
         }
+    }
+
+    fn published_tube(&self) -> Option<(u32, &crate::scenario::SimTube)> {
+        self.perception.as_ref().and_then(super::replan::TeamPerception::published)
+    }
+
+    fn replan_stats(&self) -> Option<super::replan::ReplanStats> {
+        self.perception.as_ref().map(|p| p.stats().clone())
     }
 }

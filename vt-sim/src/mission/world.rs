@@ -9,7 +9,7 @@ use crate::metrics::{formation_error, FlightEnd, Metrics, TubeHints};
 use crate::models::{CableModel, UavModel};
 use crate::plant::Plant;
 use crate::record::{EventKind, RecordEvent, RunRecord, MODE_HOLD, MODE_TRANSPORT};
-use crate::scenario::{FaultKind, LoadedScenario, SIM_MAX_UAVS};
+use crate::scenario::{FaultKind, LoadedScenario, SimTube, SIM_MAX_UAVS};
 use crate::sim::{self, ControllerKind, RunOptions, SimError, Takeoff};
 use crate::sensing::Receiver;
 use crate::summary::{CableBreak, Summary};
@@ -107,6 +107,10 @@ pub struct World<'a> {
     refusal_codes: Vec<u8>,
     /// Ground start: the plant step at which the whole team was released.
     released_step: Option<u64>,
+    /// Issue 28: the LiDAR scans and the obstacles that appear (`None`: neither).
+    scans: Option<super::scans::Scans>,
+    /// Issue 28: the tube the team flies when its planner replaced the scenario's.
+    team_tube: Option<Box<SimTube>>,
 }
 
 /// Flown on after the whole team is released (ground start), s.
@@ -237,6 +241,8 @@ impl<'a> World<'a> {
             phase_codes: vec![0; n],
             refusal_codes: vec![0; n],
             released_step: None,
+            scans: super::scans::Scans::new(ls, n, seed, f64::from(r.plant_hz), hl_hz),
+            team_tube: None,
         };
         if boot_steps == 0 {
             world.sample_start()?;
@@ -342,6 +348,7 @@ impl<'a> World<'a> {
                 load: self.start_load,
                 views: &self.start_views,
                 modes: &self.start_modes,
+                scans: &[],
             },
             takeoff: &self.takeoff,
             cable_rated_n: self.rated_n,
@@ -410,6 +417,12 @@ impl<'a> World<'a> {
                 sample_ms: snap.time_ms,
             };
             self.link.exchange(hl_step, &self.link_msg);
+            if let Some(sc) = self.scans.as_mut() {
+                self.uav_pos_scratch.clear();
+                self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
+                let measured: Vec<V3f> = self.link_msg.iter().map(|m| m.pos_m).collect();
+                sc.measure(hl_step, &self.uav_pos_scratch, &measured);
+            }
             for (i, (view, modes)) in self.views.iter_mut().zip(self.modes.iter_mut()).enumerate() {
                 let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), mode: TeamMode::Transport });
                 self.link.view(i, hl_step, own, &mut self.view_buf);
@@ -437,7 +450,21 @@ impl<'a> World<'a> {
             load: self.load,
             views: &self.views,
             modes: &self.modes,
+            scans: if high_level { self.scans.as_ref().map_or(&[], |s| s.last()) } else { &[] },
         }
+    }
+
+    /// The load's horizontal path so far, m (sampled at the high-level rate).
+    pub fn load_path_m(&self) -> f64 {
+        self.metrics.load_path_m
+    }
+
+    /// Issue 28: the team's planner replaced the tube: the metrics measure against `tube` from
+    /// now on (its boundary, and arrival at its end).
+    pub fn set_team_tube(&mut self, tube: &SimTube) {
+        self.metrics.set_tube_length(tube.length_m());
+        self.hints = TubeHints::new(self.ls.scenario.cables.lengths_m.len());
+        self.team_tube = Some(Box::new(tube.clone()));
     }
 
     /// Per UAV, the team mode its companion broadcasts (docs/design.md, "Team failsafe"), for
@@ -514,7 +541,8 @@ impl<'a> World<'a> {
         if self.step.is_multiple_of(self.hl_every) {
             self.uav_pos_scratch.clear();
             self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
-            self.metrics.geometry(t, &self.uav_pos_scratch, &self.plant.load.pos_m, &self.ls.tube, &mut self.hints, &self.motors_off);
+            let tube = self.team_tube.as_deref().unwrap_or(&self.ls.tube);
+            self.metrics.geometry(t, &self.uav_pos_scratch, &self.plant.load.pos_m, tube, &mut self.hints, &self.motors_off);
             if self.metrics.arrived && self.arrival_step.is_none() {
                 self.arrival_step = Some(self.step);
             }
@@ -571,7 +599,12 @@ impl<'a> World<'a> {
         let uav_pos = &mut self.uav_pos_scratch;
         uav_pos.clear();
         uav_pos.extend(self.plant.uavs.iter().map(|u| u.pos_m));
-        self.metrics.clearances.sample(uav_pos, &self.plant.load.pos_m, &self.motors_off, &self.attached, &self.ls.tube);
+        if let Some(sc) = self.scans.as_mut() {
+            let clearances = &mut self.metrics.clearances;
+            sc.appear(self.step, |shape| clearances.add_obstacle(shape));
+        }
+        let tube = self.team_tube.as_deref().unwrap_or(&self.ls.tube);
+        self.metrics.clearances.sample(uav_pos, &self.plant.load.pos_m, &self.motors_off, &self.attached, tube);
         self.metrics.tensions(self.plant.tensions_n());
         self.metrics.max_thrust_fraction =
             setpoints.iter().fold(self.metrics.max_thrust_fraction, |a, sp| a.max(f64::from(sp.thrust)));
