@@ -117,10 +117,10 @@ impl LidarSpec {
     }
 }
 
-/// A range on the wire: whole centimetres (`OBSTACLE_DISTANCE.distances`), m. The companion
-/// decodes the same `u16` with the same expression, so SIL and the wire agree bit for bit.
+/// A range on the wire: whole centimetres (`OBSTACLE_DISTANCE.distances`), m: the companion's
+/// decoder itself (`vt_companion::scans::range_m`), so SIL and the wire agree bit for bit.
 pub fn wire_range_m(cm: u16) -> f32 {
-    f32::from(cm) * 0.01
+    vt_companion::scans::range_m(cm)
 }
 
 /// The sensors of a team: one per UAV, seeded.
@@ -264,6 +264,20 @@ mod tests {
             // south of east) lies in the sector, and the rays 0.5 deg apart miss it by < 1 cm.
             Return::Hit(m) => assert_eq!(m, wire_range_m(400)),
             r => panic!("{r:?}"),
+        }
+    }
+
+    /// The default scan crosses `OBSTACLE_DISTANCE` bit for bit: its sector width is the one the
+    /// companion decodes (`vt_companion::scans`, docs/protocol.md "Range scans").
+    #[test]
+    fn the_default_scan_crosses_the_wire_bit_for_bit() {
+        let world = Obstacles::of_shapes(&[Shape::Circle { center_m: [5.0, 1.0], radius_m: 1.0 }, Shape::Wall { from_m: [-6.0, -9.0], to_m: [-6.0, 9.0], thickness_m: 0.2 }]);
+        let mut l = Lidar::new(LidarSpec { dropout: 0.1, ..LidarSpec::default() }, 3);
+        for k in 0..20 {
+            let s = l.scan(&world, V2::new(0.1 * f64::from(k), 0.0), V2::new(0.1 * f64::from(k), 0.05));
+            let origin = vt_companion::Vec3::new(s.origin_m.x, s.origin_m.y, 4.0);
+            let msg = vt_companion::scans::encode(&s, 5, 0).expect("carried");
+            assert_eq!(vt_companion::scans::decode(&msg, &origin), Some(s));
         }
     }
 

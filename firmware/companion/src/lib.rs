@@ -19,6 +19,7 @@
 //! - [`mission`]: [`MissionUpload`], the tube's waypoints over the MAVLink mission protocol.
 //! - [`flight`]: [`Flight`], the armed controllers: high-level step, low-level step, failsafe.
 //! - [`perception`]: [`perception::Perception`], the onboard map and in-flight re-planning (issue 28).
+//! - [`scans`]: range scans as `OBSTACLE_DISTANCE` and back (issue 28).
 //! - [`refusal`]: why a mission start was refused, as telemetry (code and `STATUSTEXT` lines).
 //! - [`companion`]: [`Companion`], message dispatch, lockstep ticks, telemetry.
 //! - [`frames`]: NED/ENU and FRD/FLU conversions.
@@ -35,6 +36,7 @@ pub mod mission;
 pub mod params;
 pub mod perception;
 pub mod refusal;
+pub mod scans;
 
 pub use companion::{Companion, Io, Mode, Request, Source};
 pub use flight::{Flight, HoldReasons, MemberBits};
