@@ -28,6 +28,7 @@ use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 
 mod inputs;
 mod telemetry;
+mod tubes;
 
 /// Largest accepted position magnitude per axis, m (anything beyond is a corrupt value).
 pub const POSITION_LIMIT_M: f32 = 1.0e5;
@@ -368,40 +369,6 @@ impl<'t> Companion<'t> {
             UploadReply::Refuse(r) => Err(r),
             _ => Err(MissionResult::InvalidSequence),
         }
-    }
-
-    /// The tube flown (`None`: none uploaded or accepted yet).
-    pub fn tube(&self) -> Option<&CompanionTube> {
-        self.core.tube()
-    }
-
-    /// Issue 28: the team's planner found no route (on) or a route again (off): this UAV
-    /// holds in place with [`crate::HoldReasons::NO_ROUTE`]. False when no mission runs.
-    pub fn set_no_route(&mut self, on: bool) -> bool {
-        self.core.flight.as_mut().map(|fl| fl.set_no_route(on)).is_some()
-    }
-
-    /// Issue 28: switches to the tube the caller built in `candidate` when
-    /// [`crate::perception::accept`] allows it for this UAV's and the load's last positions
-    /// (margin: the flown `r_safe`; the barrier may rise to its value halfway through the
-    /// activation band at most). On success `candidate` holds the old tube's storage.
-    ///
-    /// # Errors
-    /// Why the old tube is kept (no own or load position yet counts as outside).
-    pub fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
-        use crate::perception::{accept, Keep};
-        let core = &mut self.core;
-        let own = core.sources.own.map(|s| s.value.pos_m).ok_or(Keep::OwnOutside)?;
-        let load = core.sources.load.map(|s| s.value.pos_m).ok_or(Keep::LoadOutside)?;
-        let r_safe = core.params.r_safe_m();
-        let band_mid = 0.5 * (r_safe + core.params.get(Param::RActive));
-        accept(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid)?;
-        core::mem::swap(&mut core.tube, candidate);
-        core.tube_ok = true;
-        if let Some(fl) = core.flight.as_mut() {
-            fl.tube_switched();
-        }
-        Ok(())
     }
 
     /// `MAV_CMD_MISSION_START` without the acknowledgement (a refusal still sends its
