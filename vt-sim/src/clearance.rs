@@ -76,6 +76,13 @@ struct ClosestPair {
     nearest_m: Vec<f64>,
     /// Scratch: the UAVs whose pairs are measured this sample.
     near: Vec<usize>,
+    /// Scratch: how far each UAV moved since the epoch, m.
+    moved: Vec<f64>,
+}
+
+/// Whether UAV `i` counts in the clearances: `lost` has it, and it has not lost thrust.
+fn is_up(lost: &[bool], i: usize) -> bool {
+    !lost.get(i).copied().unwrap_or(true)
 }
 
 impl ClosestPair {
@@ -83,16 +90,20 @@ impl ClosestPair {
     /// be closer than `limit_m` (m), or `+inf`; a value at or above `limit_m^2` may also come
     /// back (it changes no minimum below the limit).
     fn min_sq(&mut self, pos: &[V3], lost: &[bool], limit_m: f64) -> f64 {
-        let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
+        let up = |i: usize| is_up(lost, i);
         let same_team = self.at.len() == pos.len() && self.lost.len() == pos.len() && self.lost.iter().zip(0..).all(|(l, i)| *l != up(i));
-        let moved = |(p, a): (&V3, &V3)| (p - a).norm();
-        let d_max = if same_team { pos.iter().zip(&self.at).map(moved).fold(0.0, f64::max) } else { f64::INFINITY };
+        if !same_team {
+            return self.epoch(pos, lost);
+        }
+        self.moved.clear();
+        self.moved.extend(pos.iter().zip(&self.at).map(|(p, a)| (p - a).norm()));
+        let d_max = self.moved.iter().copied().fold(0.0, f64::max);
         if d_max.is_nan() || d_max > EPOCH_MOVE_M {
             return self.epoch(pos, lost);
         }
         self.near.clear();
-        for (i, ((p, a), d)) in pos.iter().zip(&self.at).zip(&self.nearest_m).enumerate() {
-            let clears = d - moved((p, a)) - d_max > limit_m * (1.0 + PRUNE_SLACK) + PRUNE_SLACK;
+        for (i, (moved, d)) in self.moved.iter().zip(&self.nearest_m).enumerate() {
+            let clears = d - moved - d_max > limit_m * (1.0 + PRUNE_SLACK) + PRUNE_SLACK;
             if up(i) && !clears {
                 self.near.push(i);
             }
@@ -110,7 +121,7 @@ impl ClosestPair {
 
     /// Every pair measured; the epoch restarts at `pos`.
     fn epoch(&mut self, pos: &[V3], lost: &[bool]) -> f64 {
-        let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
+        let up = |i: usize| is_up(lost, i);
         let n = pos.len();
         self.at.clear();
         self.at.extend_from_slice(pos);
@@ -197,7 +208,7 @@ impl Clearances {
     pub fn sample(&mut self, uav_pos_m: &[V3], load_pos_m: &V3, lost: &[bool], attached: &[bool], tube: &SimTube) {
         let r = self.uav_radius_m;
         let m = &mut self.min;
-        let up = |i: usize| !lost.get(i).copied().unwrap_or(true);
+        let up = |i: usize| is_up(lost, i);
         // The closest pair by squared distance, one square root: `sqrt(x) - 2 r` is monotone,
         // so this is the minimum over the pairs of `|p_i - p_j| - 2 r`, bit for bit.
         let pair_sq = self.pairs.min_sq(uav_pos_m, lost, m.uav_uav_m + 2.0 * r);
