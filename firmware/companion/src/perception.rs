@@ -23,7 +23,6 @@
 use crate::{CompanionTube, Vec3};
 use vt_map::{LogOddsParams, OccupancyGrid, Return, Scan};
 use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
-use vt_tube::Waypoint;
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
 pub const MAP_CELLS: usize = 33_600;
@@ -290,11 +289,11 @@ pub fn designated_planner(n: usize, healthy: impl Fn(usize) -> bool) -> Option<u
 
 /// Whether a companion at `own_m`, with the load at `load_m`, may switch from `old` to `new`
 /// (module docs): both inside `new` by `margin_m`, and the own barrier distance on `new` at
-/// least `min(d_old, r_active_m)`.
+/// least `min(d_old, band_m)`.
 ///
 /// # Errors
 /// Why the old tube is kept.
-pub fn accept(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &Vec3, load_m: &Vec3, margin_m: f32, r_active_m: f32) -> Result<(), Keep> {
+pub fn accept(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &Vec3, load_m: &Vec3, margin_m: f32, band_m: f32) -> Result<(), Keep> {
     let d = |t: &CompanionTube, p: &Vec3| t.locate(p.xy(), 0).map_or(f32::NEG_INFINITY, |sec| sec.boundary_distance_m(p.xy()));
     let d_new = d(new, own_m);
     if !(d_new >= margin_m) {
@@ -305,16 +304,11 @@ pub fn accept(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &Vec3, lo
     }
     if let Some(old) = old {
         let d_old = d(old, own_m);
-        if d_new < d_old.min(r_active_m) {
+        if d_new < d_old.min(band_m) {
             return Err(Keep::BarrierJump);
         }
     }
     Ok(())
-}
-
-/// A planned tube's waypoints as the tube is built from them.
-pub fn waypoints(t: &PlannedTube) -> &[Waypoint] {
-    &t.waypoints
 }
 
 #[cfg(test)]

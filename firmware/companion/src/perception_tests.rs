@@ -3,6 +3,7 @@
 
 use super::*;
 use vt_map::Return;
+use vt_tube::Waypoint;
 
 type V2 = vt_plan::Vec2;
 
