@@ -273,27 +273,55 @@ impl<const N: usize> Tube<N> {
         }
     }
 
-    /// Certification radii: a local minimum at sample k with distance below `certify_m[k]`
-    /// is global. Within arc-length window `W = 0.5 / kappa_max` the squared distance is
-    /// convex for points closer than `0.5 / kappa_max` (its second derivative along `s` is
-    /// `1 - kappa (q - gamma).n > 0`); points further along the curve are at least
-    /// `sep_k - d` away, which exceeds `d` when `d < sep_k / 2`. One sample spacing is
-    /// subtracted for the chord approximation.
+    /// Certification radii: a local minimum at sample k with distance `d` below
+    /// `certify_m[k]` is global. For a window of `w` samples either side (arc length at most
+    /// `W = w ds`) with largest curvature `kappa_w` in it, the squared distance is convex along
+    /// the window for `d + W < 1 / kappa_w` (every window point is within `d + W` of `q`, and
+    /// the second derivative along `s` is `1 - kappa (q - gamma).n > 0`); points outside the
+    /// window are at least `sep_w - d` away (`sep_w` the closest of them to sample k), which
+    /// exceeds `d` when `d < sep_w / 2`. So `d < min(sep_w / 2, 1 / kappa_w - W)` certifies,
+    /// for any `w`: the radius is the best over windows of 1, 2, 4, ... samples (local
+    /// curvature: wide on straight stretches, where the global bound `0.5 / kappa_max` was
+    /// small). Two sample spacings are subtracted for the chord approximation.
     fn build_certification(&mut self) {
-        let kappa_max = self.samples.iter().map(|s| s.curvature_pm.abs()).fold(0.0f32, f32::max);
-        let convex_radius = if kappa_max > 0.0 { 0.5 / kappa_max } else { f32::MAX };
-        let window = convex_radius.min(self.length_m);
-        let window_samples = if self.ds_m > 0.0 { (window / self.ds_m) as usize } else { N };
+        /// Windows of 2^b samples, b < WINDOW_CLASSES (2^9 = 512 covers the default 256).
+        const WINDOW_CLASSES: usize = 10;
         for k in 0..N {
             let pk = self.sample(k).pos_m;
-            let mut sep2 = f32::MAX;
-            for (j, s) in self.samples.iter().enumerate() {
-                if k.abs_diff(j) > window_samples {
-                    sep2 = sep2.min((s.pos_m - pk).norm_squared());
+            // Per window class b: the closest sample with |j - k| in (2^(b-1), 2^b] (class 0:
+            // |j - k| <= 1) and the largest curvature with |j - k| <= 2^b.
+            let mut sep2 = [f32::MAX; WINDOW_CLASSES + 1];
+            let mut kappa = [0.0f32; WINDOW_CLASSES];
+            for (j, smp) in self.samples.iter().enumerate() {
+                let gap = k.abs_diff(j);
+                let class = if gap <= 1 { 0 } else { (usize::BITS - (gap - 1).leading_zeros()) as usize };
+                let class = class.min(WINDOW_CLASSES);
+                if let Some(slot) = sep2.get_mut(class) {
+                    *slot = slot.min((smp.pos_m - pk).norm_squared());
+                }
+                if let Some(slot) = kappa.get_mut(class) {
+                    *slot = slot.max(smp.curvature_pm.abs());
                 }
             }
-            let sep_half = if sep2 == f32::MAX { f32::MAX } else { 0.5 * vt_fpu::sqrt(sep2) };
-            let r = (sep_half.min(convex_radius) - 2.0 * self.ds_m).max(0.0);
+            // Window b holds the classes <= b; the rest is outside it.
+            let mut outside_of = [f32::MAX; WINDOW_CLASSES];
+            let mut acc = f32::MAX;
+            for b in (0..WINDOW_CLASSES).rev() {
+                acc = acc.min(sep2.get(b + 1).copied().unwrap_or(f32::MAX));
+                if let Some(slot) = outside_of.get_mut(b) {
+                    *slot = acc;
+                }
+            }
+            let (mut best, mut kappa_w) = (0.0f32, 0.0f32);
+            for b in 0..WINDOW_CLASSES {
+                kappa_w = kappa_w.max(kappa.get(b).copied().unwrap_or(f32::MAX));
+                let w_m = (1usize << b) as f32 * self.ds_m;
+                let sep2_b = outside_of.get(b).copied().unwrap_or(0.0);
+                let sep_half = if sep2_b == f32::MAX { f32::MAX } else { 0.5 * vt_fpu::sqrt(sep2_b) };
+                let convex = if kappa_w > 0.0 { 1.0 / kappa_w - w_m } else { f32::MAX };
+                best = best.max(sep_half.min(convex));
+            }
+            let r = (best - 2.0 * self.ds_m).max(0.0);
             if let Some(slot) = self.certify_m.get_mut(k) {
                 *slot = r;
             }
@@ -678,6 +706,42 @@ mod tests {
             assert_relative_eq!(sec.s_m, exact.s_m, epsilon = 1e-4);
             hint = sec.segment;
         }
+    }
+
+    /// A hairpin: two long straight legs 12 m apart joined by a tight turn, so the local
+    /// certification radius is wide on the legs, bounded by the other leg, and small in the
+    /// turn. Every lookup on a dense grid and from every kind of hint equals the brute force.
+    #[test]
+    fn hairpin_lookups_equal_brute_force_and_most_are_certified() {
+        let tube = T::from_waypoints(&[
+            Waypoint::new(0.0, 0.0, 1.5, 1.5),
+            Waypoint::new(30.0, 0.0, 1.5, 1.5),
+            Waypoint::new(40.0, 6.0, 1.5, 1.5),
+            Waypoint::new(30.0, 12.0, 1.5, 1.5),
+            Waypoint::new(0.0, 12.0, 1.5, 1.5),
+        ])
+        .unwrap();
+        let (mut checked, mut certified) = (0, 0);
+        for ix in 0..120 {
+            for iy in 0..60 {
+                let q = Vec2::new(-5.0 + ix as f32 * 0.4, -6.0 + iy as f32 * 0.4);
+                let exact = tube.locate_exact(q);
+                let d_exact = (q - exact.point_m).norm();
+                for hint in [0, exact.segment, exact.segment.saturating_sub(3), 128, 255] {
+                    let fast = tube.locate(q, hint).unwrap();
+                    let d_fast = (q - fast.point_m).norm();
+                    assert!((d_fast - d_exact).abs() < 1e-4, "q {q:?} hint {hint}: {d_fast} vs {d_exact}");
+                    checked += 1;
+                }
+                let k = exact.segment;
+                let cert = tube.certify_m[k].min(tube.certify_m[(k + 1).min(255)]);
+                certified += usize::from(d_exact < cert);
+            }
+        }
+        // The legs certify out to about half their 12 m separation (global-curvature bound:
+        // about 0.5 / kappa_max, under 2 m here).
+        assert!(checked == 120 * 60 * 5);
+        assert!(certified > 120 * 60 / 2, "certified {certified} of {}", 120 * 60);
     }
 
     proptest! {

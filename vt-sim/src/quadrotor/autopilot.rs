@@ -104,6 +104,8 @@ pub struct Autopilot {
     att_elapsed_s: f64,
     /// Time since the rate loop last ran, s (starts due).
     rate_elapsed_s: f64,
+    /// `1 / attitude_rate_hz` and `1 / rate_loop_hz`, s.
+    periods_s: (f64, f64),
     /// Whether the rate loop has run once (no derivative before).
     primed: bool,
     /// Demand held between rate-loop runs.
@@ -126,6 +128,7 @@ impl Autopilot {
             rate_prev_rps: Vector3::zeros(),
             att_elapsed_s: 0.0,
             rate_elapsed_s: 0.0,
+            periods_s: (1.0 / params.attitude_rate_hz, 1.0 / params.rate_loop_hz),
             primed: false,
             output: AutopilotOutput { force_n: 0.0, torque_nm: Vector3::zeros() },
         };
@@ -165,8 +168,7 @@ impl Autopilot {
             }
         }
         let p = &self.params;
-        let att_period = 1.0 / p.attitude_rate_hz;
-        let rate_period = 1.0 / p.rate_loop_hz;
+        let (att_period, rate_period) = self.periods_s;
         self.att_elapsed_s += h_s;
         self.rate_elapsed_s += h_s;
         if self.att_elapsed_s * (1.0 + PERIOD_SLACK) >= att_period {

@@ -112,17 +112,21 @@ impl Mixer {
 
         // 3. Yaw scaled by the largest s in [0, 1] that keeps every rotor in range.
         let yaw = if self.yaw_moment_coeff_m > 0.0 { tz / (4.0 * self.yaw_moment_coeff_m) } else { 0.0 };
-        let mut s: f64 = 1.0;
+        // Every rotor's yaw share is +-yaw, so the bound is the least headroom in the
+        // direction each rotor moves over |yaw|: one division (a correctly rounded division
+        // by a positive number is monotone, so this is the minimum of the per-rotor ratios
+        // bit for bit).
+        let mut headroom = f64::INFINITY;
         for (r, c) in rp.iter().zip(YAW_SIGN) {
             let base = collective + r;
             let y = c * yaw;
             if y > 0.0 {
-                s = s.min((hi - base) / y);
+                headroom = headroom.min(hi - base);
             } else if y < 0.0 {
-                s = s.min((base - lo) / -y);
+                headroom = headroom.min(base - lo);
             }
         }
-        let s = s.max(0.0);
+        let s = if headroom < f64::INFINITY { (headroom / yaw.abs()).clamp(0.0, 1.0) } else { 1.0 };
         sat.yaw = s < 1.0;
 
         let mut out = [0.0; 4];

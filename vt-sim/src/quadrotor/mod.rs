@@ -82,6 +82,8 @@ pub struct Quadrotor {
     vel_mps: Vector3<f64>,
     /// Attitude, body FLU to world ENU.
     attitude: UnitQuaternion<f64>,
+    /// The same attitude as a rotation matrix (kept with `attitude` by [`Self::set_attitude`]).
+    rot: Matrix3<f64>,
     /// Body rates, FLU, rad/s (from `ang_mom_world`).
     body_rates_rps: Vector3<f64>,
     /// Angular momentum about the centre of mass, world ENU, kg m^2/s (integrated state).
@@ -96,6 +98,12 @@ pub struct Quadrotor {
     autopilot: Autopilot,
     /// `1 / I` per body axis, 1/(kg m^2).
     inv_inertia: Vector3<f64>,
+    /// `1 / m`, 1/kg.
+    inv_mass: f64,
+    /// `1 / sqrt(k_T)`: rotor speed per square root of thrust, rad/s per sqrt(N).
+    inv_sqrt_thrust_coeff: f64,
+    /// Rotor hub positions in the body plane (x, y), m ([`ROTOR_XY`] times the offset).
+    rotor_hubs_m: [[f64; 2]; 4],
     /// `(h, 1 - exp(-h / tau_m))` of the last step length (saves an `exp` per step).
     motor_gain: (f64, f64),
     /// Each rotor's maximum thrust as built, N ([`Self::set_thrust_scale`] scales it).
@@ -135,6 +143,7 @@ impl Quadrotor {
             pos_m,
             vel_mps,
             attitude: UnitQuaternion::identity(),
+            rot: Matrix3::identity(),
             body_rates_rps: Vector3::zeros(),
             ang_mom_world: Vector3::zeros(),
             rotor_thrusts_n: idle,
@@ -144,6 +153,9 @@ impl Quadrotor {
             motor_gain: (0.0, 0.0),
             nominal_rotor_max_n: params.rotor_thrust_max_n,
             inv_inertia: params.inertia_kgm2.map(|x| 1.0 / x),
+            inv_mass: 1.0 / params.mass_kg,
+            inv_sqrt_thrust_coeff: 1.0 / params.thrust_coeff_n_per_rps2.sqrt(),
+            rotor_hubs_m: ROTOR_XY.map(|[x, y]| [x * params.rotor_offset_m(), y * params.rotor_offset_m()]),
             imu: None,
         })
     }
@@ -162,11 +174,11 @@ impl Quadrotor {
     /// non-finite force counts as zero; a required thrust beyond the rotors' is saturated.
     pub fn trim_hover(&mut self, ext_force_world_n: Vector3<f64>) {
         let f_ext = sanitise(ext_force_world_n, EXT_FORCE_LIMIT_N);
-        let p = &self.params;
+        let p = self.params;
         let thrust_w = Vector3::z() * (p.mass_kg * GRAVITY_MPS2) - f_ext;
         let thrust_n = thrust_w.norm();
         let heading = self.attitude * Vector3::x();
-        self.attitude = if thrust_n > 1e-9 { body_z_to_attitude(&(thrust_w / thrust_n), &heading) } else { level_with_heading(&heading) };
+        self.set_attitude(if thrust_n > 1e-9 { body_z_to_attitude(&(thrust_w / thrust_n), &heading) } else { level_with_heading(&heading) });
         let f_body = self.attitude.inverse() * f_ext;
         let torque = -p.attach_point_body_m.cross(&f_body);
         let (thrusts, sat) = self.mixer.mix(thrust_n, [torque.x, torque.y, torque.z]);
@@ -223,23 +235,27 @@ impl Quadrotor {
         }
 
         let p = &self.params;
-        let rot: Matrix3<f64> = *self.attitude.to_rotation_matrix().matrix();
+        let rot = self.rot;
+        let rot_t = rot.transpose();
         let omega = self.body_rates_rps;
         let (thrust_n, rotor_torque) = self.mixer.wrench(&self.rotor_thrusts_n);
         let mut torque_b = Vector3::from(rotor_torque);
 
         // Drag (RotorPy): body quadratic + rotor H-force, on the body-frame airspeed.
-        let v_air_b = rot.transpose() * (self.vel_mps - wind);
+        let v_air_b = rot_t * (self.vel_mps - wind);
         let v_air = norm3(&v_air_b);
         let mut drag_b = -v_air * p.body_drag_n_per_mps2.component_mul(&v_air_b);
-        let d = p.rotor_offset_m();
-        for (&[rx, ry], &t) in ROTOR_XY.iter().zip(&self.rotor_thrusts_n) {
-            let r = Vector3::new(rx * d, ry * d, 0.0);
-            let v_hub = v_air_b + omega.cross(&r);
-            let rotor_speed = (t.max(0.0) / p.thrust_coeff_n_per_rps2).sqrt();
-            let h_force = Vector3::new(v_hub.x, v_hub.y, 0.0) * (-p.rotor_drag_coeff * rotor_speed);
-            drag_b += h_force;
-            torque_b += r.cross(&h_force);
+        // Per hub r = (r_x, r_y, 0): the hub's in-plane airspeed is (v_a + omega x r)_xy =
+        // (v_x - omega_z r_y, v_y + omega_z r_x); the H-force -k_d omega_i v_hub,xy lies in
+        // the rotor plane, so its torque r x D is about body z alone: r_x D_y - r_y D_x.
+        for (&[rx, ry], &t) in self.rotor_hubs_m.iter().zip(&self.rotor_thrusts_n) {
+            // omega_i = sqrt(T_i / k_T).
+            let gain = -p.rotor_drag_coeff * (t.max(0.0).sqrt() * self.inv_sqrt_thrust_coeff);
+            let hx = (v_air_b.x - omega.z * ry) * gain;
+            let hy = (v_air_b.y + omega.z * rx) * gain;
+            drag_b.x += hx;
+            drag_b.y += hy;
+            torque_b.z += rx * hy - ry * hx;
         }
         // Drag cannot reverse the airspeed within one step (explicit-Euler stability bound):
         // |D| h <= m |v_a|, tested on squares (the square root only when it binds).
@@ -250,12 +266,12 @@ impl Quadrotor {
         }
 
         // Cable force at the attachment point: force at the CoM plus the torque r_a x F.
-        let f_ext_b = rot.transpose() * f_ext;
+        let f_ext_b = rot_t * f_ext;
         torque_b += p.attach_point_body_m.cross(&f_ext_b);
 
         // Translation: semi-implicit Euler.
-        let force_w = rot * (Vector3::new(0.0, 0.0, thrust_n) + drag_b) + f_ext;
-        let accel = force_w / p.mass_kg - Vector3::z() * GRAVITY_MPS2;
+        let force_w = rot * (Vector3::new(drag_b.x, drag_b.y, drag_b.z + thrust_n)) + f_ext;
+        let accel = force_w * self.inv_mass - Vector3::z() * GRAVITY_MPS2;
         self.vel_mps += accel * h;
         self.pos_m += self.vel_mps * h;
 
@@ -267,13 +283,19 @@ impl Quadrotor {
         // phi = omega h / 2, where the body momentum is Rot(phi)^T b = b - phi x b +
         // phi x (phi x b) / 2 + O(phi^3) (Rodrigues to second order: the midpoint rule's
         // own order; |phi| < 0.03 rad at 1 kHz and 50 rad/s).
-        let b = rot.transpose() * self.ang_mom_world;
+        let b = rot_t * self.ang_mom_world;
         let phi = inv_i.component_mul(&b) * (0.5 * h);
         let phi_b = phi.cross(&b);
         let b_mid = b - phi_b + phi.cross(&phi_b) * 0.5;
         let omega_mid = inv_i.component_mul(&b_mid);
-        self.attitude = exp_step(&self.attitude, &omega_mid, h);
-        self.body_rates_rps = inv_i.component_mul(&self.attitude.inverse_transform_vector(&self.ang_mom_world));
+        self.set_attitude(exp_step(&self.attitude, &omega_mid, h));
+        self.body_rates_rps = inv_i.component_mul(&(self.rot.transpose() * self.ang_mom_world));
+    }
+
+    /// Sets the attitude and its rotation matrix together.
+    fn set_attitude(&mut self, q: UnitQuaternion<f64>) {
+        self.attitude = q;
+        self.rot = *q.to_rotation_matrix().matrix();
     }
 
     /// Scales the rotors' maximum thrust to `scale` times the built one (issue 27: a thrust
@@ -342,19 +364,19 @@ impl Quadrotor {
     /// Current collective thrust vector (actual rotor thrusts along body z), world ENU, N.
     #[must_use]
     pub fn thrust_world_n(&self) -> Vector3<f64> {
-        self.attitude * Vector3::z() * self.rotor_thrusts_n.iter().sum::<f64>()
+        self.rot.column(2) * self.rotor_thrusts_n.iter().sum::<f64>()
     }
 
     /// Position of the cable attachment point, world ENU, m.
     #[must_use]
     pub fn attach_point_world_m(&self) -> Vector3<f64> {
-        self.pos_m + self.attitude * self.params.attach_point_body_m
+        self.pos_m + self.rot * self.params.attach_point_body_m
     }
 
     /// Velocity of the cable attachment point, `v + R (omega x r_a)`, world ENU, m/s.
     #[must_use]
     pub fn attach_velocity_world_mps(&self) -> Vector3<f64> {
-        self.vel_mps + self.attitude * self.body_rates_rps.cross(&self.params.attach_point_body_m)
+        self.vel_mps + self.rot * self.body_rates_rps.cross(&self.params.attach_point_body_m)
     }
 
     /// Kinetic energy, translational plus rotational, J.
@@ -381,7 +403,7 @@ impl Quadrotor {
     /// at zero thrust (initial conditions: call before [`trim_hover`](Self::trim_hover)).
     pub fn face(&mut self, heading_world: Vector3<f64>) {
         let h = if heading_world.iter().all(|x| x.is_finite()) { heading_world } else { Vector3::x() };
-        self.attitude = level_with_heading(&h);
+        self.set_attitude(level_with_heading(&h));
         self.body_rates_rps = Vector3::zeros();
         self.ang_mom_world = Vector3::zeros();
         let target = AttitudeTarget { attitude: self.attitude, thrust_norm: 0.0 };
@@ -422,6 +444,14 @@ fn unit(q: Quaternion<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::new_unchecked(q / n)
 }
 
+/// `q / |q|` for a `q` within rounding of the unit sphere (the product of two unit
+/// quaternions): one Newton step of `1 / sqrt(n2)` from 1, `(3 - n2) / 2`, whose error
+/// `3 (n2 - 1)^2 / 8` is below 1e-24 for `|n2 - 1| < 1e-12` (no square root, no division).
+fn renormalised(q: Quaternion<f64>) -> UnitQuaternion<f64> {
+    let n2 = q.coords.dot(&q.coords);
+    UnitQuaternion::new_unchecked(q * (1.5 - 0.5 * n2))
+}
+
 /// `q exp(omega h / 2)`: the rotation by `omega h` in the body frame, renormalised. With
 /// `a = |omega| h / 2`: `exp = (cos a, sin(a)/a * omega h / 2)`; below `a` =
 /// [`SERIES_HALF_ANGLE_RAD`] by the Taylor series to `a^4` (error below `a^6 / 720`, 4e-13).
@@ -435,7 +465,7 @@ fn exp_step(q: &UnitQuaternion<f64>, omega: &Vector3<f64>, h: f64) -> UnitQuater
         let (s, c) = a.sin_cos();
         (c, s / a)
     };
-    unit(q.into_inner() * Quaternion::new(c, v.x * sinc, v.y * sinc, v.z * sinc))
+    renormalised(q.into_inner() * Quaternion::new(c, v.x * sinc, v.y * sinc, v.z * sinc))
 }
 
 /// Attitude whose body z is `z_b` (unit, ENU) with the nose as close as possible to `heading`
