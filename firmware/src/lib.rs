@@ -23,6 +23,8 @@ compile_error!("select exactly one board feature: `qemu` or `stm32f405`");
 compile_error!("select a board feature: `--features qemu` or `--features stm32f405`");
 
 mod board;
+#[cfg(feature = "perception-bench")]
+pub mod perception_bench;
 
 use core::sync::atomic::{AtomicU32, Ordering};
 

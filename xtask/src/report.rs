@@ -49,6 +49,10 @@ const SLOPE_MAX: f64 = 1.1;
 const RIGID_REALTIME_10_MIN: f64 = 500.0;
 /// The same bar in UAV-seconds per wall second (10 UAVs).
 const RIGID_UAV_S_10_MIN: f64 = 5_000.0;
+/// Issue 28: a full re-plan on the 70 x 30 m map within 100 ms at 168 MHz.
+const MCU_REPLAN_MAX: f64 = 16_800_000.0;
+/// Issue 28: one scan into the onboard map within 1 ms at 168 MHz.
+const MCU_MAP_UPDATE_MAX: f64 = 168_000.0;
 const FLASH_MAX_BYTES: f64 = 128.0 * 1024.0;
 const RAM_MAX_BYTES: f64 = 32.0 * 1024.0;
 /// Team sizes the MCU figures are measured for (the firmware's capacity is 32).
@@ -200,6 +204,9 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     doc.insert("mcu_instructions_per_uav_step".into(), mcu_steps.clone());
     doc.insert("mcu_instructions_high_level".into(), hook.get("mcu_instructions_high_level").cloned().unwrap_or(Value::Null));
     doc.insert("mcu_instructions_low_level".into(), hook.get("mcu_instructions_low_level").cloned().unwrap_or(Value::Null));
+    for key in ["mcu_replan_instructions", "mcu_map_update_instructions", "mcu_map_update_instructions_mean", "perception_state_bytes"] {
+        doc.insert(key.into(), hook.get(key).cloned().unwrap_or(Value::Null));
+    }
     let per_board = |f: &dyn Fn(&ImageSize) -> u64, key: &str| -> Value {
         if let Some(v) = hook.get(key) {
             return v.clone();
@@ -299,6 +306,8 @@ fn budgets(doc: &Map<String, Value>) -> Vec<Value> {
         budget("per-UAV step cost growth in n (log-log slope, MCU)", max_slope(doc, "mcu_instructions_per_uav_step", &MCU_SIZES), SLOPE_MAX, true, "slope"),
         budget("10-UAV paper mission on the rigid-body plant, real-time factor (one core)", num(doc, "sil_realtime_factor_10uav_rigid"), RIGID_REALTIME_10_MIN, false, "x"),
         budget("10-UAV paper mission on the rigid-body plant, UAV-s per wall s (one core)", num(doc, "sil_uav_seconds_per_s_10uav_rigid"), RIGID_UAV_S_10_MIN, false, "UAV-s/s"),
+        budget("MCU instructions per full re-plan, 70 x 30 m map (issue 28)", num(doc, "mcu_replan_instructions"), MCU_REPLAN_MAX, true, "instructions"),
+        budget("MCU instructions per map update, worst scan (issue 28)", num(doc, "mcu_map_update_instructions"), MCU_MAP_UPDATE_MAX, true, "instructions"),
     ];
     for board in BOARDS {
         let flash = at(doc, "firmware_flash_bytes", board);

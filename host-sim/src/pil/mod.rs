@@ -19,11 +19,13 @@
 
 pub mod bench;
 pub mod cli;
+pub mod perception_bench;
 pub mod qemu;
 pub mod report;
 
 pub use bench::{bench, bench_scenario, BenchReport, StepCounts, BENCH_TEAM_SIZES};
 pub use cli::{cli, cli_bench};
-pub use qemu::{build_firmware, decode_defmt, default_firmware_path, firmware_dir, qemu_available, QemuOptions, QemuPort};
+pub use perception_bench::{build_perception_bench, perception_bench, PerceptionBench};
+pub use qemu::{build_firmware, build_firmware_bin, decode_defmt, default_firmware_path, firmware_dir, qemu_available, QemuOptions, QemuPort};
 pub use report::{run, write_report, CycleStats, PilOptions, PilReport};
 pub use vt_sim::lockstep::*;

@@ -259,10 +259,19 @@ pub fn default_firmware_path() -> PathBuf {
 /// # Errors
 /// cargo fails.
 pub fn build_firmware() -> Result<PathBuf, PilError> {
+    build_firmware_bin("qemu", "vt-firmware-qemu")
+}
+
+/// Builds binary `bin` of the firmware workspace with `features` (release, `--bin bin` only:
+/// a bench build never re-links the flight image) and returns the ELF's path.
+///
+/// # Errors
+/// cargo fails.
+pub fn build_firmware_bin(features: &str, bin: &str) -> Result<PathBuf, PilError> {
     let dir = firmware_dir();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
-    cmd.current_dir(&dir).args(["build", "--release", "--features", "qemu"]);
+    cmd.current_dir(&dir).args(["build", "--release", "--features", features, "--bin", bin]);
     // Do not inherit the outer build's settings (target dir, flags, target, profile); keep the
     // rest (CARGO_HOME, registries, proxies).
     for (k, _) in std::env::vars_os() {
@@ -279,5 +288,5 @@ pub fn build_firmware() -> Result<PathBuf, PilError> {
     if !status.success() {
         return err(format!("firmware build failed ({status})"));
     }
-    Ok(dir.join("target/thumbv7em-none-eabihf/release/vt-firmware-qemu"))
+    Ok(dir.join("target/thumbv7em-none-eabihf/release").join(bin))
 }

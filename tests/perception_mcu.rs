@@ -1,0 +1,43 @@
+//! Issue 28 on the flight MCU's core: the onboard map update and the re-plan, measured in
+//! Cortex-M4 instructions under `qemu-system-arm -icount shift=0` (`vt-bench-perception`,
+//! firmware/src/perception_bench.rs). Instruction counts are a property of the binary and its
+//! inputs, not of the machine running QEMU, so these are not timed tests.
+
+use std::path::{Path, PathBuf};
+
+use host_sim::pil;
+
+const QEMU: &str = "qemu-system-arm";
+
+/// The bench ELF, or `None` (with the reason printed) when QEMU is missing.
+fn bench_elf() -> Option<PathBuf> {
+    if !pil::qemu_available(QEMU) {
+        assert!(
+            std::env::var_os("VT_REQUIRE_QEMU").is_none_or(|v| v != "1"),
+            "{QEMU} not found and VT_REQUIRE_QEMU=1: install it (apt-get install -y qemu-system-arm)"
+        );
+        eprintln!("SKIPPED: {QEMU} not found (apt-get install -y qemu-system-arm)");
+        return None;
+    }
+    Some(pil::build_perception_bench().expect("the perception bench firmware builds"))
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("perception-mcu").join(name)
+}
+
+#[test]
+fn onboard_map_update_and_replan_run_on_the_mcu_core() {
+    let Some(elf) = bench_elf() else { return };
+    let r = pil::perception_bench(&elf, QEMU, &out_dir("sockets")).expect("the bench runs");
+    eprintln!("{r:#?}");
+    std::fs::create_dir_all(out_dir("")).unwrap();
+    std::fs::write(out_dir("perception_bench.json"), serde_json::to_string_pretty(&r).unwrap()).unwrap();
+    println!("\n{}", r.hook_json());
+    assert!((r.instructions_per_tick - 40.0).abs() < 0.2, "icount calibration {}", r.instructions_per_tick);
+    assert_eq!(r.scans, 75);
+    assert!(r.blocked, "the pillar in the tube was not seen as blocking it");
+    assert!(r.replans_ok, "a re-plan found no tube in the bench world (it has a route)");
+    assert!(r.map_update_mean > 0.0 && r.map_update_max >= r.map_update_mean);
+    assert!(r.replan_empty_map > 0.0 && r.replan_seen_map > 0.0);
+}
