@@ -3,6 +3,9 @@
 
 use crate::{ray, LogOddsParams, OccupancyGrid, Return, Scan, Vec2, MAX_BEAMS};
 
+/// Words of the hit-cell filter in [`OccupancyGrid::integrate`] (32 x 32 = 1,024 bits).
+const HIT_FILTER_WORDS: usize = 32;
+
 /// What one [`OccupancyGrid::integrate`] call did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -50,7 +53,8 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     ///
     /// Cost: per beam at most `|dx| + |dy| + 3` cells (`dx, dy`: the ray's extent in cells,
     /// so `<= 1.42 R / resolution + 3` for range `R`) and at most `width + height - 1`; per cell
-    /// a saturating add and a binary search among the scan's <= 72 hit cells.
+    /// a saturating add, a bit test and, when the bit is set, a binary search among the scan's
+    /// <= 72 hit cells.
     pub fn integrate(
         &mut self,
         scan: &Scan,
@@ -78,6 +82,15 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             }
         }
         hit_cells.sort_unstable();
+        // A 1,024-bit filter of the hit cells (index mod 1,024): a cell whose bit is clear is
+        // not a hit cell, and most cells are not, so the binary search runs only on a set bit.
+        let mut filter = [0u32; HIT_FILTER_WORDS];
+        for &idx in &hit_cells {
+            if let Some(w) = filter.get_mut((idx >> 5) % HIT_FILTER_WORDS) {
+                *w |= 1 << (idx & 31);
+            }
+        }
+        let may_be_hit = |idx: usize| filter.get((idx >> 5) % HIT_FILTER_WORDS).is_some_and(|w| w & (1 << (idx & 31)) != 0);
         for k in 0..beams {
             let Some(BeamRay {
                 a,
@@ -95,7 +108,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
                     return false;
                 }
                 let idx = j * width + i;
-                if hit_cells.binary_search(&idx).is_err() {
+                if !may_be_hit(idx) || hit_cells.binary_search(&idx).is_err() {
                     self.update(i, j, params.miss, params, &mut stats, &mut on_new_occupied);
                 }
                 true

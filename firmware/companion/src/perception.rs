@@ -146,6 +146,8 @@ impl Perception {
         let (res, origin) = (map.resolution_m(), map.origin_m());
         let m = sub_rays(scan, res);
         let mut sub = scan.clone();
+        // The tube lookups of one scan's new cells warm-start from the previous one's section.
+        let mut hint = 0usize;
         for u in 0..m {
             sub.first_angle_rad = scan.first_angle_rad + scan.increment_rad * ((u as f32 + 0.5) / m as f32 - 0.5);
             // Off the sector's centre a far hit's place on its arc is a guess a metre wide:
@@ -162,7 +164,8 @@ impl Perception {
                     return;
                 };
                 let c = origin + vt_map::Vec2::new((i as f32 + 0.5) * res, (j as f32 + 0.5) * res);
-                if let Some(sec) = tube.locate(c, 0) {
+                if let Some(sec) = tube.locate(c, hint) {
+                    hint = sec.segment;
                     if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m {
                         blocked = true;
                         blocked_s = blocked_s.min(sec.s_m);
