@@ -280,27 +280,40 @@ impl<const N: usize> Tube<N> {
     /// the second derivative along `s` is `1 - kappa (q - gamma).n > 0`); points outside the
     /// window are at least `sep_w - d` away (`sep_w` the closest of them to sample k), which
     /// exceeds `d` when `d < sep_w / 2`. So `d < min(sep_w / 2, 1 / kappa_w - W)` certifies,
-    /// for any `w`: the radius is the best over windows of 1, 2, 4, ... samples (local
+    /// for any `w`: the radius is the best over windows of 1, 2, 4, ... 64 samples (local
     /// curvature: wide on straight stretches, where the global bound `0.5 / kappa_max` was
     /// small). Two sample spacings are subtracted for the chord approximation.
     fn build_certification(&mut self) {
-        /// Windows of 2^b samples, b < WINDOW_CLASSES (2^9 = 512 covers the default 256).
-        const WINDOW_CLASSES: usize = 10;
+        /// Windows of 2^b samples either side, b < WINDOW_CLASSES (up to 64 samples, a quarter
+        /// of the default table: wider windows cost more to build than they certify; measured
+        /// in docs/benchmarks.md, "Onboard perception on the MCU core").
+        const WINDOW_CLASSES: usize = 7;
         for k in 0..N {
             let pk = self.sample(k).pos_m;
-            // Per window class b: the closest sample with |j - k| in (2^(b-1), 2^b] (class 0:
-            // |j - k| <= 1) and the largest curvature with |j - k| <= 2^b.
+            // Per class b < WINDOW_CLASSES: the closest sample with |j - k| in (2^(b-1), 2^b]
+            // (class 0: |j - k| <= 1) and the largest curvature there; the last class is
+            // everything farther, whose curvature no window needs.
             let mut sep2 = [f32::MAX; WINDOW_CLASSES + 1];
             let mut kappa = [0.0f32; WINDOW_CLASSES];
-            for (j, smp) in self.samples.iter().enumerate() {
-                let gap = k.abs_diff(j);
-                let class = if gap <= 1 { 0 } else { (usize::BITS - (gap - 1).leading_zeros()) as usize };
-                let class = class.min(WINDOW_CLASSES);
-                if let Some(slot) = sep2.get_mut(class) {
-                    *slot = slot.min((smp.pos_m - pk).norm_squared());
+            for b in 0..=WINDOW_CLASSES {
+                let (g0, g1) = match b {
+                    0 => (0, 1),
+                    _ if b < WINDOW_CLASSES => ((1usize << (b - 1)) + 1, 1usize << b),
+                    _ => ((1usize << (WINDOW_CLASSES - 1)) + 1, N),
+                };
+                if g0 >= N {
+                    break;
                 }
-                if let Some(slot) = kappa.get_mut(class) {
-                    *slot = slot.max(smp.curvature_pm.abs());
+                // Both sides of k: j in [k - g1, k - g0] and [k + g0, k + g1], inside the table.
+                let below = k.checked_sub(g0).map(|hi| (k.saturating_sub(g1), hi));
+                let above = (k + g0 < N).then(|| (k + g0, (k + g1).min(N - 1)));
+                let bands = || below.into_iter().chain(above).flat_map(|(lo, hi)| self.samples.get(lo..=hi).unwrap_or(&[]));
+                let d2 = bands().map(|smp| (smp.pos_m - pk).norm_squared()).fold(f32::MAX, f32::min);
+                if let Some(slot) = sep2.get_mut(b) {
+                    *slot = d2;
+                }
+                if let Some(slot) = kappa.get_mut(b) {
+                    *slot = bands().map(|smp| smp.curvature_pm.abs()).fold(0.0, f32::max);
                 }
             }
             // Window b holds the classes <= b; the rest is outside it.
