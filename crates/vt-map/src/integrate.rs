@@ -22,6 +22,7 @@ pub struct IntegrateStats {
 }
 
 /// One usable beam in grid coordinates.
+#[derive(Clone, Copy)]
 struct BeamRay {
     /// Sensor, cells.
     a: Vec2,
@@ -67,13 +68,18 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             stats.beams_skipped = beams;
             return stats;
         }
-        // The scan's hit cells, sorted: misses never touch them.
+        // Each beam's ray, once (a sine and a cosine each: hundreds of instructions on the
+        // Cortex-M4), and the scan's hit cells, sorted: misses never touch them.
+        let mut rays: [Option<BeamRay>; MAX_BEAMS] = [None; MAX_BEAMS];
+        for (k, slot) in rays.iter_mut().enumerate().take(beams) {
+            *slot = self.beam_in_grid(scan, k);
+        }
         let mut hit_cells: heapless::Vec<usize, MAX_BEAMS> = heapless::Vec::new();
-        for k in 0..beams {
+        for ray in rays.iter().take(beams) {
             if let Some(BeamRay {
                 hit_cell: Some((i, j)),
                 ..
-            }) = self.beam_in_grid(scan, k)
+            }) = *ray
             {
                 if let Some(idx) = self.index(i, j) {
                     // Cannot fail: at most one per beam, and a scan holds at most MAX_BEAMS.
@@ -91,12 +97,12 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             }
         }
         let may_be_hit = |idx: usize| filter.get((idx >> 5) % HIT_FILTER_WORDS).is_some_and(|w| w & (1 << (idx & 31)) != 0);
-        for k in 0..beams {
+        for ray in rays.iter().take(beams) {
             let Some(BeamRay {
                 a,
                 b,
                 hit_cell: own_hit,
-            }) = self.beam_in_grid(scan, k)
+            }) = *ray
             else {
                 stats.beams_skipped += 1;
                 continue;
