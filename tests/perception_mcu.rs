@@ -3,6 +3,8 @@
 //! firmware/src/perception_bench.rs). Instruction counts are a property of the binary and its
 //! inputs, not of the machine running QEMU, so these are not timed tests.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use host_sim::pil;
@@ -11,12 +13,7 @@ const QEMU: &str = "qemu-system-arm";
 
 /// The bench ELF, or `None` (with the reason printed) when QEMU is missing.
 fn bench_elf() -> Option<PathBuf> {
-    if !pil::qemu_available(QEMU) {
-        assert!(
-            std::env::var_os("VT_REQUIRE_QEMU").is_none_or(|v| v != "1"),
-            "{QEMU} not found and VT_REQUIRE_QEMU=1: install it (apt-get install -y qemu-system-arm)"
-        );
-        eprintln!("SKIPPED: {QEMU} not found (apt-get install -y qemu-system-arm)");
+    if !common::qemu_present(QEMU, "the perception bench") {
         return None;
     }
     Some(pil::build_perception_bench().expect("the perception bench firmware builds"))

@@ -9,6 +9,8 @@
 //! `scripts/test-all.sh`, hence in CI), which makes a missing emulator a failure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
+mod common;
+
 use host_sim::pil::{self, Encoders, Port, QemuOptions, QemuPort, Rx, SilPort, TickFrames, UavConfig};
 use host_sim::record::EventKind;
 use host_sim::scenario::{self, FaultKind, FaultSpec, LoadedScenario, StaleNeighbour};
@@ -32,12 +34,7 @@ fn experiment() -> LoadedScenario {
 /// The firmware ELF, or `None` (with the reason printed) when QEMU is missing.
 fn firmware() -> Option<PathBuf> {
     static ELF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    if !pil::qemu_available(QEMU) {
-        assert!(
-            std::env::var_os("VT_REQUIRE_QEMU").is_none_or(|v| v != "1"),
-            "{QEMU} not found and VT_REQUIRE_QEMU=1: install it (apt-get install -y qemu-system-arm)"
-        );
-        eprintln!("SKIPPED: {QEMU} not found (apt-get install -y qemu-system-arm); the PIL tests did not run");
+    if !common::qemu_present(QEMU, "the PIL tests") {
         return None;
     }
     let elf = ELF.get_or_init(|| match std::env::var_os("VT_FIRMWARE_ELF") {

@@ -1,5 +1,6 @@
-//! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`)
-//! and the scenario error checks (`tests/wind.rs`, `tests/clearance.rs`).
+//! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`),
+//! the scenario error checks (`tests/wind.rs`, `tests/clearance.rs`) and the QEMU tests
+//! (`tests/pil.rs`, `tests/perception_mcu.rs`).
 #![allow(dead_code)] // each test target uses its own part
 
 use host_sim::mission::{CompanionTeam, Setpoint, Team, TeamStart, Tick};
@@ -80,4 +81,19 @@ pub fn expect_exit_2(tag: &str, text: &str, name: &str, must_contain: &[&str]) {
     for m in must_contain {
         assert!(err.contains(m), "{name}: `{m}` not in: {err}");
     }
+}
+
+/// Whether the emulator `qemu` can run. When it cannot, a test prints why it is skipped
+/// (`what` did not run) and passes vacuously, unless `VT_REQUIRE_QEMU=1` (set by
+/// `scripts/test-all.sh`, hence in CI), which makes a missing emulator a failure.
+pub fn qemu_present(qemu: &str, what: &str) -> bool {
+    if host_sim::pil::qemu_available(qemu) {
+        return true;
+    }
+    assert!(
+        std::env::var_os("VT_REQUIRE_QEMU").is_none_or(|v| v != "1"),
+        "{qemu} not found and VT_REQUIRE_QEMU=1: install it (apt-get install -y qemu-system-arm)"
+    );
+    eprintln!("SKIPPED: {qemu} not found (apt-get install -y qemu-system-arm); {what} did not run");
+    false
 }
