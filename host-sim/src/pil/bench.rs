@@ -80,8 +80,27 @@ pub struct BenchReport {
     pub firmware: String,
 }
 
-fn parse_after(line: &str, prefix: &str) -> Option<u64> {
-    line.split(prefix).nth(1)?.split_whitespace().next()?.parse().ok()
+/// The integer right after `prefix` in a decoded log line (its digits up to the first other
+/// character).
+pub(super) fn parse_after(line: &str, prefix: &str) -> Option<u64> {
+    line.split(prefix).nth(1)?.split(|c: char| !c.is_ascii_digit()).next()?.parse().ok()
+}
+
+/// The firmware's boot calibration (`board::boot_report`): instructions, SysTick ticks, and
+/// their ratio (40 under `-icount shift=0`).
+///
+/// # Errors
+/// The log has no calibration line, or it measured 0 ticks (no `-icount`).
+pub(super) fn calibration(log: &[String]) -> Result<(u64, u64, f64), PilError> {
+    let (i, t) = log
+        .iter()
+        .filter(|l| l.starts_with("calibration:"))
+        .find_map(|l| parse_after(l, "calibration: ").zip(parse_after(l, "instructions in ")))
+        .ok_or_else(|| PilError("no calibration in the firmware log".into()))?;
+    if t == 0 {
+        return err("calibration measured 0 ticks (is -icount active?)");
+    }
+    Ok((i, t, i as f64 / t as f64))
 }
 
 /// Measures instructions per high-level and low-level step for each team size in `teams`
@@ -95,7 +114,7 @@ fn parse_after(line: &str, prefix: &str) -> Option<u64> {
 /// A flight fails, or the firmware's log lacks the calibration.
 pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, teams: &[usize], duration_s: f64) -> Result<BenchReport, PilError> {
     let mut steps = Vec::new();
-    let mut calibration = None;
+    let mut calib = None;
     for &n in teams {
         let ls = bench_scenario(n)?;
         let o = QemuOptions { qemu: qemu.into(), icount: true, socket_dir: socket_dir.into(), name: format!("bench{n}") };
@@ -117,20 +136,12 @@ pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, teams: &[usize], du
             if let Some(c) = parse_after(l, "built in ") {
                 tube_ticks = Some(c);
             }
-            if l.starts_with("calibration:") {
-                if let (Some(i), Some(t)) = (parse_after(l, "calibration: "), parse_after(l, "instructions in ")) {
-                    calibration = Some((i, t));
-                }
-            }
             if let Some(s) = parse_after(l, "stack high-water mark ") {
                 stack = Some(s);
             }
         }
-        let (i, t) = calibration.ok_or_else(|| PilError("no calibration in the firmware log".into()))?;
-        if t == 0 {
-            return err("calibration measured 0 ticks (is -icount active?)");
-        }
-        let k = i as f64 / t as f64;
+        let (i, t, k) = calibration(&log)?;
+        calib = Some((i, t));
         let stat = |v: &[f32]| {
             let v = v.get(1..).unwrap_or(&[]); // the first step warms the tube lookup up
             let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64;
@@ -152,7 +163,7 @@ pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, teams: &[usize], du
             tube_build_instructions: tube_ticks.map(|c| c as f64 * k),
         });
     }
-    let (i, t) = calibration.unwrap_or((0, 1));
+    let (i, t) = calib.unwrap_or((0, 1));
     Ok(BenchReport {
         instructions_per_tick: i as f64 / t.max(1) as f64,
         calibration: (i, t),

@@ -5,6 +5,7 @@
 use serde::Serialize;
 use std::path::Path;
 
+use super::bench::{calibration, parse_after};
 use super::qemu::{build_firmware_bin, decode_defmt, QemuOptions, QemuPort};
 use super::{err, PilError};
 
@@ -63,15 +64,9 @@ pub fn perception_bench(elf: &Path, qemu: &str, socket_dir: &Path) -> Result<Per
 /// # Errors
 /// A line is missing.
 pub fn parse(log: &[String]) -> Result<PerceptionBench, PilError> {
-    let after = |l: &str, p: &str| -> Option<u64> { l.split(p).nth(1)?.split(|c: char| !c.is_ascii_digit()).next()?.parse().ok() };
-    let find = |key: &str, field: &str| log.iter().filter(|l| l.contains(key)).find_map(|l| after(l, field));
+    let find = |key: &str, field: &str| log.iter().filter(|l| l.contains(key)).find_map(|l| parse_after(l, field));
     let missing = |what: &str| PilError(format!("perception bench log has no {what}: {}", log.join(" | ")));
-    let (i, t) = (find("calibration:", "calibration: "), find("calibration:", "instructions in "));
-    let (Some(i), Some(t)) = (i, t) else { return Err(missing("calibration")) };
-    if t == 0 {
-        return err("calibration measured 0 ticks (is -icount active?)");
-    }
-    let k = i as f64 / t as f64;
+    let (_, _, k) = calibration(log)?;
     let ticks = |key: &str, field: &str| find(key, field).map(|x| x as f64 * k).ok_or_else(|| missing(key));
     let replan_ok = |n: &str| log.iter().any(|l| l.contains(&format!("replan {n}:")) && l.contains("ok true"));
     Ok(PerceptionBench {
