@@ -136,6 +136,7 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::CableLMax, AUTO),
         (Param::CableRated, f(cable_rated_n)),
         (Param::MarginMin, f(s.preflight.min_margin)),
+        (Param::ThrRes, f(s.preflight.thrust_reserve)),
         (Param::Kz, f(c.kz_per_s)),
         (Param::VzMax, f(c.vz_max_mps)),
         (Param::ZMin, AUTO),
@@ -341,10 +342,13 @@ mod tests {
                     assert_eq!(p.thrust_min_n(), 0.05 * s.uavs.thrust_max_n as f32, "{label}: VL_T_MIN");
                     // FS_NBR_TMO: half a high-level period in lockstep, to the millisecond.
                     assert_eq!(p.neighbour_timeout_ms(), ((0.5 / s.rates.high_level_hz as f32) * 1000.0) as u32, "{label}: FS_NBR_TMO");
-                    // VL_H_RES: the scenario's value, else min(0.5, sqrt(1 - ((m g + rated) / T)^2))
-                    // (host: f64; aboard: f32).
+                    // VL_H_RES: the scenario's value, else min(0.5, sqrt(1 - ((m g + pull) / T)^2))
+                    // (host: f64; aboard: f32). The pull was the cable's rating; since issue 29 it
+                    // is the declared load's share with the formation's margin when that is less.
                     let host = s.velocity_loop.horizontal_reserve(model).unwrap_or_else(|| {
-                        let need = (s.uavs.mass_kg * crate::plant::GRAVITY_MPS2 + s.cables.rated_n) / s.uavs.thrust_max_n;
+                        let share = (1.0 + s.controller.capacity.margin) * s.load.mass_kg * crate::plant::GRAVITY_MPS2 / n as f64;
+                        let pull = if share > 0.0 && share < s.cables.rated_n { share } else { s.cables.rated_n };
+                        let need = (s.uavs.mass_kg * crate::plant::GRAVITY_MPS2 + pull) / s.uavs.thrust_max_n;
                         let room = if need < 1.0 { (1.0 - need * need).sqrt() } else { 0.0 };
                         0.5f64.min(room)
                     });

@@ -3,7 +3,8 @@
 //!
 //! Per UAV, the largest tension `c` its cable may carry is the smaller of the cable's rating
 //! and what the rotors can hold beyond the UAV's own weight at the allowed tilt
-//! ([`rotor_capacity_n`]). With `n` UAVs whose cables lean `theta` from vertical, the team's
+//! ([`rotor_capacity_n`]), with a fraction of the thrust kept for control: the rotors are
+//! rated at `(1 - r_c) F_max` (issue 29; docs/design.md, "Control thrust reserve"). With `n` UAVs whose cables lean `theta` from vertical, the team's
 //! available vertical force is `F_avail = n c cos(theta)`; the load needs `F_need = m_L g`.
 //! The margin is `F_avail / F_need - 1`; the mission starts when it is at least the required
 //! margin. The lean is an input: today the take-off formation's (host: the scenario's geometry;
@@ -17,6 +18,11 @@ use core::fmt;
 /// Default required margin (fraction): 1 % (docs/design.md gives the reasons: 2 % before the
 /// capacity-aware formation, which flies 19.8 kg at +1.4 % 10/10 and 20.0 kg at +0.4 % 9/10).
 pub const DEFAULT_MIN_MARGIN: f32 = 0.01;
+
+/// Default control thrust reserve `r_c`: the fraction of each UAV's largest thrust the check
+/// keeps for control (attitude, formation and gusts), 10 % (docs/design.md, "Control thrust
+/// reserve": generated teams hovering at 93 % of their thrust lost their formation in calm air).
+pub const DEFAULT_THRUST_RESERVE: f32 = 0.1;
 
 /// What the check needs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,6 +43,8 @@ pub struct FeasibilityParams {
     pub cos_lean: f32,
     /// Required margin `F_avail / F_need - 1` (fraction; e.g. 0.02 = 2 %), > -1.
     pub min_margin: f32,
+    /// Control thrust reserve `r_c`, fraction of `thrust_max_n` kept for control, in `[0, 0.5]`.
+    pub thrust_reserve: f32,
 }
 
 /// The numbers of a feasible team.
@@ -114,13 +122,18 @@ pub fn rotor_capacity_n(weight_n: f32, thrust_max_n: f32, tilt_max_rad: f32, cos
 }
 
 impl FeasibilityParams {
+    /// The thrust the check lets a UAV hold in steady flight, `(1 - r_c) F_max`, N.
+    pub fn sustained_thrust_n(&self) -> f32 {
+        (1.0 - self.thrust_reserve) * self.thrust_max_n
+    }
+
     /// Checks every field.
     ///
     /// # Errors
     /// [`FeasibilityError::InvalidParameter`] naming the field.
     pub fn validate(&self) -> Result<(), FeasibilityError> {
         let pos = |x: f32| x.is_finite() && x > 0.0;
-        let checks: [(bool, &'static str); 8] = [
+        let checks: [(bool, &'static str); 9] = [
             (self.n_uavs > 0, "feasibility.n_uavs"),
             (pos(self.load_mass_kg), "feasibility.load_mass_kg"),
             (pos(self.uav_mass_kg), "feasibility.uav_mass_kg"),
@@ -129,6 +142,7 @@ impl FeasibilityParams {
             (pos(self.cable_rated_n), "feasibility.cable_rated_n"),
             (self.cos_lean > 0.0 && self.cos_lean <= 1.0, "feasibility.cos_lean"),
             (self.min_margin.is_finite() && self.min_margin > -1.0, "feasibility.min_margin"),
+            ((0.0..=0.5).contains(&self.thrust_reserve), "feasibility.thrust_reserve"),
         ];
         for (ok, name) in checks {
             if !ok {
@@ -146,7 +160,7 @@ impl FeasibilityParams {
 pub fn check(p: &FeasibilityParams) -> Result<Feasibility, FeasibilityError> {
     p.validate()?;
     let needed_n = p.load_mass_kg * GRAVITY_MPS2;
-    let rotor = rotor_capacity_n(p.uav_mass_kg * GRAVITY_MPS2, p.thrust_max_n, p.tilt_max_rad, p.cos_lean);
+    let rotor = rotor_capacity_n(p.uav_mass_kg * GRAVITY_MPS2, p.sustained_thrust_n(), p.tilt_max_rad, p.cos_lean);
     let capacity_n = p.cable_rated_n.min(rotor);
     let available_n = p.n_uavs as f32 * capacity_n * p.cos_lean;
     let margin = available_n / needed_n - 1.0;
@@ -174,6 +188,7 @@ mod tests {
             cable_rated_n: 20.0,
             cos_lean: 10.0 / 109.0f32.sqrt(),
             min_margin: DEFAULT_MIN_MARGIN,
+            thrust_reserve: 0.0,
         }
     }
 
@@ -236,15 +251,41 @@ mod tests {
             cable_rated_n: 30.0,
             cos_lean: 4.0 / 18.25f32.sqrt(),
             min_margin: DEFAULT_MIN_MARGIN,
+            thrust_reserve: 0.0,
         };
         let f = check(&p).unwrap();
         assert!(f.capacity_n < 30.0 && f.capacity_n == f.rotor_capacity_n, "{f:?}");
         assert!((f.rotor_capacity_n - 16.07).abs() < 0.01, "{f:?}");
+        // With the default control reserve the rotors are rated at 27 N: by the same formula
+        // sqrt(27^2 - W^2 sin^2) - W cos, W = 14.42 N, cos = 4 / sqrt(18.25).
+        let r = check(&FeasibilityParams { thrust_reserve: DEFAULT_THRUST_RESERVE, ..p }).unwrap();
+        let (w, c) = (1.47 * GRAVITY_MPS2, 4.0 / 18.25f32.sqrt());
+        let by_hand = (27.0f32 * 27.0 - w * w * (1.0 - c * c)).sqrt() - w * c;
+        assert!((r.rotor_capacity_n - by_hand).abs() < 1e-3 && (r.rotor_capacity_n - 13.02).abs() < 0.01, "{r:?}");
+        // The experiment's 3.06 kg still flies: 3 x 13.02 N x cos 0.936 = 36.6 N against 30.0 N.
+        assert!(r.margin > 0.2, "{r:?}");
+    }
+
+    #[test]
+    fn the_control_reserve_keeps_a_hovering_uav_below_full_thrust() {
+        // At the reserve's limit, a UAV's steady thrust (weight plus its share along the cable)
+        // is exactly the sustained thrust (1 - r_c) F_max, whatever the lean.
+        for (cos, r_c) in [(1.0f32, 0.1f32), (0.9, 0.1), (0.95, 0.3), (0.8, 0.0)] {
+            let p = FeasibilityParams { thrust_reserve: r_c, cos_lean: cos, tilt_max_rad: 1.2, cable_rated_n: 1e4, ..paper() };
+            let c = check(&p).map(|f| f.rotor_capacity_n).unwrap_or_else(|e| match e {
+                FeasibilityError::Infeasible { available_n, .. } => available_n / (p.n_uavs as f32 * cos),
+                e @ FeasibilityError::InvalidParameter(_) => panic!("{e:?}"),
+            });
+            let w = p.uav_mass_kg * GRAVITY_MPS2;
+            let s = (1.0 - cos * cos).sqrt();
+            let thrust = ((c * s).powi(2) + (w + c * cos).powi(2)).sqrt();
+            assert!((thrust - (1.0 - r_c) * p.thrust_max_n).abs() < 1e-3, "cos {cos} r_c {r_c}: {thrust}");
+        }
     }
 
     #[test]
     fn invalid_parameters_are_named() {
-        let cases: [(FeasibilityParams, &str); 8] = [
+        let cases: [(FeasibilityParams, &str); 9] = [
             (FeasibilityParams { n_uavs: 0, ..paper() }, "feasibility.n_uavs"),
             (FeasibilityParams { load_mass_kg: 0.0, ..paper() }, "feasibility.load_mass_kg"),
             (FeasibilityParams { uav_mass_kg: f32::NAN, ..paper() }, "feasibility.uav_mass_kg"),
@@ -253,6 +294,7 @@ mod tests {
             (FeasibilityParams { cable_rated_n: -1.0, ..paper() }, "feasibility.cable_rated_n"),
             (FeasibilityParams { cos_lean: 0.0, ..paper() }, "feasibility.cos_lean"),
             (FeasibilityParams { min_margin: -1.0, ..paper() }, "feasibility.min_margin"),
+            (FeasibilityParams { thrust_reserve: 0.6, ..paper() }, "feasibility.thrust_reserve"),
         ];
         for (p, name) in cases {
             assert_eq!(check(&p), Err(FeasibilityError::InvalidParameter(name)));
@@ -266,8 +308,9 @@ mod tests {
         fn verdict_matches_the_numbers_and_is_monotone_in_the_load(
             n in 1usize..64, load in 0.1f32..500.0, uav in 0.2f32..20.0, thrust in 1.0f32..500.0,
             tilt in 0.05f32..1.5, rated in 1.0f32..500.0, cos in 0.05f32..=1.0, min_margin in -0.5f32..0.5,
+            thrust_reserve in 0.0f32..=0.5,
         ) {
-            let p = FeasibilityParams { n_uavs: n, load_mass_kg: load, uav_mass_kg: uav, thrust_max_n: thrust, tilt_max_rad: tilt, cable_rated_n: rated, cos_lean: cos, min_margin };
+            let p = FeasibilityParams { n_uavs: n, load_mass_kg: load, uav_mass_kg: uav, thrust_max_n: thrust, tilt_max_rad: tilt, cable_rated_n: rated, cos_lean: cos, min_margin, thrust_reserve };
             let (needed, available, margin) = match check(&p) {
                 Ok(f) => {
                     prop_assert!(f.margin >= min_margin);

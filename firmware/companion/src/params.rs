@@ -137,6 +137,7 @@ params! {
     CableLMax => derived("VT_CABLE_LMAX", 0.0, LENGTH_MAX_M), "Longest plausible cable, m (take-off calibration refuses longer; -1: 1.5 `VT_CABLE_L`).";
     CableRated => real("VT_CABLE_RATED", 30.0, 0.0, FORCE_MAX_N), "Rated cable tension, N (pre-flight check).";
     MarginMin => real("VT_MARGIN_MIN", 0.01, -0.99, 10.0), "Required vertical-force margin of the pre-flight check, fraction.";
+    ThrRes => real("VT_THR_RES", vt_dissipative::feasibility::DEFAULT_THRUST_RESERVE, 0.0, 0.5), "Fraction of `VL_T_MAX` the pre-flight check keeps for control: the rotors are rated at `(1 - VT_THR_RES) VL_T_MAX`.";
     Kz => real("VT_KZ", 1.0, 0.0, GAIN_MAX), "Altitude gain `k_z`, 1/s.";
     VzMax => real("VT_VZ_MAX", 1.0, 0.0, 50.0), "Vertical speed limit, m/s.";
     ZMin => derived("VT_Z_MIN", 0.0, LENGTH_MAX_M), "Smallest UAV height above the load reference, m; also the shortest cable the calibration accepts (-1: 1 m, or half `VT_CABLE_L` when shorter).";
@@ -308,6 +309,7 @@ impl Params {
             cable_rated_n: self.get(Param::CableRated),
             cos_lean,
             min_margin: self.get(Param::MarginMin),
+            thrust_reserve: self.get(Param::ThrRes),
         }
     }
 
@@ -531,12 +533,22 @@ impl Params {
     }
 
     /// The horizontal thrust reserve (`VL_H_RES`), fraction of `VL_T_MAX`: derived by
-    /// [`ThrustLimits::rated_pull_reserve`] from `VL_MASS`, `VT_CABLE_RATED` and `VL_T_MAX`,
-    /// capped at [`HORIZONTAL_RESERVE_CAP`].
+    /// [`ThrustLimits::rated_pull_reserve`] from `VL_MASS`, [`Self::reserve_pull_n`] and
+    /// `VL_T_MAX`, capped at [`HORIZONTAL_RESERVE_CAP`].
     pub fn horizontal_reserve(&self) -> f32 {
         self.explicit(Param::HReserve).unwrap_or_else(|| {
-            ThrustLimits::rated_pull_reserve(self.get(Param::Mass), self.get(Param::CableRated), self.get(Param::ThrustMax), HORIZONTAL_RESERVE_CAP)
+            ThrustLimits::rated_pull_reserve(self.get(Param::Mass), self.reserve_pull_n(), self.get(Param::ThrustMax), HORIZONTAL_RESERVE_CAP)
         })
+    }
+
+    /// The cable pull the vertical cap keeps beyond the UAV's weight, N: `VT_CABLE_RATED`,
+    /// or the declared load's share with the formation's margin, `(1 + VT_CAP_MRG) VT_LOAD_KG g /
+    /// VT_N_UAVS`, when that is less (issue 29; docs/design.md, "Overload in flight": rotors
+    /// weaker than their cable then still keep a horizontal reserve).
+    pub fn reserve_pull_n(&self) -> f32 {
+        let rated = self.get(Param::CableRated);
+        let share = (1.0 + self.get(Param::CapMargin)) * self.get(Param::LoadKg) * vt_cfo::GRAVITY_MPS2 / self.get(Param::NUavs).max(1.0);
+        if share > 0.0 && share < rated { share } else { rated }
     }
 
     /// A neighbour's position is stale after this long (`FS_NBR_TMO`), ms: derived as half a
@@ -622,7 +634,16 @@ mod tests {
         assert_eq!(p.min_height_m(), 1.0);
         assert_eq!(p.max_cable_m(), 4.5);
         assert_eq!(p.thrust_min_n(), 1.5);
+        // The declared 3.06 kg's share with 5 % margin, 10.5 N, binds before the 30 N rating:
+        // sqrt(1 - ((14.42 + 10.51) / 30)^2) = 0.556, so the cap.
+        assert!((p.reserve_pull_n() - 1.05 * 3.06 * vt_cfo::GRAVITY_MPS2 / 3.0).abs() < 1e-5);
+        assert_eq!(p.horizontal_reserve(), HORIZONTAL_RESERVE_CAP, "the declared share leaves room");
+        p.set(Param::LoadKg, 6.0).unwrap();
+        assert_eq!(p.horizontal_reserve(), 0.0, "30 N cannot lift 1.47 kg + 21 N: no reserve");
+        p.set(Param::LoadKg, 0.0).unwrap();
+        assert_eq!(p.reserve_pull_n(), 30.0, "no declared load: the rating");
         assert_eq!(p.horizontal_reserve(), 0.0, "30 N cannot lift 1.47 kg + 30 N: no reserve");
+        p.set(Param::LoadKg, 3.06).unwrap();
         assert_eq!(p.neighbour_timeout_ms(), 500);
         p.set(Param::CableL, 1.6).unwrap();
         assert_eq!(p.min_height_m(), 0.8, "half a short cable");

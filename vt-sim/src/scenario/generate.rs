@@ -199,6 +199,9 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     // The formation metric's tray at the mean cable's height: its radius is the UAVs'.
     let tray_h = l_mean * lean.cos();
     let radius = l_mean * lean.sin();
+    // The UAV on the longest cable sits beyond its node, `L_max sin(lean)` from the load: the
+    // take-off sections must hold it.
+    let reach = lengths.iter().copied().fold(0.0, f64::max) * lean.sin();
 
     let mut t = base.clone();
     let ctl = |t: &toml::Table, k: &str| t.get("controller").and_then(|c| c.get(k)).and_then(toml::Value::as_float);
@@ -207,13 +210,13 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     let floor = t.get("mission").and_then(|m| m.get("safety_distance_m")).and_then(toml::Value::as_float).unwrap_or(0.4);
     // Widths: wide sections hold the take-off ring; a passage holds the team packed at the
     // separation floor (`sqrt(n)` across, docs/robustness.md).
-    let wide = radius + r_safe + between(rng, 1.0, 3.0);
+    let wide = reach + r_safe + between(rng, 1.0, 3.0);
     let need = r_safe + floor + 0.5 * (r_safe + floor) * ((n as f64).sqrt() - 1.0);
     let narrow = (need + between(rng, 0.0, 1.5)).min(wide);
     let length = between(rng, 35.0, 60.0);
-    let start = radius + r_safe + 1.0;
+    let start = reach + r_safe + 1.0;
     // A tube of one width holds the take-off ring wherever it starts.
-    let ring_width = (radius + r_safe + 0.3).min(wide);
+    let ring_width = (reach + r_safe + 0.3).min(wide);
     let wps = waypoints(tube, length, wide, narrow, ring_width, rng);
     let min_hw = wps.iter().map(|w| 0.5 * (w[2] + w[3])).fold(f64::INFINITY, f64::min);
 

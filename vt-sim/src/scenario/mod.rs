@@ -152,12 +152,20 @@ pub struct PreflightSpec {
     /// in (-1, 10]). A negative margin flies a load past the team's capacity on purpose.
     #[serde(default = "default_min_margin")]
     pub min_margin: f64,
+    /// Fraction of each UAV's largest thrust the check keeps for control (default 0.1; in
+    /// [0, 0.5]): the rotors are rated at `(1 - thrust_reserve) thrust_max_n`.
+    #[serde(default = "default_thrust_reserve")]
+    pub thrust_reserve: f64,
 }
 
 impl Default for PreflightSpec {
     fn default() -> Self {
-        Self { min_margin: default_min_margin() }
+        Self { min_margin: default_min_margin(), thrust_reserve: default_thrust_reserve() }
     }
+}
+
+fn default_thrust_reserve() -> f64 {
+    f64::from(vt_dissipative::feasibility::DEFAULT_THRUST_RESERVE)
 }
 
 fn default_min_margin() -> f64 {
@@ -434,11 +442,11 @@ pub struct ControllerSpec {
     /// Bound on the sharing altitude offset, m.
     #[serde(default)]
     pub share_offset_max_m: f64,
-    /// Capacity-aware formation (issue 15).
     /// Take-off survey window: the take-off positions are averaged over this many samples per
     /// source before `MISSION_START` (`VT_CAL_N`; 1: the last sample; docs/design.md).
     #[serde(default = "default_survey_samples")]
     pub survey_samples: u32,
+    /// Capacity-aware formation (issue 15).
     #[serde(default)]
     pub capacity: CapacitySpec,
 }

@@ -382,17 +382,21 @@ impl Validator<'_> {
         if !(m.is_finite() && m > -1.0 && m <= 10.0) {
             return Err(self.err("preflight", "min_margin", format!("must be a fraction in (-1, 10] (got {m})")));
         }
+        let r = s.preflight.thrust_reserve;
+        if !(r.is_finite() && (0.0..=0.5).contains(&r)) {
+            return Err(self.err("preflight", "thrust_reserve", format!("must be a fraction in [0, 0.5] (got {r})")));
+        }
         match crate::sim::preflight(s, s.cables.rated_n) {
             Ok(_) => Ok(()),
             Err(e @ vt_dissipative::FeasibilityError::Infeasible { .. }) => {
                 let Some(p) = crate::sim::feasibility_at_takeoff(s, s.cables.rated_n) else {
                     return Err(self.err("load", "mass_kg", e.to_string()));
                 };
-                let rotor = vt_dissipative::feasibility::rotor_capacity_n(p.uav_mass_kg * vt_dissipative::calibration::GRAVITY_MPS2, p.thrust_max_n, p.tilt_max_rad, p.cos_lean);
+                let rotor = vt_dissipative::feasibility::rotor_capacity_n(p.uav_mass_kg * vt_dissipative::calibration::GRAVITY_MPS2, p.sustained_thrust_n(), p.tilt_max_rad, p.cos_lean);
                 Err(self.err("load", "mass_kg", format!(
-                    "{e}; {} UAVs x min(cable rated {:.1} N, rotors {rotor:.1} N) at the take-off lean cos {:.4}: lower the load, add UAVs, \
+                    "{e}; {} UAVs x min(cable rated {:.1} N, rotors {rotor:.1} N at {:.0} % of their thrust) at the take-off lean cos {:.4}: lower the load, add UAVs, \
                      stand the cables more vertical, or set [preflight] min_margin",
-                    p.n_uavs, p.cable_rated_n, p.cos_lean)))
+                    p.n_uavs, p.cable_rated_n, 100.0 * (1.0 - p.thrust_reserve), p.cos_lean)))
             }
             Err(e) => Err(self.err("preflight", "min_margin", e.to_string())),
         }
@@ -525,6 +529,16 @@ impl Validator<'_> {
             return Err(self.err("uavs", "formation_radius_m", format!(
                 "take-off formation (radius {r} m + r_safe {} m) does not fit the tube at the start (half-width {half:.2} m)",
                 s.controller.r_safe_m)));
+        }
+        // A UAV on a cable longer than the tray's slant `sqrt(r^2 + h^2)` sits beyond its node,
+        // at `L r / sqrt(r^2 + h^2)` from the load (capacity.rs, `uav_rel`): it must fit too.
+        for (i, &len) in s.cables.lengths_m.iter().enumerate() {
+            let out = len * r / (r * r + h * h).sqrt();
+            if f64::from(half) <= out + s.controller.r_safe_m {
+                return Err(self.err("cables", "lengths_m", format!(
+                    "UAV {i} on its {len} m cable takes off {out:.2} m from the load, beyond the tube at the start with r_safe {} m (half-width {half:.2} m)",
+                    s.controller.r_safe_m)));
+            }
         }
         Ok(())
     }
