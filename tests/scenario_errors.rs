@@ -131,8 +131,12 @@ fn uav_heavier_than_its_thrust_names_the_field_and_line() {
     let text = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 15.0", 1);
     expect_error(&text, "heavy.toml", &["heavy.toml", &format!(":{}:", line_of("thrust_max_n = 50.0")), "uavs.thrust_max_n", "cannot lift"]);
     // The boundary: 20 N lifts it (the paper value range stays valid). With 0.4 N to spare per
-    // UAV the team lifts a 0.3 kg load, not the paper's 18 kg (the pre-flight check, issue 15).
+    // UAV the team lifts a 0.3 kg load, not the paper's 18 kg (the pre-flight check, issue 15),
+    // and only with the rotors rated at their full thrust (no control reserve, issue 29).
     let ok = paper().replacen("thrust_max_n = 50.0", "thrust_max_n = 20.0", 1).replacen("mass_kg = 18.0", "mass_kg = 0.3", 1);
+    let reserved = format!("{ok}\n[preflight]\nthrust_reserve = 0.1\n");
+    expect_error(&reserved, "reserved.toml", &["reserved.toml", "load.mass_kg", "rotors 0.0 N at 90 % of their thrust"]);
+    let ok = format!("{ok}\n[preflight]\nthrust_reserve = 0.0\n");
     let ls = host_sim::scenario::parse(&ok, "ok.toml").expect("20 N lifts a 2 kg UAV");
     let params = host_sim::companion::params_for(&ls.scenario, 0, host_sim::sim::ControllerKind::Dissipative, ls.scenario.cables.rated_n, false).expect("parameters");
     assert!(params.velocity_loop().is_ok(), "validation and the velocity loop disagree");
@@ -236,9 +240,28 @@ fn a_load_too_heavy_for_the_team_is_refused_with_the_numbers() {
     for m in ["paper-10uav.toml", "--f-max 10", "needed vertical force 176.6 N", "available 98.5 N", "margin -44.2 %"] {
         assert!(err.contains(m), "`{m}` not in: {err}");
     }
-    // A required margin outside (-1, 10] names its field.
+    // A required margin outside (-1, 10] names its field, as does a control reserve outside
+    // [0, 0.5] (with its line).
     let bad = format!("{text}\n[preflight]\nmin_margin = -1.0\n");
     expect_error(&bad, "bad-margin.toml", &["preflight.min_margin"]);
+    let bad = format!("{}\n[preflight]\nthrust_reserve = 0.7\n", paper());
+    let line = format!(":{}:", bad.lines().count());
+    expect_error(&bad, "bad-reserve.toml", &["bad-reserve.toml", line.as_str(), "preflight.thrust_reserve", "[0, 0.5]"]);
+}
+
+/// Issue 29: a UAV on a cable longer than the tray's slant takes off beyond its node; a tube too
+/// narrow at the start for it is refused, naming the cable (generated scenario 5024 started a
+/// UAV 0.49 m outside its tube before this check).
+#[test]
+fn a_long_cable_that_takes_a_uav_off_outside_the_tube_is_refused() {
+    // The paper's start narrowed to a 4 m half-width: the 3 m node circle still fits (3.5 m
+    // with r_safe), but a 13 m cable puts its UAV 13 x 3 / sqrt(3^2 + 10^2) = 3.74 m out.
+    let text = paper().replacen("[2.0, 0.0, 5.5, 5.5]", "[2.0, 0.0, 4.0, 4.0]", 1).replacen("[9.0, 1.5, 5.5, 5.5]", "[9.0, 1.5, 4.0, 4.0]", 1);
+    host_sim::scenario::parse(&text, "narrow-start.toml").expect("the paper's cables fit a 4 m start");
+    let lengths = text.lines().find(|l| l.trim_start().starts_with("lengths_m")).expect("cables.lengths_m").to_string();
+    let long = text.replacen(&lengths, "lengths_m = [8.3, 7.0, 8.6, 8.8, 8.3, 8.5, 8.4, 7.7, 8.3, 13.0]", 1);
+    let line = format!(":{}:", line_of(&lengths));
+    expect_error(&long, "long.toml", &["long.toml", line.as_str(), "cables.lengths_m", "UAV 9", "beyond the tube at the start"]);
 }
 
 /// The take-off survey's settings (docs/design.md, "Take-off survey") name file, line and field.
