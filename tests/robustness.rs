@@ -116,9 +116,9 @@ fn same_seed_list_gives_the_same_sweep_whatever_the_thread_count() {
 /// Issue 29: generated missions (`generated.toml`: its first 40 seeds at 1x and 3x, wind
 /// declared). No UAV or load ever leaves its tube; among accepted runs at least 90 % succeed at
 /// 1x (37/40 measured with the control thrust reserve, the declared-share horizontal reserve and
-/// the long-cable take-off check; 35/39 before them, 2 runs out of the tube) and the 3x refusals
-/// are those the wind law
-/// makes (34 of 40). The full 200-seed tables: docs/robustness.md.
+/// the long-cable take-off check; 35/39 before them, 2 runs out of the tube) and the 3x
+/// refusals are those the wind law makes (34 of 40). The full 200-seed tables:
+/// docs/robustness.md.
 #[test]
 fn generated_missions_never_leave_the_tube() {
     let mut c = load("generated.toml");
