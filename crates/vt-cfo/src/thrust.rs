@@ -126,14 +126,15 @@ impl ThrustLimits {
     }
 
     /// The horizontal reserve an airframe can afford while its vertical cap still holds its
-    /// weight plus its rated cable pull (docs/design.md, "Overload in flight"; issue 26: derived
-    /// aboard from the companion's `VL_MASS`, `VT_CABLE_RATED`, `VL_T_MAX`):
-    /// `min(cap, sqrt(1 - ((m g + rated) / T_max)^2))`, 0 when the airframe cannot lift that
+    /// weight plus the cable pull `pull_n` (docs/design.md, "Overload in flight"; derived
+    /// aboard from the companion's `VL_MASS`, `VL_T_MAX` and its `reserve_pull_n`: the cable's
+    /// rating, or the declared load's share when that is less, issue 29):
+    /// `min(cap, sqrt(1 - ((m g + pull) / T_max)^2))`, 0 when the airframe cannot lift that
     /// much at all. Every degenerate input (NaN, `T_max <= 0`) gives 0: the paper's vertical
     /// priority.
     #[must_use]
-    pub fn rated_pull_reserve(mass_kg: f32, cable_rated_n: f32, thrust_max_n: f32, cap: f32) -> f32 {
-        let need = (mass_kg * crate::GRAVITY_MPS2 + cable_rated_n) / thrust_max_n;
+    pub fn rated_pull_reserve(mass_kg: f32, pull_n: f32, thrust_max_n: f32, cap: f32) -> f32 {
+        let need = (mass_kg * crate::GRAVITY_MPS2 + pull_n) / thrust_max_n;
         if !((0.0..1.0).contains(&need) && cap > 0.0) {
             return 0.0;
         }

@@ -170,7 +170,7 @@ params! {
     CapRate => real("VT_CAP_RATE", 0.2, 0.0, 100.0), "Largest closing rate of the formation scale, 1/s (opens at a quarter of it).";
     SagLo => real("VT_SAG_LO", 0.3, 0.0, LENGTH_MAX_M), "Load sag where the overload response begins, m.";
     SagHi => real("VT_SAG_HI", 0.8, 0.0, LENGTH_MAX_M), "Load sag where the overload response is complete, m.";
-    HReserve => derived("VL_H_RES", 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority; -1: as much as the airframe affords with its weight plus `VT_CABLE_RATED` under the vertical cap, at most 0.5, `ThrustLimits::rated_pull_reserve`).";
+    HReserve => derived("VL_H_RES", 0.0, 0.99), "Fraction of `VL_T_MAX` kept for the horizontal thrust when the vertical saturates (0: vertical priority; -1: as much as the airframe affords with its weight plus `VT_CABLE_RATED`, or the declared share when less, under the vertical cap, at most 0.5, `ThrustLimits::rated_pull_reserve`).";
     CalN => int("VT_CAL_N", 100.0, 1.0, 100000.0), "Take-off survey: take-off positions averaged over this many samples per source before `MISSION_START` (1: the last sample; docs/design.md, \"Take-off survey\").";
     CableL => real("VT_CABLE_L", 3.0, 0.0, LENGTH_MAX_M), "Nominal length of this UAV's cable, m (derives `VT_Z_MIN` and `VT_CABLE_LMAX`; the calibration measures the true one).";
     WindDecl => derived("VT_WIND_DECL", 0.0, 100.0), "Declared steady wind at the site for the mission, m/s (forecast or measured; -1: none declared, no wind check at the start). Refused at `MISSION_START` above the team's wind capacity (`vt_dissipative::wind`).";

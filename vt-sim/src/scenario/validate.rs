@@ -395,7 +395,7 @@ impl Validator<'_> {
                 let rotor = vt_dissipative::feasibility::rotor_capacity_n(p.uav_mass_kg * vt_dissipative::calibration::GRAVITY_MPS2, p.sustained_thrust_n(), p.tilt_max_rad, p.cos_lean);
                 Err(self.err("load", "mass_kg", format!(
                     "{e}; {} UAVs x min(cable rated {:.1} N, rotors {rotor:.1} N at {:.0} % of their thrust) at the take-off lean cos {:.4}: lower the load, add UAVs, \
-                     stand the cables more vertical, or set [preflight] min_margin",
+                     stand the cables more vertical, or set [preflight] min_margin or thrust_reserve",
                     p.n_uavs, p.cable_rated_n, 100.0 * (1.0 - p.thrust_reserve), p.cos_lean)))
             }
             Err(e) => Err(self.err("preflight", "min_margin", e.to_string())),
