@@ -385,14 +385,13 @@ impl Params {
     /// The crate's [`ControlError`] naming the field.
     pub fn phases(&self, ground_z_m: f32) -> Result<PhaseParams, ControlError> {
         let g = |p| self.get(p);
-        let n = g(Param::NUavs).max(1.0);
         let p = PhaseParams {
             ground_z_m,
             transport_z_m: g(Param::LoadZRef),
             slack_m: g(Param::SlackM),
             takeoff_s: g(Param::TkoS),
             tension_vz_mps: 2.0 * g(Param::LiftVz),
-            pretension_n: PRETENSION_FRACTION * g(Param::LoadKg) * vt_cfo::GRAVITY_MPS2 / n,
+            pretension_n: PRETENSION_FRACTION * self.declared_share_n(),
             lift_vz_mps: g(Param::LiftVz),
             climb_vz_mps: (0.5 * g(Param::VzMax)).min(CLIMB_VZ_CAP_MPS),
             lift_clear_m: LIFT_CLEAR_M,
@@ -541,13 +540,18 @@ impl Params {
         })
     }
 
+    /// One UAV's share of the declared load's weight, `VT_LOAD_KG g / VT_N_UAVS`, N.
+    pub fn declared_share_n(&self) -> f32 {
+        self.get(Param::LoadKg) * vt_cfo::GRAVITY_MPS2 / self.get(Param::NUavs).max(1.0)
+    }
+
     /// The cable pull the vertical cap keeps beyond the UAV's weight, N: `VT_CABLE_RATED`,
     /// or the declared load's share with the formation's margin, `(1 + VT_CAP_MRG) VT_LOAD_KG g /
     /// VT_N_UAVS`, when that is less (issue 29; docs/design.md, "Overload in flight": rotors
     /// weaker than their cable then still keep a horizontal reserve).
     pub fn reserve_pull_n(&self) -> f32 {
         let rated = self.get(Param::CableRated);
-        let share = (1.0 + self.get(Param::CapMargin)) * self.get(Param::LoadKg) * vt_cfo::GRAVITY_MPS2 / self.get(Param::NUavs).max(1.0);
+        let share = (1.0 + self.get(Param::CapMargin)) * self.declared_share_n();
         if share > 0.0 && share < rated { share } else { rated }
     }
 
