@@ -108,13 +108,16 @@ fn a_refused_start_check_leaves_the_load_on_the_ground() {
     assert!(top < s.load_radius_m + 0.05, "the load stayed down: {top:.2} m");
 }
 
-/// An air start is unchanged: no phases recorded, `start` is `air`.
+/// An air start is in transport from its start (the phases exist for a set-down, tests/wind.rs)
+/// and has no lift or touchdown figures; `start` is `air`.
 #[test]
 fn an_air_start_has_no_ground_figures() {
     let ls = parse(PAPER_10UAV, "paper.toml").unwrap();
     let s = sim::run(&ls, &RunOptions { duration_s: Some(5.0), record: false, ..RunOptions::default() }).unwrap().summary;
     assert_eq!(s.start, "air");
-    assert!(s.phases.is_empty() && s.lift_peak_tension_n.is_none() && s.touchdown_speed_mps.is_none());
+    assert_eq!(names(&s), ["transport"]);
+    assert_eq!(s.phases[0].start_s, 0.0);
+    assert!(s.lift_peak_tension_n.is_none() && s.lift_share_spread.is_none() && s.touchdown_speed_mps.is_none());
 }
 
 /// Issue 29 with the ground start: the experiment team (capacity 7.63 m/s, tilt-bound,
@@ -125,8 +128,7 @@ fn an_air_start_has_no_ground_figures() {
 /// - The same winds arriving as a gust front after the lift (onset 22 s, 5 s build-up): the team
 ///   cannot hold the tube and the companions set the load down where it is (the load carried
 ///   back 2 m, or within 0.5 m of the boundary): outcome `set_down`, the load and every UAV
-///   inside the tube, a gentle touchdown. (In the air start the 1.18 x case ends with the load
-///   0.53 m outside; tests/wind.rs.)
+///   inside the tube, a gentle touchdown. (The air start sets down too: tests/wind.rs.)
 #[test]
 fn a_wind_the_team_cannot_hold_is_refused_on_the_ground_or_sets_the_load_down_inside_the_tube() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");

@@ -181,6 +181,7 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::LoadCda, f(s.disturbances.load_drag_area_m2)),
         (Param::Start, flag(s.mission.start == crate::scenario::MissionStart::Ground)),
         (Param::EndTol, f(s.mission.end_tolerance_m)),
+        (Param::LoadGz, f(s.load.envelope_radius_m())),
         (Param::TkoS, f(crate::sim::ground_takeoff_s(s))),
         (Param::Ctrl, match kind {
             ControllerKind::Dissipative => 0.0,

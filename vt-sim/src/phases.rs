@@ -1,6 +1,7 @@
-//! The ground sequence as the world sees it (issue 27 §2; the companions fly it,
+//! The mission's phases as the world sees them (issue 27 §2; the companions fly them,
 //! `vt_dissipative::phases`): the team's phases with their start times and the load's swing,
-//! the lift's peak tension and share spread, the touchdown speed, the refusal.
+//! the lift's peak tension and share spread (a ground start), the touchdown speed (a ground
+//! start's, or an air start's set-down, issue 29), the refusal.
 
 use crate::summary::PhaseMark;
 use nalgebra::Vector3;
@@ -14,11 +15,13 @@ const OFF_GROUND_M: f64 = 0.01;
 /// it is the set-down), m.
 const LIFTED_M: f64 = 0.1;
 
-/// What a ground start did, recorded at the plant rate.
+/// What the phases did, recorded at the plant rate.
 #[derive(Debug, Clone)]
 pub(crate) struct GroundRecord {
     /// The load's resting altitude, m.
     rest_z_m: f64,
+    /// An air start: no lift, no lift figures.
+    air: bool,
     marks: Vec<PhaseMark>,
     /// Bit `code` set: that phase is marked.
     seen: u16,
@@ -33,10 +36,12 @@ pub(crate) struct GroundRecord {
 }
 
 impl GroundRecord {
-    /// A ground start with the load resting at `rest_z_m`.
-    pub(crate) fn new(rest_z_m: f64) -> Self {
+    /// The load resting at `rest_z_m` on the ground; `air`: an air start (the load up from the
+    /// start, the phases only for a set-down).
+    pub(crate) fn new(rest_z_m: f64, air: bool) -> Self {
         Self {
             rest_z_m,
+            air,
             marks: Vec::new(),
             seen: 0,
             team_phase: 0,
@@ -81,7 +86,7 @@ impl GroundRecord {
             self.lift_peak_n = tensions_n.iter().copied().fold(self.lift_peak_n, f64::max);
         }
         let height = load_pos_m.z - self.rest_z_m;
-        if self.spread.is_none() && self.team_phase >= Phase::Lift as u8 && height > OFF_GROUND_M {
+        if self.spread.is_none() && !self.air && self.team_phase >= Phase::Lift as u8 && height > OFF_GROUND_M {
             let (lo, hi, sum) = tensions_n.iter().fold((f64::INFINITY, 0.0f64, 0.0), |(lo, hi, s), &x| (lo.min(x), hi.max(x), s + x));
             let mean = sum / tensions_n.len().max(1) as f64;
             self.spread = Some(if mean > 0.0 { (hi - lo) / mean } else { f64::NAN });
@@ -106,7 +111,7 @@ impl GroundRecord {
 
     /// The phase marks, the lift's peak tension, the share spread and the touchdown speed.
     pub(crate) fn figures(&self) -> (Vec<PhaseMark>, Option<f64>, Option<f64>, Option<f64>) {
-        let peak = (self.team_phase != 0).then_some(self.lift_peak_n);
+        let peak = (self.team_phase != 0 && !self.air).then_some(self.lift_peak_n);
         (self.marks.clone(), peak, self.spread, self.touchdown_mps)
     }
 }

@@ -312,7 +312,8 @@ impl<const N: usize> DissipativeController<N> {
     /// always finite and within `v_m` horizontally and `v_z,max` vertically.
     pub fn update<const S: usize>(&mut self, tube: &Tube<S>, m: &Measurements<'_>, dt_s: f32) -> Command {
         let mut status = Status::default();
-        let p = self.params;
+        let p = &self.params;
+        let v_max = self.params.v_max_mps;
         let inputs_ok = finite3(&m.own_pos_m) && finite3(&m.load_pos_m) && finite3(&m.load_vel_mps);
         if !inputs_ok {
             status.invalid_input = true;
@@ -384,18 +385,18 @@ impl<const N: usize> DissipativeController<N> {
             // if every UAV stays where it was when the link went quiet; docs/design.md).
             Some(anchor) => {
                 (anchor - m.own_pos_m.xy()) * HOLD_POSITION_GAIN_PER_S
-                    + p.tray.node_velocity_to_uav(&v_t, m.own_pos_m.z, &m.load_pos_m, &Vec3::zeros())
+                    + self.params.tray.node_velocity_to_uav(&v_t, m.own_pos_m.z, &m.load_pos_m, &Vec3::zeros())
             }
-            None => p.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps),
+            None => self.params.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps),
         };
-        let mut v_xy = sat(v_xy, p.v_max_mps);
+        let mut v_xy = sat(v_xy, v_max);
         // Separation barrier on the UAVs' own positions (extension, separation.rs), added to the
         // saturated command with up to twice its authority, then saturated again: at its cap
         // it always turns the command away from the neighbour.
         if let Some(b) = &self.separation {
             let (v_sep, c) = separation_velocity(self.id, &m.own_pos_m, m.neighbours_m.get(..self.n).unwrap_or(m.neighbours_m), b);
             status.coincident_nodes |= c;
-            v_xy = sat(v_xy + sat(v_sep, SEPARATION_AUTHORITY * p.v_max_mps), p.v_max_mps);
+            v_xy = sat(v_xy + sat(v_sep, SEPARATION_AUTHORITY * v_max), v_max);
         }
         let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(v_xy.x, v_xy.y, v_z);
@@ -420,7 +421,7 @@ impl<const N: usize> DissipativeController<N> {
     /// is then evaluated at the UAV's own horizontal position and scaled by `H / (z_i - z_l)`,
     /// so that eq:2-20 hands the UAV exactly the barrier velocity of its own position
     /// (docs/design.md, "Overload in flight").
-    fn keeping<const S: usize>(&mut self, tube: &Tube<S>, sec: &vt_tube::Section, q_i: &Vec2, m: &Measurements<'_>) -> (Vec2, f32) {
+    fn keeping<const S: usize>(&self, tube: &Tube<S>, sec: &vt_tube::Section, q_i: &Vec2, m: &Measurements<'_>) -> (Vec2, f32) {
         let h = self.params.tray.height_above_load_m;
         let dz = m.own_pos_m.z - m.load_pos_m.z;
         if dz > h {

@@ -24,14 +24,22 @@ use crate::ControlError;
 /// The team cannot hold the tube when the load has been carried this far back along it from the
 /// furthest it reached, m (a wind against the passing direction beyond the team's capacity).
 pub const SET_DOWN_BLOWN_BACK_M: f32 = 2.0;
-/// ... or when the load comes this close to the tube's boundary, m.
+/// ... or when the load will be this close to the tube's boundary [`SET_DOWN_LOOKAHEAD_S`]
+/// ahead at its present rate of approach, m.
 pub const SET_DOWN_LOAD_EDGE_M: f32 = 0.5;
+/// How far ahead the boundary approach is extrapolated, s (a load swinging towards the
+/// boundary takes about a second to stop once the team holds: docs/design.md, "In flight: the
+/// set-down").
+pub const SET_DOWN_LOOKAHEAD_S: f32 = 1.0;
 
 /// True when the team cannot hold the tube and must set the load down (issue 29): the load
-/// carried back `progress_lost_m` along the tube, or within `load_boundary_m` of its boundary
-/// (the load's state: the same numbers on every UAV).
-pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32) -> bool {
-    progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m < SET_DOWN_LOAD_EDGE_M
+/// carried back `progress_lost_m` along the tube, or within [`SET_DOWN_LOAD_EDGE_M`] of its
+/// boundary [`SET_DOWN_LOOKAHEAD_S`] ahead, from its boundary distance `load_boundary_m` and that
+/// distance's rate `boundary_rate_mps` (negative approaching; non-finite: not used). The load's
+/// state: the same numbers on every UAV.
+pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32, boundary_rate_mps: f32) -> bool {
+    let approach = if boundary_rate_mps.is_finite() { boundary_rate_mps.min(0.0) } else { 0.0 };
+    progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m + SET_DOWN_LOOKAHEAD_S * approach < SET_DOWN_LOAD_EDGE_M
 }
 
 /// A team hold during the lift longer than this abandons it, s (the load is still down; a UAV
@@ -192,6 +200,9 @@ pub struct PhaseProfile {
     abort: Option<Abort>,
     /// The transport was cut short by [`Self::set_down_now`].
     set_down_early: bool,
+    /// Arrival ends the transport with the descent (a ground start); an air start hovers at the
+    /// end and descends only in a set-down.
+    descend_at_end: bool,
 }
 
 impl PhaseProfile {
@@ -201,7 +212,19 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false })
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true })
+    }
+
+    /// An air start (the paper's): in transport from the start at `z_t`, hovering at the end
+    /// after arrival; a set-down ([`Self::set_down_now`]) descends to `z_g` (the load's resting
+    /// altitude, a parameter here: nothing was measured on the ground), slackens and releases
+    /// as from a ground start.
+    ///
+    /// # Errors
+    /// [`ControlError::InvalidParameter`].
+    pub fn air(p: PhaseParams) -> Result<Self, ControlError> {
+        p.validate()?;
+        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false })
     }
 
     /// The parameters.
@@ -336,7 +359,7 @@ impl PhaseProfile {
                 }
             }
             Phase::Transport => {
-                if self.arrived {
+                if self.arrived && self.descend_at_end {
                     self.timer_s += dt;
                     if self.timer_s >= p.settle_s {
                         self.phase = Phase::Descent;
@@ -540,6 +563,48 @@ mod tests {
         assert!(pr.set_down_early());
         run(&mut pr, |z| z.max(0.3), false, 100_000);
         assert_eq!(pr.phase(), Phase::Slack);
+    }
+
+    /// The set-down's trigger: carried back beyond 2 m, or the boundary edge reached within the
+    /// lookahead at the present approach; receding or a non-finite rate counts as standing.
+    #[test]
+    fn cannot_hold_reads_drift_edge_and_approach() {
+        assert!(!cannot_hold(0.0, 2.0, 0.0));
+        assert!(cannot_hold(SET_DOWN_BLOWN_BACK_M + 0.01, 2.0, 0.0));
+        assert!(cannot_hold(0.0, SET_DOWN_LOAD_EDGE_M - 0.01, 0.0));
+        // 1.0 m from the boundary: standing or receding holds; approaching faster than
+        // (1.0 - edge) / lookahead does not.
+        let v = (1.0 - SET_DOWN_LOAD_EDGE_M) / SET_DOWN_LOOKAHEAD_S;
+        assert!(!cannot_hold(0.0, 1.0, 3.0));
+        assert!(!cannot_hold(0.0, 1.0, -0.9 * v));
+        assert!(cannot_hold(0.0, 1.0, -1.1 * v));
+        assert!(!cannot_hold(0.0, 1.0, f32::NAN) && !cannot_hold(0.0, 1.0, f32::NEG_INFINITY));
+    }
+
+    /// An air start flies the transport at `z_t` from its first step and hovers at the end
+    /// after arrival; only a set-down descends, to `z_g`, and then slackens and releases.
+    #[test]
+    fn an_air_start_hovers_at_the_end_and_sets_down_only_when_it_cannot_hold() {
+        let p = params();
+        let mut pr = PhaseProfile::air(p).unwrap();
+        assert_eq!((pr.phase(), pr.load_altitude_ref_m()), (Phase::Transport, p.transport_z_m));
+        assert_eq!(run(&mut pr, |z| z, true, 10_000), 10_000, "arrival does not end an air start's transport");
+        assert_eq!(pr.load_altitude_ref_m(), p.transport_z_m);
+        let mut pr = PhaseProfile::air(p).unwrap();
+        pr.set_down_now();
+        assert_eq!(pr.phase(), Phase::Descent);
+        let mut last = pr.load_altitude_ref_m();
+        for _ in 0..100_000 {
+            let z = pr.step(0.02, Some(pr.load_altitude_ref_m().max(p.ground_z_m)), false, false);
+            assert!(z <= last, "the reference only goes down: {z} after {last}");
+            last = z;
+            if pr.phase() == Phase::Released {
+                break;
+            }
+        }
+        assert_eq!(pr.phase(), Phase::Released);
+        assert_eq!(pr.load_altitude_ref_m(), p.ground_z_m - p.slack_m);
+        assert!(PhaseProfile::air(PhaseParams { ground_z_m: 3.5, ..p }).is_err(), "the ground above the transport altitude");
     }
 
     #[test]

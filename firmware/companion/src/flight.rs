@@ -93,6 +93,20 @@ pub struct Sources {
 /// Words of [`MemberBits`].
 const MEMBER_WORDS: usize = MAX_UAVS.div_ceil(32);
 
+/// In transport the phases look at the load (arrival, the set-down's trigger,
+/// `vt_dissipative::phases::cannot_hold`) this often, s: the wind moves a team over seconds, and
+/// a look costs a tube lookup (about 370 Cortex-M4 instructions) that every step would pay.
+pub const TRANSPORT_WATCH_S: f32 = 0.2;
+
+/// High-level steps between two looks at the load in transport (at least 1).
+fn watch_every(hl_dt_s: f32) -> u32 {
+    if hl_dt_s.is_finite() && hl_dt_s > 0.0 {
+        libm::roundf(TRANSPORT_WATCH_S / hl_dt_s).clamp(1.0, 1000.0) as u32
+    } else {
+        1
+    }
+}
+
 /// One bit per team member (`MAX_UAVS` bits).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct MemberBits([u32; MEMBER_WORDS]);
@@ -257,7 +271,8 @@ pub struct Flight {
     operator_hold: bool,
     /// Issue 28: no route to the goal ([`HoldReasons::NO_ROUTE`]).
     no_route: bool,
-    /// Ground start: the phases (`None`: an air start, in transport from the start).
+    /// The phases: a ground start's whole sequence; an air start's in transport from its start,
+    /// for a set-down (`PhaseProfile::air`).
     profile: Option<PhaseProfile>,
     /// Ground start: what the arming reads (`None` once armed or refused, and in an air start).
     pending: Option<Pending>,
@@ -273,6 +288,10 @@ pub struct Flight {
     rated_n: f32,
     /// The furthest the load got along the tube in transport, m (the set-down's trigger).
     load_s_max_m: f32,
+    /// High-level steps between two looks at the load in transport ([`TRANSPORT_WATCH_S`]).
+    watch_every: u32,
+    /// High-level steps since the last look.
+    watch_ticks: u32,
 }
 
 impl Flight {
@@ -328,7 +347,9 @@ impl Flight {
             if let Some(f) = params.capacity().ok().and_then(|cap| capacity::takeoff_cable_force_n(&own_pos_m, &load_pos_m, cap.load_mass_kg, n)) {
                 low.preload(f);
             }
-            (Some(high), None, None)
+            // In transport from the start; the phases only for a set-down (issue 29).
+            let profile = PhaseProfile::air(params.phases(params.get(Param::LoadGz)).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
+            (Some(high), Some(profile), None)
         };
         Ok(Self {
             id,
@@ -364,6 +385,8 @@ impl Flight {
             load_hint: 0,
             rated_n: params.get(Param::CableRated),
             load_s_max_m: f32::MIN,
+            watch_every: watch_every(params.high_level_dt_s()),
+            watch_ticks: 0,
         })
     }
 
@@ -411,7 +434,7 @@ impl Flight {
         self.team_mode = self.supervisor.step(reasons != 0, follow);
         if let (Some(own), Some(load)) = (own, load) {
             let holding = self.team_mode.is_holding();
-            self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding);
+            self.advance_phases(tube, &own.pos_m, &load.pos_m, &load.vel_mps, &view, holding);
             let phase = self.phase();
             let z_ref = self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m);
             let Some(high) = self.high.as_mut() else {
@@ -459,26 +482,37 @@ impl Flight {
         self.vel_cmd_mps
     }
 
-    /// The ground sequence's step (nothing in an air start): arrival from the load's place in the
-    /// tube, the ramp, the survey of the tension phase and the arming at its end.
-    fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>], holding: bool) {
+    /// The phases' step: arrival and the set-down's trigger from the load's place in the tube,
+    /// the ramp, and (a ground start) the survey of the tension phase and the arming at its end.
+    #[inline(never)]
+    fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, load_vel_mps: &Vec3, view: &[Option<Vec3>], holding: bool) {
         let Some(profile) = self.profile.as_mut() else {
             return;
         };
         let mut arrived = false;
+        let mut dt_s = self.hl_dt_s;
         if profile.phase() == Phase::Transport {
+            // In transport the reference stands still: the phases look at the load every
+            // `TRANSPORT_WATCH_S` (arrival, the set-down's trigger), with the time since.
+            self.watch_ticks = self.watch_ticks.saturating_add(1);
+            if self.watch_ticks < self.watch_every {
+                return;
+            }
+            dt_s = self.watch_ticks as f32 * self.hl_dt_s;
+            self.watch_ticks = 0;
             if let Some(sec) = tube.locate(load_m.xy(), self.load_hint) {
                 self.load_hint = sec.segment;
                 arrived = sec.remaining_m <= self.end_tol_m;
                 // The team cannot hold the tube (wind beyond its capacity): set the load down
                 // here, inside the tube (issue 29; vt_dissipative::phases::cannot_hold).
                 self.load_s_max_m = self.load_s_max_m.max(sec.s_m);
-                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, sec.boundary_distance_m(load_m.xy())) {
+                let (d_m, rate_mps) = boundary_approach(&sec, load_m.xy(), load_vel_mps.xy());
+                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, d_m, rate_mps) {
                     profile.set_down_now();
                 }
             }
         }
-        profile.step(self.hl_dt_s, Some(load_m.z), arrived, holding);
+        profile.step(dt_s, Some(load_m.z), arrived, holding);
         if profile.phase() == Phase::Lift && load_m.z < profile.params().ground_z_m + profile.params().lift_clear_m {
             // An overload shows as the own cable's tension passing the abort level with the
             // load still down (vt_dissipative::phases::LIFT_ABORT_FACTOR).
@@ -572,12 +606,12 @@ impl Flight {
         if finite3(&v) { v } else { Vec3::zeros() }
     }
 
-    /// The mission's phase (an air start: always [`Phase::Transport`]).
+    /// The mission's phase (an air start: [`Phase::Transport`] until a set-down).
     pub fn phase(&self) -> Phase {
         self.profile.as_ref().map_or(Phase::Transport, PhaseProfile::phase)
     }
 
-    /// Ground start: the load altitude reference of the phases, m (`None` in an air start).
+    /// The load altitude reference of the phases, m.
     pub fn load_altitude_ref_m(&self) -> Option<f32> {
         self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m)
     }
@@ -701,6 +735,15 @@ impl Flight {
 /// The own cable's tension as the observer estimates it: `f_hat` along the unit vector from the
 /// load to the UAV, N (the estimate `vt_dissipative::vertical` shares the load with); NaN with
 /// the UAV on the load.
+/// The load's distance to the tube's boundary `d_t = r_t - |q - m|` at its section, m, and its
+/// rate `-(q - m) . v / |q - m|` (negative approaching), m/s (0 on the midpoint).
+fn boundary_approach(sec: &vt_tube::Section, q_m: Vector2<f32>, v_mps: Vector2<f32>) -> (f32, f32) {
+    let off = q_m - sec.midpoint_m;
+    let r = vt_fpu::norm(&off);
+    let rate = if r > 0.0 { -off.dot(&v_mps) / r } else { 0.0 };
+    (sec.half_width_m - r, rate)
+}
+
 fn cable_tension_n(f_hat_n: &Vec3, own_m: &Vec3, load_m: &Vec3) -> f32 {
     let d = own_m - load_m;
     let len = vt_fpu::sqrt(d.norm_squared());

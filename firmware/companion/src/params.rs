@@ -187,6 +187,7 @@ params! {
     SlackM => real("VT_SLACK", 0.5, 0.05, 10.0), "Ground start: how far below taut the UAVs fly with slack cables (take-off, slack), m.";
     EndTol => real("VT_END_TOL", 1.0, 0.0, 100.0), "Arrival: the load within this arc length of the tube's end, m (ground start: the descent follows).";
     Ctrl => int("VT_CTRL", 0.0, 0.0, 1.0), "High-level controller: 0 the paper's dissipative controller; 1 traditional virtual-tube control (the baseline, REFERENCE §2: `VT_K1`..`VT_R_ACT` are its gains, no springs).";
+    LoadGz => real("VT_LOAD_GZ", 0.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Air start: the load's altitude resting on the ground, m (ENU up, the local frame's origin on the ground: the load's half-height), where a set-down in a wind the team cannot hold puts it (a ground start measures it).";
 }
 
 /// Number of parameters.

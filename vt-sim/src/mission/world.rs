@@ -100,7 +100,10 @@ pub struct World<'a> {
     /// The pre-flight's clock, plant steps (`None`: the mission runs).
     pre_step: Option<u64>,
     /// Ground start: the phases, lift and touchdown (`None`: an air start).
-    ground: Option<crate::phases::GroundRecord>,
+    /// The team's phases (both starts: an air start's only for a set-down).
+    phases: crate::phases::GroundRecord,
+    /// `[mission] start = "ground"`.
+    ground_start: bool,
     /// Per UAV, the phase its companion reports (`vt_dissipative::Phase` code; 0 none).
     phase_codes: Vec<u8>,
     /// Per UAV, the refusal code its companion reports (0 none).
@@ -142,7 +145,8 @@ impl<'a> World<'a> {
         // The load rests on its envelope (docs/plant.md, "Ground contact").
         let rest_z = s.load.envelope_radius_m();
         plant.set_load_rest_z(rest_z);
-        let ground = (s.mission.start == crate::scenario::MissionStart::Ground).then(|| crate::phases::GroundRecord::new(rest_z));
+        let ground_start = s.mission.start == crate::scenario::MissionStart::Ground;
+        let phases = crate::phases::GroundRecord::new(rest_z, !ground_start);
 
         // Sensors first: the controllers calibrate from what they measure at take-off.
         let r = &s.rates;
@@ -237,7 +241,8 @@ impl<'a> World<'a> {
             plant,
             boot_steps,
             pre_step: (boot_steps > 0).then_some(0),
-            ground,
+            phases,
+            ground_start,
             phase_codes: vec![0; n],
             refusal_codes: vec![0; n],
             released_step: None,
@@ -274,7 +279,7 @@ impl<'a> World<'a> {
         let own_pos: Vec<V3f> = start_own.iter().map(|m| m.pos_m).collect();
         // A ground start's formation is the one its cables will hold taut: each UAV at its
         // cable's taut height above the measured load (the companions arm from that geometry).
-        let taut_pos: Vec<V3f> = if self.ground.is_some() {
+        let taut_pos: Vec<V3f> = if self.ground_start {
             own_pos
                 .iter()
                 .zip(&self.ls.scenario.cables.lengths_m)
@@ -391,9 +396,12 @@ impl<'a> World<'a> {
         if self.step >= self.max_steps || self.metrics.nonfinite {
             return true;
         }
-        if self.ground.is_some() {
-            // A ground start ends with the team released (set down, or refused on the ground).
-            return self.released_step.is_some_and(|r| (self.step - r) as f64 * self.dt >= AFTER_RELEASE_S);
+        // A team released (a ground start's end, a refusal on the ground, a set-down) is done.
+        if let Some(r) = self.released_step {
+            return (self.step - r) as f64 * self.dt >= AFTER_RELEASE_S;
+        }
+        if self.ground_start {
+            return false;
         }
         self.arrival_step.is_some_and(|a| (self.step - a) as f64 * self.dt >= self.ls.scenario.mission.post_arrival_s)
     }
@@ -516,7 +524,8 @@ impl<'a> World<'a> {
                 self.plant.set_thrust_scale(i, scale);
             }
         }
-        if let (Some(g), true) = (self.ground.as_mut(), self.step.is_multiple_of(self.ll_every)) {
+        if self.step.is_multiple_of(self.ll_every) {
+            let g = &mut self.phases;
             self.uav_pos_scratch.clear();
             self.uav_pos_scratch.extend(self.plant.uavs.iter().map(|u| u.pos_m));
             // The cables attached after the last step (all of them before the first).
@@ -533,7 +542,8 @@ impl<'a> World<'a> {
                     }
                 }
             }
-            self.metrics.judge_altitude = g.team_phase() == Some(vt_dissipative::Phase::Transport);
+            // Nothing reported yet: an air start is in transport.
+            self.metrics.judge_altitude = g.team_phase().map_or(!self.ground_start, |p| p == vt_dissipative::Phase::Transport);
             if g.team_phase() == Some(vt_dissipative::Phase::Released) && self.released_step.is_none() {
                 self.released_step = Some(self.step);
             }
@@ -591,9 +601,7 @@ impl<'a> World<'a> {
             }
         }
         let contact = self.plant.ground_contact();
-        if let Some(g) = self.ground.as_mut() {
-            g.step(self.plant.tensions_n(), &self.plant.load.pos_m, contact);
-        }
+        self.phases.step(self.plant.tensions_n(), &self.plant.load.pos_m, contact);
         self.attached.clear();
         self.attached.extend(self.plant.cable_params().iter().map(|c| c.stiffness_n_per_m > 0.0));
         let uav_pos = &mut self.uav_pos_scratch;
@@ -662,9 +670,7 @@ impl<'a> World<'a> {
         };
         let mut summary = self.metrics.finish(s, &end);
         summary.start = s.mission.start.name().into();
-        if let Some(g) = &self.ground {
-            ground_verdict(&mut summary, g, self.rated_n);
-        }
+        phase_verdict(&mut summary, &self.phases, self.rated_n, self.ground_start);
         (summary, self.record)
     }
 }
@@ -674,10 +680,11 @@ pub const LIFT_PEAK_FACTOR: f64 = 1.5;
 /// Fastest touchdown of the load a ground start may show, m/s (issue 27).
 pub const TOUCHDOWN_MAX_MPS: f64 = 0.5;
 
-/// A ground start's figures and verdict: set down (the whole team released after arrival),
-/// no snatch above [`LIFT_PEAK_FACTOR`] times the rated tension, a touchdown at most
-/// [`TOUCHDOWN_MAX_MPS`]; a refusal on the ground is the outcome `refused`.
-fn ground_verdict(summary: &mut Summary, g: &crate::phases::GroundRecord, rated_n: f64) {
+/// The phases' figures and verdict. A ground start: set down (the whole team released after
+/// arrival), no snatch above [`LIFT_PEAK_FACTOR`] times the rated tension, a touchdown at most
+/// [`TOUCHDOWN_MAX_MPS`]; a refusal on the ground is the outcome `refused`. Either start: a
+/// descent before the end is the outcome `set_down`, its touchdown judged as a ground start's.
+fn phase_verdict(summary: &mut Summary, g: &crate::phases::GroundRecord, rated_n: f64, ground_start: bool) {
     let (phases, peak, spread, touchdown) = g.figures();
     let released = g.team_phase() == Some(vt_dissipative::Phase::Released);
     summary.phases = phases;
@@ -695,7 +702,7 @@ fn ground_verdict(summary: &mut Summary, g: &crate::phases::GroundRecord, rated_
         summary.failures.push(m);
         summary.success = false;
     };
-    if !released {
+    if ground_start && !released {
         let at = g.team_phase().map_or("none", vt_dissipative::Phase::name);
         fail(format!("the load was not set down and released (team in phase {at} at the end)"));
     }
