@@ -141,7 +141,7 @@ mod tests {
 
     #[test]
     fn marks_lift_and_touchdown() {
-        let mut g = GroundRecord::new(0.3);
+        let mut g = GroundRecord::new(0.3, false);
         let uavs = [V3::new(0.0, 0.0, 3.0)];
         let on_ground = V3::new(0.0, 0.0, 0.3);
         g.report(0.0, &[1], &[0], &uavs, &on_ground, &[true]);
