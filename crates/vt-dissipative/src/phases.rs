@@ -14,7 +14,7 @@
 //! | tension | (not used) | climb at `v_t` until the own cable carries [`PhaseParams::pretension_n`] (tension loop on the observer's estimate); the survey in its last `settle_s` |
 //! | lift | `z_g + v_lift t` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when the ramp passes `lift_clear_m + lift_extra_m` first |
 //! | climb | `+ v_climb t` up to `z_t` | as lift |
-//! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent |
+//! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`cannot_hold`]) descends at once |
 //! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off |
 //! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
 //! | released | `z_g - slack` | hover with slack cables (`settle_s` after slack) |
@@ -24,22 +24,14 @@ use crate::ControlError;
 /// The team cannot hold the tube when the load has been carried this far back along it from the
 /// furthest it reached, m (a wind against the passing direction beyond the team's capacity).
 pub const SET_DOWN_BLOWN_BACK_M: f32 = 2.0;
-/// ... or when the load will be this close to the tube's boundary [`SET_DOWN_LOOKAHEAD_S`]
-/// ahead at its present rate of approach, m.
+/// ... or when the load comes this close to the tube's boundary, m.
 pub const SET_DOWN_LOAD_EDGE_M: f32 = 0.5;
-/// How far ahead the boundary approach is extrapolated, s (a load swinging towards the
-/// boundary takes about a second to stop once the team holds: docs/design.md, "In flight: the
-/// set-down").
-pub const SET_DOWN_LOOKAHEAD_S: f32 = 1.0;
 
 /// True when the team cannot hold the tube and must set the load down (issue 29): the load
-/// carried back `progress_lost_m` along the tube, or within [`SET_DOWN_LOAD_EDGE_M`] of its
-/// boundary [`SET_DOWN_LOOKAHEAD_S`] ahead, from its boundary distance `load_boundary_m` and that
-/// distance's rate `boundary_rate_mps` (negative approaching; non-finite: not used). The load's
-/// state: the same numbers on every UAV.
-pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32, boundary_rate_mps: f32) -> bool {
-    let approach = if boundary_rate_mps.is_finite() { boundary_rate_mps.min(0.0) } else { 0.0 };
-    progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m + SET_DOWN_LOOKAHEAD_S * approach < SET_DOWN_LOAD_EDGE_M
+/// carried back `progress_lost_m` along the tube, or within `load_boundary_m` of its boundary
+/// (the load's state: the same numbers on every UAV).
+pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32) -> bool {
+    progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m < SET_DOWN_LOAD_EDGE_M
 }
 
 /// A team hold during the lift longer than this abandons it, s (the load is still down; a UAV
@@ -565,20 +557,12 @@ mod tests {
         assert_eq!(pr.phase(), Phase::Slack);
     }
 
-    /// The set-down's trigger: carried back beyond 2 m, or the boundary edge reached within the
-    /// lookahead at the present approach; receding or a non-finite rate counts as standing.
+    /// The set-down's trigger: carried back beyond 2 m, or within the edge of the boundary.
     #[test]
-    fn cannot_hold_reads_drift_edge_and_approach() {
-        assert!(!cannot_hold(0.0, 2.0, 0.0));
-        assert!(cannot_hold(SET_DOWN_BLOWN_BACK_M + 0.01, 2.0, 0.0));
-        assert!(cannot_hold(0.0, SET_DOWN_LOAD_EDGE_M - 0.01, 0.0));
-        // 1.0 m from the boundary: standing or receding holds; approaching faster than
-        // (1.0 - edge) / lookahead does not.
-        let v = (1.0 - SET_DOWN_LOAD_EDGE_M) / SET_DOWN_LOOKAHEAD_S;
-        assert!(!cannot_hold(0.0, 1.0, 3.0));
-        assert!(!cannot_hold(0.0, 1.0, -0.9 * v));
-        assert!(cannot_hold(0.0, 1.0, -1.1 * v));
-        assert!(!cannot_hold(0.0, 1.0, f32::NAN) && !cannot_hold(0.0, 1.0, f32::NEG_INFINITY));
+    fn cannot_hold_reads_drift_and_edge() {
+        assert!(!cannot_hold(0.0, 2.0) && !cannot_hold(SET_DOWN_BLOWN_BACK_M, SET_DOWN_LOAD_EDGE_M));
+        assert!(cannot_hold(SET_DOWN_BLOWN_BACK_M + 0.01, 2.0));
+        assert!(cannot_hold(0.0, SET_DOWN_LOAD_EDGE_M - 0.01));
     }
 
     /// An air start flies the transport at `z_t` from its first step and hovers at the end

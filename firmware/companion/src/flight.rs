@@ -434,7 +434,7 @@ impl Flight {
         self.team_mode = self.supervisor.step(reasons != 0, follow);
         if let (Some(own), Some(load)) = (own, load) {
             let holding = self.team_mode.is_holding();
-            self.advance_phases(tube, &own.pos_m, &load.pos_m, &load.vel_mps, &view, holding);
+            self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding);
             let phase = self.phase();
             let z_ref = self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m);
             let Some(high) = self.high.as_mut() else {
@@ -485,7 +485,7 @@ impl Flight {
     /// The phases' step: arrival and the set-down's trigger from the load's place in the tube,
     /// the ramp, and (a ground start) the survey of the tension phase and the arming at its end.
     #[inline(never)]
-    fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, load_vel_mps: &Vec3, view: &[Option<Vec3>], holding: bool) {
+    fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>], holding: bool) {
         let Some(profile) = self.profile.as_mut() else {
             return;
         };
@@ -506,8 +506,7 @@ impl Flight {
                 // The team cannot hold the tube (wind beyond its capacity): set the load down
                 // here, inside the tube (issue 29; vt_dissipative::phases::cannot_hold).
                 self.load_s_max_m = self.load_s_max_m.max(sec.s_m);
-                let (d_m, rate_mps) = boundary_approach(&sec, load_m.xy(), load_vel_mps.xy());
-                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, d_m, rate_mps) {
+                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, sec.boundary_distance_m(load_m.xy())) {
                     profile.set_down_now();
                 }
             }
@@ -735,15 +734,6 @@ impl Flight {
 /// The own cable's tension as the observer estimates it: `f_hat` along the unit vector from the
 /// load to the UAV, N (the estimate `vt_dissipative::vertical` shares the load with); NaN with
 /// the UAV on the load.
-/// The load's distance to the tube's boundary `d_t = r_t - |q - m|` at its section, m, and its
-/// rate `-(q - m) . v / |q - m|` (negative approaching), m/s (0 on the midpoint).
-fn boundary_approach(sec: &vt_tube::Section, q_m: Vector2<f32>, v_mps: Vector2<f32>) -> (f32, f32) {
-    let off = q_m - sec.midpoint_m;
-    let r = vt_fpu::norm(&off);
-    let rate = if r > 0.0 { -off.dot(&v_mps) / r } else { 0.0 };
-    (sec.half_width_m - r, rate)
-}
-
 fn cable_tension_n(f_hat_n: &Vec3, own_m: &Vec3, load_m: &Vec3) -> f32 {
     let d = own_m - load_m;
     let len = vt_fpu::sqrt(d.norm_squared());
