@@ -539,3 +539,55 @@ fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming()
     assert_eq!(fl.take_refusal(), Some(StartError::StaleData));
     assert_eq!(fl.take_refusal(), None, "reported once");
 }
+
+/// Issue 29, an air start: in transport from the start at `VT_LOAD_ZREF`; the load carried back
+/// more than 2 m along the tube (a headwind the team cannot hold) starts the set-down within one
+/// watch period (`TRANSPORT_WATCH_S`), and the load altitude reference then only goes down, to
+/// `VT_LOAD_GZ`, before the slack; every command finite.
+#[test]
+fn an_air_start_sets_the_load_down_when_it_is_carried_back() {
+    let mut p = params(0.0);
+    p.set(Param::LoadGz, 0.3).unwrap();
+    let t = tube();
+    let src0 = sources(0);
+    let mut fl = Flight::start(&p, Some(&t), &src0, 0).unwrap();
+    assert_eq!((fl.phase(), fl.load_altitude_ref_m()), (Phase::Transport, Some(p.get(Param::LoadZRef))));
+    let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
+    let mut now = 0;
+    let mut at = |fl: &mut Flight, back_m: f32, now: u32| {
+        let shift = Vec3::new(-back_m, 0.0, 0.0);
+        let mut src = sources(now);
+        src.own = Some(st(uav_pos(0) + shift, now));
+        src.load = Some(st(load_pos() + shift, now));
+        for j in 1..3 {
+            src.neighbours[j] = Some(Stamped { value: uav_pos(j) + shift, stamp_ms: now });
+        }
+        let v = fl.high_level(&t, &src, now);
+        assert!(finite3(&v), "finite command at {now} ms");
+    };
+    // Held in place for a second, then carried back 1.9 m: still transport.
+    for back in [0.0, 1.9] {
+        for _ in 0..50 {
+            now += HL_MS;
+            at(&mut fl, back, now);
+        }
+        assert_eq!(fl.phase(), Phase::Transport, "carried back {back} m");
+    }
+    // 2.1 m back: the set-down within one watch period.
+    let watch_steps = (TRANSPORT_WATCH_S * 1000.0) as u32 / HL_MS;
+    for _ in 0..watch_steps {
+        now += HL_MS;
+        at(&mut fl, 2.1, now);
+    }
+    assert_eq!(fl.phase(), Phase::Descent);
+    let mut last = fl.load_altitude_ref_m().unwrap();
+    while fl.phase() == Phase::Descent && now < 120_000 {
+        now += HL_MS;
+        at(&mut fl, 2.1, now);
+        let z = fl.load_altitude_ref_m().unwrap();
+        assert!(z <= last, "the reference only goes down");
+        last = z;
+    }
+    assert_eq!(fl.phase(), Phase::Slack);
+    assert!((last - 0.3).abs() < 1e-6, "down to VT_LOAD_GZ: {last}");
+}
