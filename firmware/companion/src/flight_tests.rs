@@ -554,7 +554,7 @@ fn an_air_start_sets_the_load_down_when_it_is_carried_back() {
     assert_eq!((fl.phase(), fl.load_altitude_ref_m()), (Phase::Transport, Some(p.get(Param::LoadZRef))));
     let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
     let mut now = 0;
-    let mut at = |fl: &mut Flight, back_m: f32, now: u32| {
+    let at = |fl: &mut Flight, back_m: f32, now: u32| {
         let shift = Vec3::new(-back_m, 0.0, 0.0);
         let mut src = sources(now);
         src.own = Some(st(uav_pos(0) + shift, now));
