@@ -17,7 +17,7 @@ const LIFTED_M: f64 = 0.1;
 
 /// What the phases did, recorded at the plant rate.
 #[derive(Debug, Clone)]
-pub(crate) struct GroundRecord {
+pub(crate) struct PhaseRecord {
     /// The load's resting altitude, m.
     rest_z_m: f64,
     /// An air start: no lift, no lift figures.
@@ -35,7 +35,7 @@ pub(crate) struct GroundRecord {
     refusal: Option<(usize, u8)>,
 }
 
-impl GroundRecord {
+impl PhaseRecord {
     /// The load resting at `rest_z_m` on the ground; `air`: an air start (the load up from the
     /// start, the phases only for a set-down).
     pub(crate) fn new(rest_z_m: f64, air: bool) -> Self {
@@ -141,7 +141,7 @@ mod tests {
 
     #[test]
     fn marks_lift_and_touchdown() {
-        let mut g = GroundRecord::new(0.3, false);
+        let mut g = PhaseRecord::new(0.3, false);
         let uavs = [V3::new(0.0, 0.0, 3.0)];
         let on_ground = V3::new(0.0, 0.0, 0.3);
         g.report(0.0, &[1], &[0], &uavs, &on_ground, &[true]);

@@ -99,9 +99,8 @@ pub struct World<'a> {
     boot_steps: u64,
     /// The pre-flight's clock, plant steps (`None`: the mission runs).
     pre_step: Option<u64>,
-    /// Ground start: the phases, lift and touchdown (`None`: an air start).
-    /// The team's phases (both starts: an air start's only for a set-down).
-    phases: crate::phases::GroundRecord,
+    /// The team's phases, lift and touchdown (an air start: transport, and a set-down's).
+    phases: crate::phases::PhaseRecord,
     /// `[mission] start = "ground"`.
     ground_start: bool,
     /// Per UAV, the phase its companion reports (`vt_dissipative::Phase` code; 0 none).
@@ -146,7 +145,7 @@ impl<'a> World<'a> {
         let rest_z = s.load.envelope_radius_m();
         plant.set_load_rest_z(rest_z);
         let ground_start = s.mission.start == crate::scenario::MissionStart::Ground;
-        let phases = crate::phases::GroundRecord::new(rest_z, !ground_start);
+        let phases = crate::phases::PhaseRecord::new(rest_z, !ground_start);
 
         // Sensors first: the controllers calibrate from what they measure at take-off.
         let r = &s.rates;
@@ -684,7 +683,7 @@ pub const TOUCHDOWN_MAX_MPS: f64 = 0.5;
 /// arrival), no snatch above [`LIFT_PEAK_FACTOR`] times the rated tension, a touchdown at most
 /// [`TOUCHDOWN_MAX_MPS`]; a refusal on the ground is the outcome `refused`. Either start: a
 /// descent before the end is the outcome `set_down`, its touchdown judged as a ground start's.
-fn phase_verdict(summary: &mut Summary, g: &crate::phases::GroundRecord, rated_n: f64, ground_start: bool) {
+fn phase_verdict(summary: &mut Summary, g: &crate::phases::PhaseRecord, rated_n: f64, ground_start: bool) {
     let (phases, peak, spread, touchdown) = g.figures();
     let released = g.team_phase() == Some(vt_dissipative::Phase::Released);
     summary.phases = phases;
