@@ -308,3 +308,11 @@ fn generate_writes_a_scenario_run_accepts() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("/does/not/exist.toml"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An air start with the load at or below its resting altitude (its envelope radius: the
+/// set-down's floor) names `load.altitude_m` and its line.
+#[test]
+fn an_air_start_with_the_load_in_the_ground_is_rejected() {
+    let text = paper().replacen("altitude_m = 6.0", "altitude_m = 0.2", 1);
+    expect_error(&text, "buried.toml", &["load.altitude_m", &format!(":{}:", line_of("altitude_m = 6.0")), "resting altitude"]);
+}

@@ -108,6 +108,15 @@ impl Validator<'_> {
         if let Some(r) = s.load.radius_m {
             self.non_negative("load", "radius_m", r)?;
         }
+        // An air start's load hangs above its resting altitude: the set-down's floor
+        // (`VT_LOAD_GZ`, docs/design.md "In flight: the set-down").
+        let rest = s.load.envelope_radius_m();
+        if s.mission.start == crate::scenario::MissionStart::Air && s.load.altitude_m <= rest {
+            return Err(self.err("load", "altitude_m", format!(
+                "an air start needs the load above the ground: {} m is not above its resting altitude {rest:.2} m (its envelope radius)",
+                s.load.altitude_m
+            )));
+        }
         self.non_negative("load", "start_s_m", s.load.start_s_m)?;
         self.positive("uavs", "mass_kg", s.uavs.mass_kg)?;
         self.positive("uavs", "thrust_max_n", s.uavs.thrust_max_n)?;
