@@ -29,12 +29,9 @@
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
-use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::phases::{cannot_hold, tension_climb_mps, LIFT_ABORT_FACTOR};
-use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{
-    capacity, Abort, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, Phase,
-    PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode, VerticalParams,
+    capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
+    PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -42,7 +39,10 @@ use crate::params::{Param, Params};
 use crate::{CompanionTube, Vec3, MAX_UAVS};
 
 mod hold_reasons;
+mod phases;
 pub use hold_reasons::HoldReasons;
+pub use phases::TRANSPORT_WATCH_S;
+use phases::{watch_every, Pending};
 
 /// A measurement with the time it was received (companion clock, ms).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,20 +92,6 @@ pub struct Sources {
 
 /// Words of [`MemberBits`].
 const MEMBER_WORDS: usize = MAX_UAVS.div_ceil(32);
-
-/// In transport the phases look at the load (arrival, the set-down's trigger,
-/// `vt_dissipative::phases::cannot_hold`) this often, s: the wind moves a team over seconds, and
-/// a look costs a tube lookup (about 370 Cortex-M4 instructions) that every step would pay.
-pub const TRANSPORT_WATCH_S: f32 = 0.2;
-
-/// High-level steps between two looks at the load in transport (at least 1).
-fn watch_every(hl_dt_s: f32) -> u32 {
-    if hl_dt_s.is_finite() && hl_dt_s > 0.0 {
-        libm::roundf(TRANSPORT_WATCH_S / hl_dt_s).clamp(1.0, 1000.0) as u32
-    } else {
-        1
-    }
-}
 
 /// One bit per team member (`MAX_UAVS` bits).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -482,139 +468,6 @@ impl Flight {
         self.vel_cmd_mps
     }
 
-    /// The phases' step: arrival and the set-down's trigger from the load's place in the tube,
-    /// the ramp, and (a ground start) the survey of the tension phase and the arming at its end.
-    #[inline(never)]
-    fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>], holding: bool) {
-        let Some(profile) = self.profile.as_mut() else {
-            return;
-        };
-        let mut arrived = false;
-        let mut dt_s = self.hl_dt_s;
-        if profile.phase() == Phase::Transport {
-            // In transport the reference stands still: the phases look at the load every
-            // `TRANSPORT_WATCH_S` (arrival, the set-down's trigger), with the time since.
-            self.watch_ticks = self.watch_ticks.saturating_add(1);
-            if self.watch_ticks < self.watch_every {
-                return;
-            }
-            dt_s = self.watch_ticks as f32 * self.hl_dt_s;
-            self.watch_ticks = 0;
-            if let Some(sec) = tube.locate(load_m.xy(), self.load_hint) {
-                self.load_hint = sec.segment;
-                arrived = sec.remaining_m <= self.end_tol_m;
-                // The team cannot hold the tube (wind beyond its capacity): set the load down
-                // here, inside the tube (issue 29; vt_dissipative::phases::cannot_hold).
-                self.load_s_max_m = self.load_s_max_m.max(sec.s_m);
-                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, sec.boundary_distance_m(load_m.xy())) {
-                    profile.set_down_now();
-                }
-            }
-        }
-        profile.step(dt_s, Some(load_m.z), arrived, holding);
-        if profile.phase() == Phase::Lift && load_m.z < profile.params().ground_z_m + profile.params().lift_clear_m {
-            // An overload shows as the own cable's tension passing the abort level with the
-            // load still down (vt_dissipative::phases::LIFT_ABORT_FACTOR).
-            if cable_tension_n(&self.f_hat_n, own_m, load_m) > LIFT_ABORT_FACTOR * self.rated_n {
-                profile.abort_lift();
-            }
-        }
-        if let Some(pending) = self.pending.as_mut() {
-            if profile.surveying() && !holding {
-                pending.survey.push_own(own_m);
-                pending.survey.push_load(load_m);
-                if finite3(&self.f_hat_n) {
-                    pending.f_hat_sum_n += self.f_hat_n;
-                    pending.f_hat_samples = pending.f_hat_samples.saturating_add(1);
-                }
-                for (j, v) in view.iter().enumerate().take(self.n) {
-                    if let (true, Some(p)) = (j != self.id, v) {
-                        pending.survey.push_member(j, p);
-                    }
-                }
-            }
-            if profile.ready_to_arm() {
-                // The survey's means (the last sample for a source it has none of); a member
-                // never heard refuses, as at an air start.
-                let mut takeoff = [Vec3::zeros(); MAX_UAVS];
-                let mut complete = true;
-                for (j, slot) in takeoff.iter_mut().enumerate().take(self.n) {
-                    let pos = if j == self.id { pending.survey.own().or(Some(*own_m)) } else { pending.survey.member(j).or(view.get(j).copied().flatten()) };
-                    complete &= pos.is_some();
-                    *slot = pos.unwrap_or(*own_m);
-                }
-                let ground_load = pending.survey.load().unwrap_or(*load_m);
-                // The wind the hover's observer saw (issue 29), with the survey's geometry.
-                let own_mean = takeoff.get(self.id).copied().unwrap_or(*own_m);
-                let dir = (own_mean - ground_load).try_normalize(1e-6);
-                let p = &pending.params;
-                let seen_wind = match (dir, pending.f_hat_samples) {
-                    (Some(u), k) if k > 0 => wind_from_observer(&(pending.f_hat_sum_n / k as f32), &u, p.get(Param::DragQ), p.get(Param::DragL)),
-                    _ => None,
-                };
-                let armed = if complete { arm(p, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load, seen_wind) } else { Err(StartError::StaleData) };
-                match armed {
-                    Ok(high) => {
-                        self.high = Some(high);
-                        profile.armed(ground_load.z);
-                    }
-                    Err(e) => {
-                        self.refusal = Some(e);
-                        self.refusal_unreported = true;
-                        profile.refuse();
-                    }
-                }
-                // Keep the nominal law for a refused team's slack; forget the rest.
-                if self.high.is_some() {
-                    self.pending = None;
-                }
-            }
-        }
-        if profile.abort() == Some(Abort::LiftFailed) && self.refusal.is_none() {
-            self.refusal = Some(StartError::LiftFailed);
-            self.refusal_unreported = true;
-        }
-    }
-
-    /// The command of a ground start without its armed law (own and load data only): the own
-    /// horizontal position held; vertically the nominal cable's altitude law on the ramp
-    /// (take-off, slack), or the tension build-up on the observer's tension estimate.
-    fn unarmed_command(&self, own_m: &Vec3, load_m: &Vec3) -> Vec3 {
-        let (Some(profile), Some(pending)) = (self.profile.as_ref(), self.pending.as_ref()) else {
-            return Vec3::zeros();
-        };
-        let vp = VerticalParams { load_altitude_ref_m: profile.load_altitude_ref_m(), ..pending.vertical };
-        let v_max = pending.params.get(Param::VMax);
-        let mut v_xy = (pending.hold_xy_m - own_m.xy()) * HOLD_POSITION_GAIN_PER_S;
-        let speed = vt_fpu::norm(&v_xy);
-        if speed > v_max && speed > 0.0 {
-            v_xy *= v_max / speed;
-        }
-        let d = own_m - load_m;
-        let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
-        let v_z = if profile.phase() == Phase::Tension {
-            let tension = cable_tension_n(&self.f_hat_n, own_m, load_m);
-            // Never above the longest plausible cable's taut altitude.
-            let ceiling = vp.load_altitude_ref_m.max(load_m.z) + vt_fpu::sqrt((pending.params.max_cable_m() * pending.params.max_cable_m() - offset * offset).max(0.0));
-            let v = tension_climb_mps(tension, profile.params());
-            if own_m.z >= ceiling { v.min(0.0) } else { v }
-        } else {
-            vp.vertical_velocity_mps(own_m.z, offset)
-        };
-        let v = Vec3::new(v_xy.x, v_xy.y, v_z);
-        if finite3(&v) { v } else { Vec3::zeros() }
-    }
-
-    /// The mission's phase (an air start: [`Phase::Transport`] until a set-down).
-    pub fn phase(&self) -> Phase {
-        self.profile.as_ref().map_or(Phase::Transport, PhaseProfile::phase)
-    }
-
-    /// The load altitude reference of the phases, m.
-    pub fn load_altitude_ref_m(&self) -> Option<f32> {
-        self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m)
-    }
-
     /// Why a ground start was refused at its arming or abandoned its lift (the load on the
     /// ground); `None` while it flies.
     pub fn refusal(&self) -> Option<&StartError> {
@@ -729,32 +582,6 @@ impl Flight {
     pub fn low_level_ticks(&self) -> u32 {
         self.ll_ticks
     }
-}
-
-/// The own cable's tension as the observer estimates it: `f_hat` along the unit vector from the
-/// load to the UAV, N (the estimate `vt_dissipative::vertical` shares the load with); NaN with
-/// the UAV on the load.
-fn cable_tension_n(f_hat_n: &Vec3, own_m: &Vec3, load_m: &Vec3) -> f32 {
-    let d = own_m - load_m;
-    let len = vt_fpu::sqrt(d.norm_squared());
-    if len > 0.0 { f_hat_n.dot(&d) / len } else { f32::NAN }
-}
-
-/// The ground start before its arming: what the arming reads and what the UAV flies until then.
-#[derive(Debug, Clone)]
-struct Pending {
-    /// The parameters the arming reads.
-    params: Params,
-    /// The own horizontal position held until the arming, m.
-    hold_xy_m: Vector2<f32>,
-    /// The altitude law of the nominal cable (take-off, and the slack after a refusal).
-    vertical: VerticalParams,
-    /// The survey of the tension phase's last `settle_s` (the arming calibrates from it).
-    survey: TakeoffSurvey<MAX_UAVS>,
-    /// The observer's force estimate summed over the survey, N, and its samples (the wind
-    /// estimate of the hover, `vt_dissipative::wind::wind_from_observer`).
-    f_hat_sum_n: Vec3,
-    f_hat_samples: u32,
 }
 
 /// The arming: the cable calibration from the positions of every UAV and the load
