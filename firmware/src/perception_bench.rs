@@ -49,6 +49,7 @@ const SCANS: usize = 75;
 
 static PERCEPTION: StaticCell<Perception> = StaticCell::new();
 static TUBE: StaticCell<CompanionTube> = StaticCell::new();
+static GRID: StaticCell<vt_map::OccupancyGrid<{ vt_companion::perception::MAP_CELLS }>> = StaticCell::new();
 
 /// Range along the ray from `o` in direction `(c, s)` to the nearest pillar, m (`None`: none
 /// within [`RANGE_M`]).
@@ -135,6 +136,35 @@ pub fn run() -> ! {
         load = Vec3::new(o.x, o.y, 3.0);
     }
     let mean = (sum / SCANS as u64) as u32;
+    // The map's fold alone (no tube test of new cells): the same scans into a fresh grid.
+    if let Ok(grid) = vt_map::OccupancyGrid::new(280, 120, 0.25, Vec2::new(0.0, 0.0)) {
+        let grid = GRID.init(grid);
+        let (mut gsum, mut gmax, mut cells) = (0u64, 0u32, 0usize);
+        for k in 0..SCANS {
+            let scan = scan_at(Vec2::new(3.0 + 0.5 * k as f32, 15.0));
+            let t0 = board::cycles();
+            let st = grid.integrate_sectors(&scan, &vt_map::LogOddsParams::default(), vt_companion::perception::FOLD, |_, _| {});
+            let ticks = board::cycles().wrapping_sub(t0);
+            gsum += u64::from(ticks);
+            gmax = gmax.max(ticks);
+            cells += st.cells_updated;
+        }
+        // Synthetic scans at the map's middle (no tube test): every sector clear (the most free
+        // space), every sector hit just short of the free range (the most free space and a hit
+        // cell each) and every sector hit at 5.9 m (arcs of three cells).
+        let mut synthetic = [0u32; 3];
+        for (t, ret) in synthetic.iter_mut().zip([Return::Clear, Return::Hit(9.9), Return::Hit(5.9)]) {
+            let mut scan = Scan::new(Vec2::new(35.0, 15.0), 0.0, 2.0 * core::f32::consts::PI / SECTORS as f32, RANGE_M);
+            for _ in 0..SECTORS {
+                let _ = scan.returns.push(ret);
+            }
+            let t0 = board::cycles();
+            grid.integrate_sectors(&scan, &vt_map::LogOddsParams::default(), vt_companion::perception::FOLD, |_, _| {});
+            *t = board::cycles().wrapping_sub(t0);
+        }
+        defmt::info!("perception bench: synthetic folds: clear {=u32}, far hits {=u32}, near hits {=u32} ticks", synthetic[0], synthetic[1], synthetic[2]);
+        defmt::info!("perception bench: fold alone: mean {=u32}, max {=u32} ticks, {=usize} cells per scan", (gsum / SCANS as u64) as u32, gmax, cells / SCANS);
+    }
     defmt::info!("perception bench: map update: {=usize} scans, mean {=u32}, max {=u32} ticks, blocked {=bool}", SCANS, mean, max, p.blocked());
     time_replan(p, tube, &load, 1);
     defmt::info!("perception bench: done; stack used {=u32} bytes", board::stack_used_bytes());

@@ -34,6 +34,47 @@ pub fn cannot_hold(progress_lost_m: f32, load_boundary_m: f32) -> bool {
     progress_lost_m > SET_DOWN_BLOWN_BACK_M || load_boundary_m < SET_DOWN_LOAD_EDGE_M
 }
 
+/// The load must have been this far inside its tube before the edge trigger of [`cannot_hold`]
+/// counts, m: a tube re-planned in flight (issue 28) may start with the load near its edge, and
+/// that is the planner's fit around an obstacle, not the team losing the tube.
+pub const SET_DOWN_EDGE_ARM_M: f32 = 2.0 * SET_DOWN_LOAD_EDGE_M;
+
+/// The set-down's watch over one tube: the furthest the load got along it, and whether the load
+/// has been [`SET_DOWN_EDGE_ARM_M`] inside it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HoldWatch {
+    /// Furthest arc length of the load along the tube so far, m.
+    s_max_m: f32,
+    /// The load has been [`SET_DOWN_EDGE_ARM_M`] inside the tube.
+    edge_armed: bool,
+}
+
+impl Default for HoldWatch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl HoldWatch {
+    /// A watch over a tube the load has not been seen in yet.
+    pub const fn new() -> Self {
+        Self {
+            s_max_m: f32::MIN,
+            edge_armed: false,
+        }
+    }
+
+    /// One look at the load: its arc length `s_m` along the tube and its distance to the
+    /// boundary `load_boundary_m`, m. True when the team cannot hold the tube ([`cannot_hold`],
+    /// the edge only once armed). NaN figures never trigger.
+    pub fn cannot_hold(&mut self, s_m: f32, load_boundary_m: f32) -> bool {
+        self.s_max_m = self.s_max_m.max(s_m);
+        self.edge_armed |= load_boundary_m >= SET_DOWN_EDGE_ARM_M;
+        let edge = if self.edge_armed { load_boundary_m } else { f32::INFINITY };
+        cannot_hold(self.s_max_m - s_m, edge)
+    }
+}
+
 /// A team hold during the lift longer than this abandons it, s (the load is still down; a UAV
 /// that refused its arming holds its team).
 pub const LIFT_HOLD_ABORT_S: f32 = 3.0;
@@ -558,6 +599,19 @@ mod tests {
     }
 
     /// The set-down's trigger: carried back beyond 2 m, or within the edge of the boundary.
+    #[test]
+    fn the_watch_arms_the_edge_once_the_load_was_well_inside() {
+        let mut w = HoldWatch::new();
+        // A re-planned tube with the load near its edge: not the team losing it.
+        assert!(!w.cannot_hold(4.0, 0.45) && !w.cannot_hold(4.0, 0.45));
+        assert!(!w.cannot_hold(4.5, SET_DOWN_EDGE_ARM_M));
+        assert!(w.cannot_hold(5.0, 0.45), "armed: the edge counts");
+        let mut w = HoldWatch::new();
+        assert!(!w.cannot_hold(10.0, 0.3) && !w.cannot_hold(8.5, 0.3));
+        assert!(w.cannot_hold(7.9, 0.3), "carried back more than 2 m counts unarmed");
+        assert!(!HoldWatch::new().cannot_hold(f32::NAN, f32::NAN));
+    }
+
     #[test]
     fn cannot_hold_reads_drift_and_edge() {
         assert!(!cannot_hold(0.0, 2.0) && !cannot_hold(SET_DOWN_BLOWN_BACK_M, SET_DOWN_LOAD_EDGE_M));

@@ -1,5 +1,5 @@
-//! `f32` square root and Euclidean norms for the controller crates, in hardware where the MCU
-//! has it.
+//! `f32` square root and Euclidean norms for the controller crates, and a four-lane byte add for
+//! the onboard map, in hardware where the MCU has it.
 //!
 //! `libm::sqrtf` (and nalgebra's `norm()`, which calls it under `no_std`) is a software routine
 //! of about 55 instructions on a Cortex-M4F, which has a single-precision `VSQRT.F32`. Stable
@@ -65,10 +65,65 @@ pub fn direction<const D: usize>(v: &SVector<f32, D>) -> Option<(SVector<f32, D>
     (n > 0.0 && n.is_finite()).then(|| (v / n, n))
 }
 
+/// `max(sat(c + add), floor)` on each of the four `i8` lanes of `w` (little-endian bytes),
+/// `add4` and `floor4` holding one `i8` per lane: a saturating add and a clamp from below. On
+/// hard-float ARM (the Cortex-M4F's DSP extension, ARMv7E-M) three instructions, `QADD8`,
+/// `SSUB8` and `SEL`, which stable `core` does not expose; elsewhere lane by lane. Both give the
+/// same bits for every input (tests), so SIL and PIL agree.
+#[inline(always)]
+#[must_use]
+pub fn i8x4_add_sat_max(w: u32, add4: u32, floor4: u32) -> u32 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        let r: u32;
+        // SAFETY: QADD8 (saturating signed add per byte), SSUB8 (per-byte signed compare into
+        // the APSR.GE flags) and SEL (per-byte select on GE) exist on every hard-float ARM core
+        // this builds for (ARMv7E-M, ARMv7-A); they touch only the named core registers and
+        // APSR.GE, which the compiler never reads across an asm block (flags not preserved).
+        #[allow(unsafe_code)]
+        unsafe {
+            core::arch::asm!(
+                "qadd8 {s}, {w}, {a}",
+                "ssub8 {t}, {s}, {f}",
+                "sel {s}, {s}, {f}",
+                w = in(reg) w,
+                a = in(reg) add4,
+                f = in(reg) floor4,
+                s = out(reg) r,
+                t = out(reg) _,
+                options(pure, nomem, nostack),
+            );
+        }
+        r
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        let (a, f) = (add4.to_le_bytes(), floor4.to_le_bytes());
+        let mut out = w.to_le_bytes();
+        for ((c, a), f) in out.iter_mut().zip(a).zip(f) {
+            let sum = (*c as i8).saturating_add(a as i8);
+            *c = sum.max(f as i8) as u8;
+        }
+        u32::from_le_bytes(out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::{Vector2, Vector3};
+
+    #[test]
+    fn byte_lanes_add_saturate_and_clamp_each_lane_alone() {
+        let lanes = |v: [i8; 4]| u32::from_le_bytes(v.map(|x| x as u8));
+        let w = lanes([-128, 127, 5, -30]);
+        assert_eq!(i8x4_add_sat_max(w, lanes([-1, 1, -14, -14]), lanes([-128, -128, -32, -32])), lanes([-128, 127, -9, -32]));
+        for c in i8::MIN..=i8::MAX {
+            let want = i16::from(c).saturating_add(-14).clamp(-128, 127).max(-32) as i8;
+            let got = i8x4_add_sat_max(lanes([c; 4]), lanes([-14; 4]), lanes([-32; 4]));
+            assert_eq!(got, lanes([want; 4]), "{c}");
+        }
+    }
     use proptest::prelude::*;
 
     #[test]

@@ -29,8 +29,6 @@ pub struct OccupancyGrid<const CELLS: usize> {
     pub(crate) resolution_m: f32,
     /// Lower-left corner of cell `(0, 0)`, world ENU, m.
     pub(crate) origin_m: Vec2,
-    /// Cells with log-odds > 0.
-    pub(crate) occupied: usize,
 }
 
 impl<const CELLS: usize> fmt::Debug for OccupancyGrid<CELLS> {
@@ -40,7 +38,6 @@ impl<const CELLS: usize> fmt::Debug for OccupancyGrid<CELLS> {
             .field("height", &self.height)
             .field("resolution_m", &self.resolution_m)
             .field("origin_m", &(self.origin_m.x, self.origin_m.y))
-            .field("occupied", &self.occupied)
             .finish_non_exhaustive()
     }
 }
@@ -62,7 +59,6 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             height: 0,
             resolution_m: 1.0,
             origin_m: Vec2::new(0.0, 0.0),
-            occupied: 0,
         }
     }
 
@@ -130,7 +126,6 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     /// Forgets every cell (all unknown), keeping the geometry.
     pub fn clear(&mut self) {
         self.cells.fill(0);
-        self.occupied = 0;
     }
 
     /// Bytes of RAM the grid takes (`size_of::<Self>()`).
@@ -199,9 +194,10 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         Some(self.origin_m + Vec2::new(i as f32 + 0.5, j as f32 + 0.5) * self.resolution_m)
     }
 
-    /// Cells with log-odds > 0 (kept up to date by every update, O(1)).
+    /// Cells with log-odds > 0, counted: O(width x height). (A running count would cost the
+    /// scan fold a compare per freed cell on the flight MCU, and only tests and reports ask.)
     pub fn occupied_count(&self) -> usize {
-        self.occupied
+        self.cells().iter().filter(|&&l| l > 0).count()
     }
 
     /// Writes the planner's grid, `coarsen` times coarser, into `out`: `0.0` where any fine

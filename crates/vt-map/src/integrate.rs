@@ -142,9 +142,8 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         Some(BeamRay { a, b, hit_cell })
     }
 
-    /// Adds `delta` to cell `(i, j)` (saturating, clamped), keeping the occupied count and
-    /// reporting a new occupied cell.
-    fn update(
+    /// Adds `delta` to cell `(i, j)` (saturating, clamped), reporting a new occupied cell.
+    pub(crate) fn update(
         &mut self,
         i: usize,
         j: usize,
@@ -161,11 +160,8 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         *cell = new;
         stats.cells_updated += 1;
         if old <= 0 && new > 0 {
-            self.occupied += 1;
             stats.newly_occupied += 1;
             on_new_occupied(i, j);
-        } else if old > 0 && new <= 0 {
-            self.occupied = self.occupied.saturating_sub(1);
         }
     }
 }

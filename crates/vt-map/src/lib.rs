@@ -63,15 +63,18 @@ mod brute_force;
 mod error;
 pub mod grid;
 pub mod integrate;
+mod lanes;
 pub mod log_odds;
 pub mod ray;
 pub mod scan;
+pub mod sector;
 
 pub use error::MapError;
 pub use grid::OccupancyGrid;
 pub use integrate::IntegrateStats;
 pub use log_odds::{probability, LogOddsParams, LOG_ODDS_PER_NAT};
 pub use scan::{Return, Scan, MAX_BEAMS};
+pub use sector::SectorFold;
 
 /// 2-D vector, world ENU, metres.
 pub type Vec2 = nalgebra::Vector2<f32>;

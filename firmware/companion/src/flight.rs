@@ -31,7 +31,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
-    PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
+    phases::HoldWatch, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -272,8 +272,12 @@ pub struct Flight {
     load_hint: usize,
     /// Rated cable tension `VT_CABLE_RATED`, N (the lift's overload abort).
     rated_n: f32,
-    /// The furthest the load got along the tube in transport, m (the set-down's trigger).
-    load_s_max_m: f32,
+    /// The set-down's watch over the current tube (the load's furthest progress, the edge).
+    hold_watch: HoldWatch,
+    /// This UAV declined the team's newer tube and flies its old one (issue 28): where the load
+    /// lies in the old tube says nothing about the team holding the new one, so the set-down's
+    /// watch waits for the next switch.
+    on_declined_tube: bool,
     /// High-level steps between two looks at the load in transport ([`TRANSPORT_WATCH_S`]).
     watch_every: u32,
     /// High-level steps since the last look.
@@ -370,7 +374,8 @@ impl Flight {
             end_tol_m: params.get(Param::EndTol),
             load_hint: 0,
             rated_n: params.get(Param::CableRated),
-            load_s_max_m: f32::MIN,
+            hold_watch: HoldWatch::new(),
+            on_declined_tube: false,
             watch_every: watch_every(params.high_level_dt_s()),
             watch_ticks: 0,
         })
@@ -561,11 +566,19 @@ impl Flight {
         self.no_route = on;
     }
 
-    /// The tube was switched (issue 28): the load's progress restarts on the new tube (the
-    /// set-down's drift trigger compares arc lengths of one tube), its lookup from anywhere.
+    /// The tube was switched (issue 28): the set-down's watch restarts on the new tube (its
+    /// drift trigger compares arc lengths of one tube; its edge trigger waits until the load has
+    /// been well inside the new one), the load's lookup from anywhere.
     pub fn tube_switched(&mut self) {
-        self.load_s_max_m = 0.0;
+        self.hold_watch = HoldWatch::new();
+        self.on_declined_tube = false;
         self.load_hint = 0;
+    }
+
+    /// This UAV declined a newer tube and keeps flying its own (issue 28): the set-down's watch
+    /// waits until it switches.
+    pub fn tube_declined(&mut self) {
+        self.on_declined_tube = true;
     }
 
     /// True while the operator's hold is on.

@@ -21,7 +21,7 @@
 //! cell is occupied when any of its cells is (conservative).
 
 use crate::{CompanionTube, Vec3};
-use vt_map::{LogOddsParams, OccupancyGrid, Return, Scan};
+use vt_map::{LogOddsParams, OccupancyGrid, Scan, SectorFold};
 use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
@@ -111,7 +111,7 @@ impl Perception {
         Ok(Self {
             cfg,
             map,
-            log_odds: LogOddsParams::default(),
+            log_odds: LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::default() },
             plan_cells: [0.0; PLAN_CELLS],
             line: [0.0; 3 * PLAN_LINE + 1],
             envelope: [0; PLAN_LINE + 1],
@@ -133,10 +133,10 @@ impl Perception {
     ///
     /// A beam is a sector, as `OBSTACLE_DISTANCE` defines it: the *closest* obstacle within
     /// the sector's angle is at the reported range. So the whole sector is free up to that
-    /// range and the obstacle lies somewhere on its arc there: the map is updated along
-    /// [`sub_rays`] rays spread across each sector, each with the sector's range (a single
-    /// centre ray would leave gaps of `range x increment`, 1.3 m at 15 m and 5 deg, that a
-    /// tube could cut through).
+    /// range and the obstacle lies somewhere on its arc there: the map frees the circular
+    /// sector and marks the arc within [`SPREAD_RANGE_M`], its centre beyond
+    /// ([`OccupancyGrid::integrate_sectors`]; a single centre ray would leave gaps of
+    /// `range x increment`, 1.3 m at 15 m and 5 deg, that a tube could cut through).
     pub fn integrate(&mut self, scan: &Scan, tube: Option<&CompanionTube>, load_s_m: f32) {
         // A cell's square reaches into the tube when its centre is within half a diagonal.
         let margin = 0.71 * self.cfg.cell_m;
@@ -144,35 +144,21 @@ impl Perception {
         let mut blocked_s = self.blocked_s_m;
         let map = &mut self.map;
         let (res, origin) = (map.resolution_m(), map.origin_m());
-        let m = sub_rays(scan, res);
-        let mut sub = scan.clone();
         // The tube lookups of one scan's new cells warm-start from the previous one's section.
         let mut hint = 0usize;
-        for u in 0..m {
-            sub.first_angle_rad = scan.first_angle_rad + scan.increment_rad * ((u as f32 + 0.5) / m as f32 - 0.5);
-            // Off the sector's centre a far hit's place on its arc is a guess a metre wide:
-            // only the free space before it counts there (see `SPREAD_RANGE_M`).
-            let centre = m == 1 || u == m / 2;
-            for (r, orig) in sub.returns.iter_mut().zip(&scan.returns) {
-                *r = match *orig {
-                    Return::Hit(d) if !centre && d > SPREAD_RANGE_M => Return::Unknown,
-                    other => other,
-                };
-            }
-            map.integrate(&sub, &self.log_odds, |i, j| {
-                let Some(tube) = tube else {
-                    return;
-                };
-                let c = origin + vt_map::Vec2::new((i as f32 + 0.5) * res, (j as f32 + 0.5) * res);
-                if let Some(sec) = tube.locate(c, hint) {
-                    hint = sec.segment;
-                    if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m {
-                        blocked = true;
-                        blocked_s = blocked_s.min(sec.s_m);
-                    }
+        map.integrate_sectors(scan, &self.log_odds, FOLD, |i, j| {
+            let Some(tube) = tube else {
+                return;
+            };
+            let c = origin + vt_map::Vec2::new((i as f32 + 0.5) * res, (j as f32 + 0.5) * res);
+            if let Some(sec) = tube.locate(c, hint) {
+                hint = sec.segment;
+                if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m {
+                    blocked = true;
+                    blocked_s = blocked_s.min(sec.s_m);
                 }
-            });
-        }
+            }
+        });
         self.blocked |= blocked;
         self.blocked_s_m = blocked_s;
     }
@@ -255,25 +241,32 @@ impl Perception {
     }
 }
 
-/// Rays per sector of `scan` on a map of `cell_m` cells: enough that the rays at the sensor's
-/// range are at most a cell apart (1 to [`MAX_SUB_RAYS`]).
-pub fn sub_rays(scan: &Scan, cell_m: f32) -> usize {
-    let spread = libm::fabsf(scan.increment_rad) * scan.max_range_m / cell_m;
-    if spread.is_finite() && spread >= 1.0 {
-        (libm::ceilf(spread) as usize).min(MAX_SUB_RAYS)
-    } else {
-        1
-    }
-}
+/// How the companion folds a scan: arcs marked within [`SPREAD_RANGE_M`], free space out to
+/// [`FREE_RANGE_M`].
+pub const FOLD: SectorFold = SectorFold { spread_range_m: SPREAD_RANGE_M, free_range_m: FREE_RANGE_M };
 
-/// Hits farther than this mark their sector's whole arc only through the centre ray (the
-/// free space before them through every ray): at 6 m a 5 deg arc is 0.52 m, two cells; beyond,
-/// the arc would paint obstacles a metre wider than they are, closing passages the team sees
-/// open once it is nearer.
+/// Beams are inserted out to this range, m (OctoMap's `maxrange`): the simulated LiDAR's 15 m,
+/// so nothing is cut. A scan's cost on the flight MCU grows with the square of this range: at
+/// 10 m the fold meets the 1 ms budget (165 k instructions against 168 k), at 15 m it takes
+/// 243 k. Measured (docs/design.md, "Tubes generated in flight"): at 10 m stale cells marked
+/// from afar stay out of the free space's reach, and the 3-UAV re-route flew to the goal in
+/// 1 of 3 seeds (false `no_route` in 2), the yard in 0 of 3; at 15 m in 3 of 3 and 1 of 3.
+/// A map that flies comes first; the budget is reported missed (docs/benchmarks.md).
+pub const FREE_RANGE_M: f32 = 15.0;
+
+/// A sector's miss, 1/16 nat (p_miss 0.29; OctoMap's ray miss is -7, p 0.4): a cell in a
+/// sector's free space was crossed by every ray of the sector that passed it (the LiDAR fills a
+/// 5 deg sector from ten rays 0.5 deg apart, and a 0.25 m cell at 6 m lies across two or three
+/// of them), where the fold updates it once. Measured on the four unknown-map scenarios
+/// (docs/design.md, "Tubes generated in flight"): with -7 the paper world's team stalled at its
+/// third passage and the yard's did not arrive; -10 gave the yard a false `no_route`.
+pub const SECTOR_MISS: i8 = -14;
+
+/// Hits farther than this mark only their sector's centre, not its whole arc (the free space
+/// before them is the whole sector either way): at 6 m a 5 deg arc is 0.52 m, two cells;
+/// beyond, the arc would paint obstacles a metre wider than they are, closing passages the
+/// team sees open once it is nearer.
 pub const SPREAD_RANGE_M: f32 = 6.0;
-
-/// Most rays a sector is spread into.
-pub const MAX_SUB_RAYS: usize = 8;
 
 /// Where a re-planned tube starts: the current tube's generator [`BACKOFF_M`] behind the
 /// load's section (its start when the load is nearer to it).

@@ -71,12 +71,18 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     // An obstacle off the tube does not trigger: a scan that only sees a circle far north.
     p.integrate(&scan(V2::new(8.0, 10.0), &[(V2::new(8.0, 18.5), 1.0)]), Some(&tube), 5.0);
     assert!(!p.blocked(), "an obstacle outside the tube");
-    // Seen from 12 m the rock is marked along its sectors' centre rays only (gaps of a metre),
-    // and is already in the tube ahead.
+    // Seen from 12 m the rock is marked at its sectors' centres only (gaps of a metre), and is
+    // already in the tube ahead. Those cells were seen free by the first scan: a sector's miss
+    // cancels one hit (perception::SECTOR_MISS), so the second scan of the rock marks them.
+    p.integrate(&scan(V2::new(8.0, 10.0), &[rock]), Some(&tube), 5.0);
+    assert!(!p.blocked(), "one hit only cancels the free evidence of the first scan");
     p.integrate(&scan(V2::new(8.0, 10.0), &[rock]), Some(&tube), 5.0);
     assert!(p.blocked(), "the rock lies in the tube ahead");
-    // From 6 m the sectors' arcs close the gaps.
-    p.integrate(&scan(V2::new(14.0, 10.0), &[rock]), Some(&tube), 11.0);
+    // From 6 m the sectors' arcs close the gaps. The first scan saw the rock's place free, and
+    // a sector's miss cancels one hit: two looks (0.1 s at 10 Hz) mark the rock there.
+    for _ in 0..2 {
+        p.integrate(&scan(V2::new(14.0, 10.0), &[rock]), Some(&tube), 11.0);
+    }
     assert!(p.replan_due(0));
     let planned = p.replan(&tube, &load, 0).unwrap();
     assert!(!p.blocked() && !p.replan_due(999) && p.replan_due(1000), "the schedule restarts");

@@ -21,6 +21,17 @@ pub struct PerceptionBench {
     pub map_update_mean: f64,
     /// The same, worst scan.
     pub map_update_max: f64,
+    /// Instructions per scan of the map's fold alone (`OccupancyGrid::integrate_sectors`, no
+    /// tube test of the newly occupied cells), mean and worst.
+    pub fold_alone_mean: f64,
+    /// The same, worst scan.
+    pub fold_alone_max: f64,
+    /// Cells the fold updates per scan, mean.
+    pub cells_per_scan: u64,
+    /// Instructions of the fold alone on synthetic scans at the map's middle: every sector
+    /// clear, every sector hit at 9.9 m (just short of the free range), every sector hit at
+    /// 5.9 m (arcs of three cells).
+    pub fold_synthetic: [f64; 3],
     /// Instructions of the re-plan on the empty map.
     pub replan_empty_map: f64,
     /// Instructions of the re-plan after the last scan (the map seen most).
@@ -73,6 +84,10 @@ pub fn parse(log: &[String]) -> Result<PerceptionBench, PilError> {
         scans: find("map update:", "map update: ").ok_or_else(|| missing("map update"))?,
         map_update_mean: ticks("map update:", "mean ")?,
         map_update_max: ticks("map update:", "max ")?,
+        fold_alone_mean: ticks("fold alone:", "mean ")?,
+        fold_alone_max: ticks("fold alone:", "max ")?,
+        cells_per_scan: find("fold alone:", "ticks, ").ok_or_else(|| missing("cells per scan"))?,
+        fold_synthetic: [ticks("synthetic folds:", "clear ")?, ticks("synthetic folds:", "far hits ")?, ticks("synthetic folds:", "near hits ")?],
         replan_empty_map: ticks("replan 0:", "replan 0: ")?,
         replan_seen_map: ticks("replan 1:", "replan 1: ")?,
         replans_ok: replan_ok("0") && replan_ok("1"),
@@ -89,6 +104,7 @@ impl PerceptionBench {
         serde_json::json!({
             "mcu_map_update_instructions": self.map_update_max.round() as u64,
             "mcu_map_update_instructions_mean": self.map_update_mean.round() as u64,
+            "mcu_map_fold_synthetic_worst_instructions": self.fold_synthetic.iter().copied().fold(0.0, f64::max).round() as u64,
             "mcu_replan_instructions": self.replan_empty_map.max(self.replan_seen_map).round() as u64,
             "perception_state_bytes": self.state_bytes,
         })

@@ -30,7 +30,12 @@ impl<'t> Companion<'t> {
         let load = core.sources.load.map(|s| s.value.pos_m).ok_or(Keep::LoadOutside)?;
         let r_safe = core.params.r_safe_m();
         let band_mid = 0.5 * (r_safe + core.params.get(Param::RActive));
-        accept(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid)?;
+        if let Err(keep) = accept(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid) {
+            if let Some(fl) = core.flight.as_mut() {
+                fl.tube_declined();
+            }
+            return Err(keep);
+        }
         core::mem::swap(&mut core.tube, candidate);
         core.tube_ok = true;
         if let Some(fl) = core.flight.as_mut() {

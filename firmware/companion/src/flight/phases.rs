@@ -4,7 +4,7 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::phases::{cannot_hold, tension_climb_mps, LIFT_ABORT_FACTOR};
+use vt_dissipative::phases::{tension_climb_mps, LIFT_ABORT_FACTOR};
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
@@ -50,9 +50,8 @@ impl Flight {
                 self.load_hint = sec.segment;
                 arrived = sec.remaining_m <= self.end_tol_m;
                 // The team cannot hold the tube (wind beyond its capacity): set the load down
-                // here, inside the tube (issue 29; vt_dissipative::phases::cannot_hold).
-                self.load_s_max_m = self.load_s_max_m.max(sec.s_m);
-                if !arrived && cannot_hold(self.load_s_max_m - sec.s_m, sec.boundary_distance_m(load_m.xy())) {
+                // here, inside the tube (issue 29; vt_dissipative::phases::HoldWatch).
+                if !arrived && !self.on_declined_tube && self.hold_watch.cannot_hold(sec.s_m, sec.boundary_distance_m(load_m.xy())) {
                     profile.set_down_now();
                 }
             }
