@@ -49,7 +49,7 @@ mod tests {
     fn a_run_is_its_cells_one_by_one() {
         for (miss, floor) in [(-7i8, -32i8), (-14, -32), (-128, -128), (-1, -1), (-100, -20)] {
             for len in 0..11 {
-                let mut run: Vec<i8> = (0..len).map(|k| (k as i32 * 53 % 256 - 128) as i8).collect();
+                let mut run: Vec<i8> = (0..len).map(|k: i32| (k * 53 % 256 - 128) as i8).collect();
                 let want: Vec<i8> = run.iter().map(|&c| miss_one(c, miss, floor)).collect();
                 miss_run(&mut run, miss, floor);
                 assert_eq!(run, want, "miss {miss} floor {floor} len {len}");

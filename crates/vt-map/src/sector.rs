@@ -371,7 +371,7 @@ pub(crate) fn sin_cos(x: f32) -> (f32, f32) {
     const TWO_OVER_PI: f32 = core::f32::consts::FRAC_2_PI;
     // pi/2 = PIO2_HI + PIO2_LO, PIO2_HI with trailing zero bits so `k PIO2_HI` is exact.
     const PIO2_HI: f32 = 1.570_312_5;
-    const PIO2_LO: f32 = 4.838_267_9e-4;
+    const PIO2_LO: f32 = 4.838_268e-4;
     let q = x * TWO_OVER_PI;
     let k = if q >= 0.0 { (q + 0.5) as i32 } else { (q - 0.5) as i32 };
     let kf = k as f32;
