@@ -13,6 +13,9 @@
 //!   cell of its hit point ([`LogOddsParams`], OctoMap's sensor model and clamping: Hornung et
 //!   al., Autonomous Robots 2013). Rays are walked exactly ([`ray::traverse`], Amanatides and
 //!   Woo, Eurographics 1987); the caller hears of every newly occupied cell.
+//! - [`OccupancyGrid::integrate_sectors`]: the fold for `OBSTACLE_DISTANCE`, whose beams are
+//!   sectors: each sector's free space rasterised by scanlines, its hit across the arc nearby
+//!   ([`sector`]); the one the flight MCU runs.
 //! - [`OccupancyGrid::write_planner_cells`]: the occupied cells, optionally coarsened, in the
 //!   convention of `vt_plan::distance_transform` (0.0 occupied, `f32::INFINITY` free or
 //!   unknown).

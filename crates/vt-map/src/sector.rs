@@ -1,20 +1,22 @@
-//! Folding a sector scan into the grid within the flight MCU's budget (issue 28: 1 ms at
-//! 168 MHz, 168 k Cortex-M4 instructions per 72-sector scan).
+//! Folding a sector scan into the grid for the flight MCU (issue 28's budget: 1 ms at 168 MHz,
+//! 168 k Cortex-M4 instructions per 72-sector scan; docs/benchmarks.md has what it costs).
 //!
 //! A beam of MAVLink `OBSTACLE_DISTANCE` is a *sector*: its closest obstacle lies somewhere on
 //! the sector's arc at the reported range. So, per usable sector (docs/design.md, "Tubes
 //! generated in flight"):
-//! - **free space is the sector itself**: every cell whose centre lies in the circular sector
-//!   (within the sector's angle, at most `r` from the sensor) gets one miss. For a `Hit(r)` the
-//!   radius is `r` less half a cell diagonal, so no cell that may hold the obstacle's surface is
-//!   freed; a `Clear` sector is free out to the sensor's range. The sector is rasterised by
-//!   scanlines along its major axis (rows when it points mostly east or west, columns
-//!   otherwise), each scanline's cells one contiguous run: about ten instructions a cell, where
-//!   walking a ray cell by cell ([`crate::ray::traverse`]) costs over a hundred;
+//! - **free space is the sector itself**: every cell whose centre lies in the triangle of the
+//!   sensor and the sector's two edges at range `r` gets one miss (within `r (1 - cos(w/2))` of
+//!   the arc for width `w`: 1.4 cm at 15 m and 5 deg). For a `Hit(r)` the triangle stops half a
+//!   cell diagonal short of `r`, so no cell that may hold the obstacle's surface is freed; a
+//!   `Clear` sector is free out to the sensor's range. Beams are cut at the fold's free range
+//!   ([`SectorFold`], OctoMap's `maxrange`). The triangle is rasterised by scanlines along its
+//!   major axis (rows when it points mostly east or west, columns otherwise), each line one
+//!   contiguous run, a row run four cells at a time: a few instructions a cell, where walking a
+//!   ray cell by cell ([`crate::ray::traverse`]) costs over a hundred;
 //! - **hits across the arc** within `spread_range_m`: [`arc_points`] points spread across the
-//!   arc, a cell apart, each marks its cell. Beyond that range the arc is metres wide (1.3 m at
-//!   15 m and 5 deg) and only the sector's centre is marked; a guess elsewhere would close
-//!   passages the team sees open from nearer;
+//!   arc, half a cell apart, each marks its cell. Beyond that range the arc is metres wide
+//!   (1.3 m at 15 m and 5 deg) and only the sector's centre is marked; a guess elsewhere would
+//!   close passages the team sees open from nearer;
 //! - a cell holding a hit of this scan is never freed by its misses (OctoMap's rule, as in
 //!   [`OccupancyGrid::integrate`]): its value from before the scan is put back before the hits,
 //!   and each hit cell gets one hit per sector that marks it.
