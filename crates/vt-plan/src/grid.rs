@@ -46,19 +46,27 @@ pub fn distance_transform(
     if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 {
         return Err(PlanError::BadParams { field: "work space" });
     }
-    for c in cells.iter_mut() {
-        *c = if *c > 0.0 { f32::INFINITY } else { 0.0 };
-    }
     let (f, rest) = line.split_at_mut(n);
     let (d, h) = rest.split_at_mut(n);
-    // Columns: squared distance to the nearest occupied square of the same column.
+    // Columns: squared distance to the nearest occupied square of the same column (a column
+    // with none stays infinite, as the envelope of no parabola is).
     for i in 0..width {
+        let mut occupied = false;
         for j in 0..height {
-            f[j] = cells[j * width + i];
+            let c = cells[j * width + i];
+            f[j] = if c > 0.0 {
+                f32::INFINITY
+            } else {
+                occupied = true;
+                0.0
+            };
         }
-        square_pass(&f[..height], &mut d[..height], h, v, z);
-        for j in 0..height {
-            cells[j * width + i] = d[j];
+        if occupied {
+            square_pass(&f[..height], &mut d[..height], h, v, z);
+        }
+        let col = if occupied { &d[..height] } else { &f[..height] };
+        for (j, x) in col.iter().enumerate() {
+            cells[j * width + i] = *x;
         }
     }
     // Rows: `min over columns q of g(i - q) + column value`.
@@ -67,7 +75,7 @@ pub fn distance_transform(
         f[..width].copy_from_slice(row);
         square_pass(&f[..width], &mut d[..width], h, v, z);
         for (c, dd) in row.iter_mut().zip(d.iter()) {
-            *c = if dd.is_finite() { vt_fpu::sqrt(*dd) } else { f32::INFINITY };
+            *c = vt_fpu::sqrt(*dd); // the root of +inf is +inf
         }
     }
     Ok(())
@@ -85,11 +93,11 @@ fn square_pass(f: &[f32], d: &mut [f32], h: &mut [f32], v: &mut [usize], z: &mut
     // Site s = k + 1/2 for k = -1..n-1 is stored at index k + 1 (position idx - 1/2).
     for (idx, hk) in h.iter_mut().enumerate().take(n + 1) {
         let left = if idx == 0 { f32::INFINITY } else { at(idx - 1) };
-        *hk = left.min(at(idx));
+        *hk = vt_fpu::min(left, at(idx));
     }
     envelope(&h[..=n], d, v, z, -0.5);
     for (dx, fx) in d.iter_mut().zip(f.iter()) {
-        *dx = dx.min(*fx);
+        *dx = vt_fpu::min(*dx, *fx);
     }
 }
 
@@ -224,13 +232,13 @@ impl ClearanceMap for GridMap<'_> {
         for (dk, (c, r)) in depth.iter_mut().zip(discs.iter()) {
             *dk = r - vt_fpu::norm(&(rel - c));
         }
-        let simple = depth.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let simple = depth.iter().copied().fold(f32::NEG_INFINITY, vt_fpu::max);
         if simple * res >= cap_m {
             return simple * res;
         }
         // The grid's extent in centre coordinates: no occupied square lies beyond it.
         let (lo, hi) = (Vec2::new(-0.5, -0.5), Vec2::new(self.width as f32 - 0.5, self.height as f32 - 0.5));
-        union_depth(&discs, &depth, rel, lo, hi).max(0.0) * res
+        vt_fpu::max(union_depth(&discs, &depth, rel, lo, hi), 0.0) * res
     }
 }
 
@@ -293,7 +301,7 @@ fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], depth: &[f32; SIDE * SIDE], p
         if dist > 1e-6 {
             best = better(c + off * (r / dist), [k, k], best);
         } else {
-            best = best.min(r);
+            best = vt_fpu::min(best, r);
         }
         // Where circle k crosses the circles visited before it.
         for &m in &order[..idx] {
@@ -304,7 +312,7 @@ fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], depth: &[f32; SIDE * SIDE], p
                 continue;
             }
             let a = (r * r - rm * rm + d * d) / (2.0 * d);
-            let hh = vt_fpu::sqrt((r * r - a * a).max(0.0));
+            let hh = vt_fpu::sqrt(vt_fpu::max(r * r - a * a, 0.0));
             let mid = c + dc * (a / d);
             let perp = Vec2::new(-dc.y, dc.x) * (hh / d);
             best = better(mid + perp, [k, m], best);

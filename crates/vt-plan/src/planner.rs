@@ -444,8 +444,8 @@ fn fit_widths<M: ClearanceMap>(
             let kappa = if speed > 0.0 { (d1.x * d2.y - d1.y * d2.x) / (speed * speed * speed) } else { 0.0 };
             let fold = if kappa != 0.0 { FOLD_FRACTION / kappa.abs() } else { f32::INFINITY };
             let slack = params.margin_m + 0.5 * step.max(prev_step);
-            let clear = (map.clearance_capped_m(pos, params.max_half_width_m + slack) - slack).min(params.max_half_width_m);
-            let allow = clear.min(fold);
+            let clear = vt_fpu::min(params.max_half_width_m, map.clearance_capped_m(pos, params.max_half_width_m + slack) - slack);
+            let allow = vt_fpu::min(clear, fold);
             let allow = if allow.is_nan() { f32::NEG_INFINITY } else { allow };
             if allow < worst.0 {
                 worst = (allow, pos);

@@ -192,7 +192,7 @@ pub struct RadiusRule {
 impl RadiusRule {
     /// Free-disc radius at `p`: `min(clearance - margin, r_max)`, m.
     pub fn radius_m<M: ClearanceMap>(&self, map: &M, p_m: Vec2) -> f32 {
-        (map.clearance_capped_m(p_m, self.max_radius_m + self.margin_m) - self.margin_m).min(self.max_radius_m)
+        vt_fpu::min(self.max_radius_m, map.clearance_capped_m(p_m, self.max_radius_m + self.margin_m) - self.margin_m)
     }
 }
 
@@ -333,7 +333,7 @@ pub fn astar<M: ClearanceMap>(
             if rv < rule.need_m {
                 continue;
             }
-            let r_edge = ru.min(rv);
+            let r_edge = vt_fpu::min(ru, rv);
             let cost = len * h * (1.0 + rule.clearance_weight * (rule.max_radius_m / r_edge - 1.0));
             let g = gu + cost;
             if g < heap.ws.cost[v] {

@@ -265,7 +265,7 @@ impl<const N: usize> Tube<N> {
                 max = max.sup(&p.pos_m);
             }
             let center = (min + max) * 0.5;
-            let radius = pts.iter().map(|p| vt_fpu::norm(&(p.pos_m - center))).fold(0.0f32, f32::max);
+            let radius = pts.iter().map(|p| vt_fpu::norm(&(p.pos_m - center))).fold(0.0f32, vt_fpu::max);
             if let (Some(cc), Some(cr)) = (self.chunk_center_m.get_mut(c), self.chunk_radius_m.get_mut(c)) {
                 *cc = center;
                 *cr = radius;
@@ -308,37 +308,72 @@ impl<const N: usize> Tube<N> {
                 let below = k.checked_sub(g0).map(|hi| (k.saturating_sub(g1), hi));
                 let above = (k + g0 < N).then(|| (k + g0, (k + g1).min(N - 1)));
                 let bands = || below.into_iter().chain(above).flat_map(|(lo, hi)| self.samples.get(lo..=hi).unwrap_or(&[]));
-                let d2 = bands().map(|smp| (smp.pos_m - pk).norm_squared()).fold(f32::MAX, f32::min);
+                let d2 = if b == WINDOW_CLASSES {
+                    self.closest_in_ranges2(pk, [below, above])
+                } else {
+                    bands().map(|smp| (smp.pos_m - pk).norm_squared()).fold(f32::MAX, vt_fpu::min)
+                };
                 if let Some(slot) = sep2.get_mut(b) {
                     *slot = d2;
                 }
                 if let Some(slot) = kappa.get_mut(b) {
-                    *slot = bands().map(|smp| smp.curvature_pm.abs()).fold(0.0, f32::max);
+                    *slot = bands().map(|smp| smp.curvature_pm.abs()).fold(0.0, vt_fpu::max);
                 }
             }
             // Window b holds the classes <= b; the rest is outside it.
             let mut outside_of = [f32::MAX; WINDOW_CLASSES];
             let mut acc = f32::MAX;
             for b in (0..WINDOW_CLASSES).rev() {
-                acc = acc.min(sep2.get(b + 1).copied().unwrap_or(f32::MAX));
+                acc = vt_fpu::min(acc, sep2.get(b + 1).copied().unwrap_or(f32::MAX));
                 if let Some(slot) = outside_of.get_mut(b) {
                     *slot = acc;
                 }
             }
             let (mut best, mut kappa_w) = (0.0f32, 0.0f32);
             for b in 0..WINDOW_CLASSES {
-                kappa_w = kappa_w.max(kappa.get(b).copied().unwrap_or(f32::MAX));
+                kappa_w = vt_fpu::max(kappa_w, kappa.get(b).copied().unwrap_or(f32::MAX));
                 let w_m = (1usize << b) as f32 * self.ds_m;
                 let sep2_b = outside_of.get(b).copied().unwrap_or(0.0);
                 let sep_half = if sep2_b == f32::MAX { f32::MAX } else { 0.5 * vt_fpu::sqrt(sep2_b) };
                 let convex = if kappa_w > 0.0 { 1.0 / kappa_w - w_m } else { f32::MAX };
-                best = best.max(sep_half.min(convex));
+                best = vt_fpu::max(best, vt_fpu::min(sep_half, convex));
             }
             let r = (best - 2.0 * self.ds_m).max(0.0);
             if let Some(slot) = self.certify_m.get_mut(k) {
                 *slot = r;
             }
         }
+    }
+
+    /// The smallest squared distance from `p` to the samples of the index ranges (inclusive),
+    /// `f32::MAX` for none: the same value as the exhaustive minimum, with chunks skipped whose
+    /// bounding circle (padded by 1 mm against rounding) lies farther than the best so far.
+    fn closest_in_ranges2(&self, p: Vec2, ranges: [Option<(usize, usize)>; 2]) -> f32 {
+        let mut best = f32::MAX;
+        // Outwards from the ranges' inner ends: the chunks nearest along the tube are usually
+        // the nearest in the plane, so the farther ones are skipped.
+        let start = ranges.iter().flatten().map(|&(lo, hi)| if lo == 0 { hi } else { lo }).next().unwrap_or(0);
+        let c0 = (start / self.chunk_len.max(1)).min(CHUNKS - 1);
+        let order = (0..2 * CHUNKS).filter_map(|i| if i % 2 == 0 { c0.checked_add(i / 2) } else { c0.checked_sub(i / 2 + 1) }).filter(|&c| c < CHUNKS);
+        for c in order {
+            let (c_lo, c_hi) = ((c * self.chunk_len).min(N - 1), ((c + 1) * self.chunk_len).min(N - 1));
+            let parts = ranges.map(|r| r.map(|(lo, hi)| (lo.max(c_lo), hi.min(c_hi))).filter(|(lo, hi)| lo <= hi));
+            if parts.iter().all(Option::is_none) {
+                continue;
+            }
+            let center = self.chunk_center_m.get(c).copied().unwrap_or_else(Vec2::zeros);
+            let radius = self.chunk_radius_m.get(c).copied().unwrap_or(f32::MAX);
+            let gap = vt_fpu::norm(&(p - center)) - radius - 1e-3;
+            if gap > 0.0 && gap * gap > best {
+                continue;
+            }
+            for (lo, hi) in parts.into_iter().flatten() {
+                for smp in self.samples.get(lo..=hi).unwrap_or(&[]) {
+                    best = vt_fpu::min(best, (smp.pos_m - p).norm_squared());
+                }
+            }
+        }
+        best
     }
 
     fn check_terminals(&self) -> Result<(), TubeError> {
@@ -360,7 +395,7 @@ impl<const N: usize> Tube<N> {
                 smp.pos_m + n * (smp.w_left_m * OVERLAP_PROBE_FRACTION),
                 smp.pos_m - n * (smp.w_right_m * OVERLAP_PROBE_FRACTION),
             ] {
-                let sec = self.locate_exact(probe);
+                let sec = self.locate_pruned(probe, k.min(N - 2));
                 let s_k = k as f32 * self.ds_m;
                 if (sec.s_m - s_k).abs() > tol {
                     // Endpoints: a probe beyond the terminal's section may legitimately map
@@ -447,12 +482,10 @@ impl<const N: usize> Tube<N> {
                 }
             }
         }
-        let cert = self
-            .certify_m
-            .get(k)
-            .copied()
-            .unwrap_or(0.0)
-            .min(self.certify_m.get(k + 1).copied().unwrap_or(0.0));
+        let cert = vt_fpu::min(
+            self.certify_m.get(k).copied().unwrap_or(0.0),
+            self.certify_m.get(k + 1).copied().unwrap_or(0.0),
+        );
         if best <= cert * cert {
             return Some(self.section_at(k, t));
         }
@@ -469,6 +502,37 @@ impl<const N: usize> Tube<N> {
             }
         }
         self.section_at(best.1, best.2)
+    }
+
+    /// [`Tube::locate_exact`]'s section (the closest segment, the lowest index among equals),
+    /// found with the chunks' bounding circles: seeded with segment `k0`, a chunk is skipped
+    /// only when all of it is farther than the best so far by more than rounding (0.1 mm). The
+    /// table's own check (`check_self_overlap`, 512 probes) costs a sixth of the exhaustive
+    /// search on the flight MCU.
+    fn locate_pruned(&self, q: Vec2, k0: usize) -> Section {
+        let (mut best, mut bk, mut bt) = {
+            let (d, t) = self.seg(q, k0);
+            (d, k0, t)
+        };
+        for c in 0..CHUNKS {
+            let center = self.chunk_center_m.get(c).copied().unwrap_or_else(Vec2::zeros);
+            let radius = self.chunk_radius_m.get(c).copied().unwrap_or(f32::MAX);
+            let gap = vt_fpu::norm(&(q - center)) - radius - 1e-4;
+            if gap > 0.0 && gap * gap > best {
+                continue;
+            }
+            let lo = c * self.chunk_len;
+            let hi = ((c + 1) * self.chunk_len).min(N - 1);
+            for k in lo..hi {
+                let (d, t) = self.seg(q, k);
+                if d < best || (d == best && k < bk) {
+                    best = d;
+                    bk = k;
+                    bt = t;
+                }
+            }
+        }
+        self.section_at(bk, bt)
     }
 
     /// Exact search pruned by bounding circles, seeded with a known candidate.
@@ -751,6 +815,26 @@ mod tests {
                 certified += usize::from(d_exact < cert);
             }
         }
+        // The pruned search of the table's own check is the exhaustive search, bit for bit, from
+        // any seed (the lowest index among equal distances).
+        for ix in 0..60 {
+            for iy in 0..30 {
+                let q = Vec2::new(-5.0 + ix as f32 * 0.8, -6.0 + iy as f32 * 0.8);
+                let exact = tube.locate_exact(q);
+                for seed in [0, 77, 254] {
+                    assert_eq!(tube.locate_pruned(q, seed), exact, "q {q:?} seed {seed}");
+                }
+            }
+        }
+        // The certification's far class by chunks is the exhaustive minimum, bit for bit.
+        for t in [&tube, &s_tube()] {
+            for k in 0..256usize {
+                let pk = t.samples()[k].pos_m;
+                let ranges = [k.checked_sub(65).map(|hi| (0, hi)), (k + 65 < 256).then(|| (k + 65, 255))];
+                let brute = ranges.into_iter().flatten().flat_map(|(lo, hi)| lo..=hi).map(|j| (t.samples()[j].pos_m - pk).norm_squared()).fold(f32::MAX, f32::min);
+                assert_eq!(t.closest_in_ranges2(pk, ranges).to_bits(), brute.to_bits(), "k {k}");
+            }
+        }
         // The legs certify out to about half their 12 m separation (global-curvature bound:
         // about 0.5 / kappa_max, under 2 m here).
         assert!(checked == 120 * 60 * 5);
@@ -785,6 +869,7 @@ mod tests {
                 let fast = tube.locate(q, hint).unwrap();
                 let exact = tube.locate_exact(q);
                 prop_assert!(((q - fast.point_m).norm() - (q - exact.point_m).norm()).abs() < 1e-4);
+                prop_assert_eq!(tube.locate_pruned(q, hint.min(254)), exact);
             }
         }
     }
