@@ -64,6 +64,7 @@
 #[cfg(test)]
 mod brute_force;
 mod error;
+mod fan;
 pub mod grid;
 pub mod integrate;
 mod lanes;

@@ -25,6 +25,7 @@
 //! an edge, or within rounding of it). Sectors wider than [`MAX_SECTOR_RAD`], or of zero width,
 //! are not sectors: such a scan is folded ray by ray by [`OccupancyGrid::integrate`].
 
+use crate::fan::Fan;
 use crate::{lanes, IntegrateStats, LogOddsParams, OccupancyGrid, Return, Scan, Vec2, MAX_BEAMS};
 
 /// Most points marked per sector across its arc.
@@ -303,14 +304,35 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
                 let _ = hits.push((idx, before));
             }
         }
-        // Free space: each usable sector's cells.
+        // Free space: the fan of the usable sectors, row by row (`crate::fan`), when they do
+        // not overlap; otherwise each usable sector's cells.
         let (miss, floor) = (params.miss, params.min);
         for slot in sectors.iter().take(beams) {
-            let Some(Usable { free: sector, .. }) = *slot else {
+            if slot.is_some() {
+                stats.beams_used += 1;
+            } else {
                 stats.beams_skipped += 1;
+            }
+        }
+        let turned = width_rad * beams as f32;
+        let fan_filled = turned <= core::f32::consts::TAU + FAN_CLOSE_RAD && {
+            let fan = fan_of(&sectors, beams, a, scan.increment_rad > 0.0, turned >= core::f32::consts::TAU - FAN_CLOSE_RAD);
+            let cells = &mut self.cells;
+            let updated = &mut stats.cells_updated;
+            fan.fill(w, h, |start, count| {
+                *updated += count;
+                if let Some(run) = cells.get_mut(start..start + count) {
+                    lanes::miss_run(run, miss, floor);
+                }
+            })
+        };
+        for slot in sectors.iter().take(beams) {
+            let Some(Usable { free: sector, .. }) = *slot else {
                 continue;
             };
-            stats.beams_used += 1;
+            if fan_filled {
+                break;
+            }
             let cells = &mut self.cells;
             let updated = &mut stats.cells_updated;
             sector.for_each_run(w, h, |start, step, count| {
@@ -346,6 +368,39 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         }
         stats
     }
+}
+
+/// A scan whose sectors turn within this of a full circle closes its fan (the far corners of
+/// its last and first sectors are joined along their shared ray), rad; one that turns more
+/// than a circle by more than this overlaps itself and is folded sector by sector. The
+/// sectors' edges come by rotation in `f32`, which drifts by about 1e-5 rad over 72 sectors.
+const FAN_CLOSE_RAD: f32 = 1e-3;
+
+/// The fan of a scan's usable sectors (`crate::fan`): their far corners in the order the scan
+/// turns (`ccw`: counter-clockwise), the sensor `a` between runs of them and, unless the scan
+/// `closes` a full circle with both its end sectors usable, at the ends.
+fn fan_of(sectors: &[Option<Usable>; MAX_BEAMS], beams: usize, a: Vec2, ccw: bool, closes: bool) -> Fan {
+    let mut fan = Fan::new();
+    let has_room = |k: usize| sectors.get(k).copied().flatten().is_some_and(|u| u.free.radius > 0.0);
+    let closed = closes && beams > 0 && has_room(0) && has_room(beams - 1);
+    if !closed {
+        fan.push(a);
+    }
+    for slot in sectors.iter().take(beams) {
+        match *slot {
+            Some(Usable { free, .. }) if free.radius > 0.0 => {
+                let (p, q) = (free.a + free.lo * free.radius, free.a + free.hi * free.radius);
+                let (first, second) = if ccw { (p, q) } else { (q, p) };
+                fan.push(first);
+                fan.push(second);
+            }
+            _ => fan.push(a),
+        }
+    }
+    if !closed {
+        fan.push(a);
+    }
+    fan
 }
 
 /// One usable sector of a scan: its free space and, for a hit, the hit's range (m).
