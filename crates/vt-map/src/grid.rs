@@ -200,6 +200,27 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         self.cells().iter().filter(|&&l| l > 0).count()
     }
 
+    /// The occupied cells as the input of `vt_plan::distance_transform_eighths`, into `out`:
+    /// `0` for an occupied cell (log-odds > 0), `1` for any other (unknown counts as free, as
+    /// in [`Self::write_planner_cells`]), at this grid's resolution. Returns `(width, height)`.
+    ///
+    /// # Errors
+    /// [`MapError::EmptyGrid`] before `reset`; [`MapError::OutputTooShort`] when `out` is
+    /// shorter than the grid.
+    pub fn write_planner_bytes(&self, out: &mut [u8]) -> Result<(usize, usize), MapError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(MapError::EmptyGrid);
+        }
+        let cells = self.cells();
+        let Some(dst) = out.get_mut(..cells.len()) else {
+            return Err(MapError::OutputTooShort { needed: cells.len(), len: out.len() });
+        };
+        for (d, &l) in dst.iter_mut().zip(cells) {
+            *d = u8::from(l <= 0);
+        }
+        Ok((self.width, self.height))
+    }
+
     /// Writes the planner's grid, `coarsen` times coarser, into `out`: `0.0` where any fine
     /// cell it covers is occupied, `f32::INFINITY` elsewhere (unknown counts as free: optimistic
     /// planning, the team re-plans as it sees more). Returns its `(width, height)`,
@@ -372,6 +393,13 @@ mod tests {
             }
         }
         assert_eq!(out[15], -1.0, "beyond the grid untouched");
+        let mut bytes = [9u8; 16];
+        assert_eq!(g.write_planner_bytes(&mut bytes), Ok((5, 3)));
+        for (k, (&b, &f)) in bytes.iter().zip(out.iter()).take(15).enumerate() {
+            assert_eq!(b == 0, f == 0.0, "cell {k}");
+        }
+        assert_eq!(bytes[15], 9, "beyond the grid untouched");
+        assert!(g.write_planner_bytes(&mut bytes[..14]).is_err());
         let mut out = [-1.0_f32; 6];
         assert_eq!(g.write_planner_cells(2, &mut out), Ok((3, 2)));
         assert_eq!(

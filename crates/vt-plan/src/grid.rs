@@ -81,6 +81,102 @@ pub fn distance_transform(
     Ok(())
 }
 
+/// [`distance_transform`] into one byte a cell: `floor(8 d)` for the exact distance `d` in
+/// cells, [`EIGHTHS_FAR`] from 31.875 cells on (read back by [`GridMap`] as a lower bound,
+/// at most an eighth of a cell short), in place.
+///
+/// Input: `cells[j * width + i]` is `0` for an occupied cell and anything else for a free
+/// one. The columns' distances are whole cells (two passes, up and down the rows); the rows
+/// take the same envelope as [`distance_transform`]; `8 d = sqrt(64 d^2)` is rounded down
+/// exactly in integers (`64 d^2` is whole: `d^2` is a sum of two squares of half-integers).
+/// Work space as [`distance_transform`]'s.
+///
+/// # Errors
+/// [`PlanError::BadParams`] when a slice is too short or the grid is empty.
+pub fn distance_transform_eighths(
+    cells: &mut [u8],
+    width: usize,
+    height: usize,
+    line: &mut [f32],
+    v: &mut [usize],
+    z: &mut [f32],
+) -> Result<(), PlanError> {
+    let n = width.max(height);
+    if width == 0 || height == 0 || width.checked_mul(height) != Some(cells.len()) {
+        return Err(PlanError::BadParams { field: "cells" });
+    }
+    if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 {
+        return Err(PlanError::BadParams { field: "work space" });
+    }
+    // Columns, by rows (contiguous): whole cells to the nearest occupied cell of the column,
+    // up then down; `u8::MAX` for none within 254 (no row pass can use more: the result is
+    // capped below that).
+    for c in cells[..width].iter_mut() {
+        *c = if *c == 0 { 0 } else { u8::MAX };
+    }
+    for j in 1..height {
+        let (done, rest) = cells.split_at_mut(j * width);
+        let above = &done[(j - 1) * width..];
+        for (c, &a) in rest[..width].iter_mut().zip(above) {
+            *c = if *c == 0 { 0 } else { a.saturating_add(1) };
+        }
+    }
+    for j in (0..height - 1).rev() {
+        let (upto, below) = cells.split_at_mut((j + 1) * width);
+        for (c, &b) in upto[j * width..].iter_mut().zip(&below[..width]) {
+            let b = b.saturating_add(1);
+            if b < *c {
+                *c = b;
+            }
+        }
+    }
+    let (f, rest) = line.split_at_mut(n);
+    let (d, h) = rest.split_at_mut(n);
+    // Rows: the column distance `m` (whole cells) is `(m - 1/2)^2` to the square, squared.
+    for j in 0..height {
+        let row = &mut cells[j * width..(j + 1) * width];
+        for (fx, &m) in f.iter_mut().zip(row.iter()) {
+            *fx = COLUMN_SQUARES[usize::from(m)];
+        }
+        square_pass(&f[..width], &mut d[..width], h, v, z);
+        for (c, dd) in row.iter_mut().zip(d.iter()) {
+            *c = eighths(*dd);
+        }
+    }
+    Ok(())
+}
+
+/// The squared distance to an occupied square `m` whole cells up or down a column:
+/// `(m - 1/2)^2`, `0` for the cell itself; infinite from 33 cells on, where it reaches the
+/// eighths' cap (31.875 cells) alone: such a column can only give a distance the cap holds
+/// anyway, so the rows' envelopes leave it out (fewer parabolas; rows far from everything
+/// take the envelope's empty path).
+const COLUMN_SQUARES: [f32; 256] = {
+    let mut t = [f32::INFINITY; 256];
+    t[0] = 0.0;
+    let mut m = 1;
+    while m < 33 {
+        let x = m as f32 - 0.5;
+        t[m] = x * x;
+        m += 1;
+    }
+    t
+};
+
+/// `floor(8 sqrt(d2))` capped at [`EIGHTHS_FAR`], exactly, for a squared distance `d2` that is a
+/// multiple of 1/4 (or infinite): `64 d2 = n` is then a whole number below 2^16, and the
+/// correctly rounded `sqrt(n) = 8 sqrt(d2)` (scaling by 64 is exact) never rounds up to the
+/// next whole number (`sqrt(k^2 - 1) < k - 1/(2k)`, far more than half an `f32` ulp below `k`
+/// for `k <= 255`), so truncation is the integer square root.
+fn eighths(d2: f32) -> u8 {
+    let far = f32::from(EIGHTHS_FAR);
+    if 64.0 * d2 < far * far {
+        (8.0 * vt_fpu::sqrt(d2)) as u8
+    } else {
+        EIGHTHS_FAR
+    }
+}
+
 /// One axis of the square kernel: `d(x) = min_q g(x - q) + f(q)`, `g(t) = max(|t| - 1/2, 0)^2`.
 ///
 /// `g(0) = 0` gives the `f(x)` term. For `t = x - q != 0`, `g(t) = min((t - 1/2)^2, (t + 1/2)^2)`
@@ -152,14 +248,42 @@ fn envelope(h: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32], offset: f3
     }
 }
 
+/// The distances a [`GridMap`] reads, cells: exact `f32` ([`distance_transform`]) or `u8`
+/// eighths of a cell rounded down ([`distance_transform_eighths`], a quarter of the memory).
+pub trait DistanceCells {
+    /// Distance from cell `k`'s centre (row-major) to the nearest occupied square, cells, or a
+    /// lower bound of it; `None` outside the slice.
+    fn distance_cells(&self, k: usize) -> Option<f32>;
+}
+
+impl DistanceCells for [f32] {
+    #[inline]
+    fn distance_cells(&self, k: usize) -> Option<f32> {
+        self.get(k).copied()
+    }
+}
+
+/// The largest distance the eighths hold, in eighths of a cell: 31.875 cells and beyond.
+pub const EIGHTHS_FAR: u8 = u8::MAX;
+
+impl DistanceCells for [u8] {
+    /// `q / 8` cells: `floor(8 d) / 8` for the exact distance `d`, or 31.875 for
+    /// [`EIGHTHS_FAR`] (`d` at least that).
+    #[inline]
+    fn distance_cells(&self, k: usize) -> Option<f32> {
+        self.get(k).map(|&q| f32::from(q) * 0.125)
+    }
+}
+
 /// An occupancy grid with its distance transform: the clearance map of a raster.
 ///
 /// Cell `(i, j)` (column `i` east, row `j` north, row-major `j * width + i`) covers the square
 /// `origin + [i, i+1] x [j, j+1] resolution`. An occupied cell is a solid square.
 #[derive(Debug, Clone, Copy)]
-pub struct GridMap<'a> {
-    /// Output of [`distance_transform`], cells.
-    pub dist_cells: &'a [f32],
+pub struct GridMap<'a, C: ?Sized + DistanceCells = [f32]> {
+    /// Output of [`distance_transform`] (`[f32]`) or [`distance_transform_eighths`] (`[u8]`),
+    /// cells.
+    pub dist_cells: &'a C,
     /// Columns.
     pub width: usize,
     /// Rows.
@@ -170,14 +294,14 @@ pub struct GridMap<'a> {
     pub origin_m: Vec2,
 }
 
-impl GridMap<'_> {
+impl<C: ?Sized + DistanceCells> GridMap<'_, C> {
     /// Centre of cell `(i, j)`, m.
     pub fn cell_center_m(&self, i: usize, j: usize) -> Vec2 {
         self.origin_m + Vec2::new((i as f32 + 0.5) * self.resolution_m, (j as f32 + 0.5) * self.resolution_m)
     }
 }
 
-impl ClearanceMap for GridMap<'_> {
+impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
     fn bounds_m(&self) -> (Vec2, Vec2) {
         let size = Vec2::new(self.width as f32, self.height as f32) * self.resolution_m;
         (self.origin_m, self.origin_m + size)
@@ -212,7 +336,7 @@ impl ClearanceMap for GridMap<'_> {
         let mut discs = [(Vec2::zeros(), 0.0f32); SIDE * SIDE];
         for (k, slot) in discs.iter_mut().enumerate() {
             let (i, j) = ((i0 + k % SIDE).min(self.width - 1), (j0 + k / SIDE).min(self.height - 1));
-            let Some(&r) = self.dist_cells.get(j * self.width + i) else {
+            let Some(r) = self.dist_cells.distance_cells(j * self.width + i) else {
                 return f32::NEG_INFINITY;
             };
             if r == f32::INFINITY {
@@ -223,7 +347,7 @@ impl ClearanceMap for GridMap<'_> {
         // Inside an occupied cell: minus the distance to the cell's centre and its half diagonal.
         let own = |x: f32, n: usize| -> usize { if x < -0.5 { 0 } else { ((x + 0.5) as usize).min(n - 1) } };
         let (io, jo) = (own(rel.x, self.width), own(rel.y, self.height));
-        if self.dist_cells.get(jo * self.width + io).is_some_and(|d| *d <= 0.0) {
+        if self.dist_cells.distance_cells(jo * self.width + io).is_some_and(|d| d <= 0.0) {
             let c = Vec2::new(io as f32, jo as f32);
             return -(vt_fpu::norm(&(rel - c)) + HALF_DIAGONAL_CELLS) * res;
         }
@@ -388,6 +512,17 @@ mod tests {
         (gx * gx + gy * gy).sqrt()
     }
 
+    /// Every squared distance a transform can give (multiples of 1/4) up to past the cap.
+    #[test]
+    fn eighths_round_every_quarter_square_down_exactly() {
+        for k in 0u32..20_000 {
+            let d2 = k as f32 * 0.25;
+            let want = ((f64::from(k) * 16.0).sqrt().floor() as u32).min(255) as u8;
+            assert_eq!(eighths(d2), want, "d2 {d2}");
+        }
+        assert_eq!(eighths(f32::INFINITY), EIGHTHS_FAR);
+    }
+
     proptest! {
         #[test]
         fn transform_equals_brute_force(w in 1usize..12, h in 1usize..12, bits in proptest::collection::vec(0u8..6, 144)) {
@@ -402,6 +537,35 @@ mod tests {
             }
         }
 
+        /// The byte transform is the exact transform's distance rounded down to an eighth of a
+        /// cell, capped at 31.875 cells; its clearance is a lower bound too, at most an eighth
+        /// of a cell below the exact one's.
+        #[test]
+        fn eighths_are_the_exact_transform_rounded_down(w in 1usize..40, h in 1usize..40, bits in proptest::collection::vec(0u8..40, 1600), px in 0.0f32..20.0, py in 0.0f32..20.0) {
+            let mut exact: Vec<f32> = (0..w * h).map(|k| if bits[k] == 0 { 0.0 } else { f32::INFINITY }).collect();
+            let mut bytes: Vec<u8> = (0..w * h).map(|k| u8::from(bits[k] != 0)).collect();
+            edt(&mut exact, w, h);
+            let n = w.max(h);
+            let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
+            distance_transform_eighths(&mut bytes, w, h, &mut line, &mut v, &mut z).unwrap();
+            for k in 0..w * h {
+                let want = if exact[k] >= 31.875 { EIGHTHS_FAR } else { (f64::from(exact[k]) * 8.0 + 1e-9).floor() as u8 };
+                prop_assert_eq!(bytes[k], want, "cell {} exact {}", k, exact[k]);
+            }
+            let res = 0.5f32;
+            let ge = GridMap { dist_cells: &exact[..], width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
+            let gb = GridMap { dist_cells: &bytes[..], width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
+            let p = Vec2::new(px, py);
+            let (ce, cb) = (ge.clearance_m(p), gb.clearance_m(p));
+            prop_assert!(cb <= ce + 1e-5, "bytes {} above exact {}", cb, ce);
+            // Inside the grid and a cell or more from the occupied squares (nearer, or outside,
+            // whether the discs cover the point at all can turn on the last eighth).
+            let in_map = px <= w as f32 * res && py <= h as f32 * res;
+            if in_map && ce.is_finite() && ce >= res && ce < 31.0 * res {
+                prop_assert!(cb >= ce - 0.125 * res - 1e-4, "bytes {} exact {}", cb, ce);
+            }
+        }
+
         /// Random occupied cells: the clearance never exceeds the true distance to the occupied
         /// squares, and at three cells or more from them it is within half a cell of it (clutter
         /// of single cells is the worst case; docs/planning.md, "Grids"), up to the map's edges.
@@ -412,7 +576,7 @@ mod tests {
             prop_assume!(cells.contains(&0.0));
             let occ: Vec<(usize, usize)> = (0..w * h).filter(|&k| bits[k] == 0).map(|k| (k % w, k / w)).collect();
             edt(&mut cells, w, h);
-            let g = GridMap { dist_cells: &cells, width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
+            let g = GridMap { dist_cells: &cells[..], width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
             let p = Vec2::new(px, py);
             let (x, y) = (px / res - 0.5, py / res - 0.5);
             let truth = res * occ.iter().map(|&(a, b)| box_distance(x, y, a, b)).fold(f32::INFINITY, f32::min);

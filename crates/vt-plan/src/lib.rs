@@ -30,7 +30,7 @@ pub mod search;
 
 pub use corridor::{Disc, MAX_DISCS};
 pub use error::PlanError;
-pub use grid::{distance_transform, GridMap};
+pub use grid::{distance_transform, distance_transform_eighths, DistanceCells, GridMap, EIGHTHS_FAR};
 pub use map::{ClearanceMap, Obstacle, ObstacleMap};
 pub use planner::{plan, Bottleneck, PlanParams, PlannedTube};
 pub use search::{Lattice, Workspace};

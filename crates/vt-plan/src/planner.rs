@@ -213,6 +213,9 @@ pub fn plan<M: ClearanceMap>(
     // corridor exists or the curve cannot be fitted in it, over nodes that just hold the need.
     let slack = lat.spacing_m;
     let mut last_err = too_narrow(start_m, r_start);
+    // The disc radii depend on the map, the lattice, the margin and the cap, not on the need:
+    // the second pass keeps those the first one computed.
+    let mut radii_cached = false;
     for search_need in [need + slack, need] {
         let rule_k = RadiusRule { need_m: search_need, ..rule };
         let usable = |p: Vec2| lat.around(p).into_iter().flatten().find(|&k| rule_k.radius_m(map, lat.point_m(k)) >= search_need);
@@ -232,7 +235,9 @@ pub fn plan<M: ClearanceMap>(
             }
         };
         // Search from the goal so that the parents lead from the start to the goal.
-        if !search::astar(map, &lat, &rule_k, ws, last, first)? {
+        let found = search::astar_cached(map, &lat, &rule_k, ws, last, first, radii_cached)?;
+        radii_cached = true;
+        if !found {
             if search_need == need {
                 let (k, r) = search::narrowest_passage(map, &lat, &rule_k, ws, first, last)?;
                 return Err(too_narrow(lat.point_m(k), r));

@@ -304,11 +304,26 @@ pub fn astar<M: ClearanceMap>(
     from: usize,
     to: usize,
 ) -> Result<bool, PlanError> {
+    astar_cached(map, lat, rule, ws, from, to, false)
+}
+
+/// [`astar`], keeping the disc radii a previous search on the same map, lattice and rule
+/// (margin and cap; the need may differ) left in `ws` when `keep_radii`: the planner's
+/// second pass and the narrowest-passage search reuse them.
+pub(crate) fn astar_cached<M: ClearanceMap>(
+    map: &M,
+    lat: &Lattice,
+    rule: &RadiusRule,
+    ws: &mut Workspace<'_>,
+    from: usize,
+    to: usize,
+    keep_radii: bool,
+) -> Result<bool, PlanError> {
     let n = lat.len();
     if n > ws.capacity() || from >= n || to >= n {
         return Err(PlanError::WorkspaceTooSmall { needed: n });
     }
-    ws.reset(n, false);
+    ws.reset(n, keep_radii);
     let goal = lat.point_m(to);
     let h = lat.spacing_m;
     if radius_of(ws, lat, map, rule, from) < rule.need_m {
@@ -414,7 +429,7 @@ pub fn narrowest_passage<M: ClearanceMap>(
         return Ok((k, b));
     }
     let at_b = RadiusRule { need_m: b, ..*rule };
-    if astar(map, lat, &at_b, ws, from, to)? {
+    if astar_cached(map, lat, &at_b, ws, from, to, true)? {
         Ok(narrowest_on_path(ws, to, lat.len()))
     } else {
         Ok((k, b))
