@@ -12,13 +12,15 @@
 //!
 //! The perception state is about 270 KiB, more than the STM32F405's 128 KiB of SRAM: this
 //! build links against the QEMU board's full 4 MiB (`memory-qemu-bench.x`). It measures
-//! instructions, which do not depend on where the RAM is; it is not a flight layout.
+//! instructions, which do not depend on where the RAM is; it is not a flight layout. The state
+//! lives in `static`s built in place from `const` placeholders, so the stack figure logged at
+//! the end is the map update's and the re-plan's own.
 //!
 //! Logged (defmt), in SysTick ticks of 25 MHz (the host converts them with the boot
 //! calibration): `perception bench: map update: N scans, mean T, max T ticks` and
 //! `perception bench: replan K: T ticks, ok B, waypoints W`.
 
-use static_cell::StaticCell;
+use static_cell::ConstStaticCell;
 use vt_companion::perception::{Perception, PerceptionConfig};
 use vt_companion::{CompanionTube, Vec3};
 use vt_map::{Return, Scan, Vec2};
@@ -47,9 +49,10 @@ const RANGE_M: f32 = 15.0;
 /// Scans along the path (x = 3 m, 3.5 m, ... 40 m).
 const SCANS: usize = 75;
 
-static PERCEPTION: StaticCell<Perception> = StaticCell::new();
-static TUBE: StaticCell<CompanionTube> = StaticCell::new();
-static GRID: StaticCell<vt_map::OccupancyGrid<{ vt_companion::perception::MAP_CELLS }>> = StaticCell::new();
+// Built in place (`const` placeholders configured at run time): never on the stack.
+static PERCEPTION: ConstStaticCell<Perception> = ConstStaticCell::new(Perception::placeholder());
+static TUBE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
+static GRID: ConstStaticCell<vt_map::OccupancyGrid<{ vt_companion::perception::MAP_CELLS }>> = ConstStaticCell::new(vt_map::OccupancyGrid::empty());
 
 /// Range along the ray from `o` in direction `(c, s)` to the nearest pillar, m (`None`: none
 /// within [`RANGE_M`]).
@@ -109,16 +112,17 @@ pub fn run() -> ! {
         replan_period_ms: 1000,
         plan: PlanParams::default(),
     };
-    let Ok(perception) = Perception::new(cfg) else {
+    let p = PERCEPTION.take();
+    if p.configure(cfg).is_err() {
         defmt::error!("perception bench: the world does not fit the map");
         board::reboot();
-    };
-    let p = PERCEPTION.init(perception);
-    let Ok(tube) = CompanionTube::from_waypoints(&[Waypoint::new(3.0, 15.0, 5.0, 5.0), Waypoint::new(67.0, 15.0, 5.0, 5.0)]) else {
+    }
+    let tube = TUBE.take();
+    if tube.rebuild(&[Waypoint::new(3.0, 15.0, 5.0, 5.0), Waypoint::new(67.0, 15.0, 5.0, 5.0)]).is_err() {
         defmt::error!("perception bench: the tube does not build");
         board::reboot();
-    };
-    let tube = TUBE.init(tube);
+    }
+    let tube: &CompanionTube = tube;
     defmt::info!("perception bench: state {=usize} bytes", core::mem::size_of::<Perception>());
     let start = Vec3::new(3.0, 15.0, 3.0);
     time_replan(p, tube, &start, 0);
@@ -137,8 +141,8 @@ pub fn run() -> ! {
     }
     let mean = (sum / SCANS as u64) as u32;
     // The map's fold alone (no tube test of new cells): the same scans into a fresh grid.
-    if let Ok(grid) = vt_map::OccupancyGrid::new(280, 120, 0.25, Vec2::new(0.0, 0.0)) {
-        let grid = GRID.init(grid);
+    let grid = GRID.take();
+    if grid.reset(280, 120, 0.25, Vec2::new(0.0, 0.0)).is_ok() {
         let (mut gsum, mut gmax, mut cells) = (0u64, 0u32, 0usize);
         for k in 0..SCANS {
             let scan = scan_at(Vec2::new(3.0 + 0.5 * k as f32, 15.0));

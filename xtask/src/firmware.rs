@@ -9,7 +9,8 @@
 //! - `mcu_instructions_high_level`: same shape; `mcu_instructions_low_level`: a number,
 //! - `firmware_stack_peak_bytes`: `{"qemu": u, "stm32f405": u}`,
 //! - `mcu_replan_instructions`, `mcu_map_update_instructions` (worst scan),
-//!   `mcu_map_update_instructions_mean`, `perception_state_bytes`: issue 28's perception bench,
+//!   `mcu_map_update_instructions_mean`, `mcu_map_fold_synthetic_worst_instructions`,
+//!   `perception_state_bytes`, `perception_stack_bytes`: issue 28's perception bench,
 //! - `firmware_flash_bytes`, `firmware_static_ram_bytes`: same shape; they replace the ELF
 //!   figures measured here.
 

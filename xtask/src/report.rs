@@ -204,7 +204,14 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
     doc.insert("mcu_instructions_per_uav_step".into(), mcu_steps.clone());
     doc.insert("mcu_instructions_high_level".into(), hook.get("mcu_instructions_high_level").cloned().unwrap_or(Value::Null));
     doc.insert("mcu_instructions_low_level".into(), hook.get("mcu_instructions_low_level").cloned().unwrap_or(Value::Null));
-    for key in ["mcu_replan_instructions", "mcu_map_update_instructions", "mcu_map_update_instructions_mean", "perception_state_bytes"] {
+    for key in [
+        "mcu_replan_instructions",
+        "mcu_map_update_instructions",
+        "mcu_map_update_instructions_mean",
+        "mcu_map_fold_synthetic_worst_instructions",
+        "perception_state_bytes",
+        "perception_stack_bytes",
+    ] {
         doc.insert(key.into(), hook.get(key).cloned().unwrap_or(Value::Null));
     }
     let per_board = |f: &dyn Fn(&ImageSize) -> u64, key: &str| -> Value {

@@ -41,14 +41,19 @@ const OCTOMAP_MIN: i8 = -32;
 /// OctoMap's upper clamp, 1/16 nat (p 0.97).
 const OCTOMAP_MAX: i8 = 56;
 
+impl LogOddsParams {
+    /// OctoMap's sensor model and clamps (the default), usable in `const` context.
+    pub const OCTOMAP: Self = Self {
+        hit: OCTOMAP_HIT,
+        miss: OCTOMAP_MISS,
+        min: OCTOMAP_MIN,
+        max: OCTOMAP_MAX,
+    };
+}
+
 impl Default for LogOddsParams {
     fn default() -> Self {
-        Self {
-            hit: OCTOMAP_HIT,
-            miss: OCTOMAP_MISS,
-            min: OCTOMAP_MIN,
-            max: OCTOMAP_MAX,
-        }
+        Self::OCTOMAP
     }
 }
 

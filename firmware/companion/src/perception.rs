@@ -99,19 +99,29 @@ impl Perception {
     /// An empty map of `cfg`'s world.
     ///
     /// # Errors
-    /// The world does not fit [`MAP_CELLS`] at `cfg.cell_m`, or the figures are not finite.
+    /// As [`Perception::configure`].
     pub fn new(cfg: PerceptionConfig) -> Result<Self, vt_map::MapError> {
-        let [x0, x1, y0, y1] = cfg.bounds_m;
-        let w = libm::ceilf((x1 - x0) / cfg.cell_m);
-        let h = libm::ceilf((y1 - y0) / cfg.cell_m);
-        if !(w >= 1.0 && h >= 1.0 && w * h <= MAP_CELLS as f32) {
-            return Err(vt_map::MapError::TooManyCells { needed: if w * h >= 0.0 { (w * h) as usize } else { 0 }, capacity: MAP_CELLS });
-        }
-        let map = OccupancyGrid::new(w as usize, h as usize, cfg.cell_m, vt_map::Vec2::new(x0, y0))?;
-        Ok(Self {
-            cfg,
-            map,
-            log_odds: LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::default() },
+        let mut p = Self::placeholder();
+        p.configure(cfg)?;
+        Ok(p)
+    }
+
+    /// Storage for the perception state before it is configured: a map of no cells, every scan
+    /// ignored, every re-plan an error. `const` and all zero but for a few words, so firmware
+    /// keeps it in a `static` (about 270 KiB: built on the stack and moved, as
+    /// [`Perception::new`]'s result is, it would need that much stack) and configures it in
+    /// place.
+    pub const fn placeholder() -> Self {
+        Self {
+            cfg: PerceptionConfig {
+                bounds_m: [0.0; 4],
+                cell_m: 1.0,
+                goal_m: [0.0; 2],
+                replan_period_ms: 0,
+                plan: PlanParams { need_half_width_m: 0.9, margin_m: 0.4, max_half_width_m: 5.5, lattice_m: 0.25, clearance_weight: 0.5 },
+            },
+            map: OccupancyGrid::empty(),
+            log_odds: LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::OCTOMAP },
             plan_cells: [0.0; PLAN_CELLS],
             line: [0.0; 3 * PLAN_LINE + 1],
             envelope: [0; PLAN_LINE + 1],
@@ -123,7 +133,29 @@ impl Perception {
             next_plan_ms: 0,
             last_plan_ms: None,
             replans: 0,
-        })
+        }
+    }
+
+    /// Configures this storage in place for `cfg`'s world: an empty map, no re-plan yet. On
+    /// error nothing changes.
+    ///
+    /// # Errors
+    /// The world does not fit [`MAP_CELLS`] at `cfg.cell_m`, or the figures are not finite.
+    pub fn configure(&mut self, cfg: PerceptionConfig) -> Result<(), vt_map::MapError> {
+        let [x0, x1, y0, y1] = cfg.bounds_m;
+        let w = libm::ceilf((x1 - x0) / cfg.cell_m);
+        let h = libm::ceilf((y1 - y0) / cfg.cell_m);
+        if !(w >= 1.0 && h >= 1.0 && w * h <= MAP_CELLS as f32) {
+            return Err(vt_map::MapError::TooManyCells { needed: if w * h >= 0.0 { (w * h) as usize } else { 0 }, capacity: MAP_CELLS });
+        }
+        self.map.reset(w as usize, h as usize, cfg.cell_m, vt_map::Vec2::new(x0, y0))?;
+        self.cfg = cfg;
+        self.blocked = false;
+        self.blocked_s_m = f32::INFINITY;
+        self.next_plan_ms = 0;
+        self.last_plan_ms = None;
+        self.replans = 0;
+        Ok(())
     }
 
     /// Fuses one scan (own or relayed). With the current `tube` and the load's arc length

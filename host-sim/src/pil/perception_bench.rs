@@ -107,6 +107,7 @@ impl PerceptionBench {
             "mcu_map_fold_synthetic_worst_instructions": self.fold_synthetic.iter().copied().fold(0.0, f64::max).round() as u64,
             "mcu_replan_instructions": self.replan_empty_map.max(self.replan_seen_map).round() as u64,
             "perception_state_bytes": self.state_bytes,
+            "perception_stack_bytes": self.stack_bytes,
         })
     }
 }
