@@ -22,6 +22,11 @@ use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
 
+/// Rate at which the widening of a tube being joined shrinks besides following the node,
+/// m/s ([`DissipativeController::join_tube`]): a tenth of the paper's `v_m` (3 m/s), so the
+/// barrier moves slower than any node can.
+pub const JOIN_SHRINK_MPS: f32 = 0.3;
+
 /// Gain of the anchored team hold's position hold, 1/s: PX4's horizontal position gain
 /// (`MPC_XY_P`, default 0.95 1/s), rounded; docs/design.md, "Team failsafe".
 pub const HOLD_POSITION_GAIN_PER_S: f32 = 1.0;
@@ -195,6 +200,9 @@ pub struct DissipativeController<const N: usize> {
     /// Where the UAV holds its horizontal position in team hold once a neighbour is missing
     /// (the anchor), world ENU, m.
     anchor_m: Option<Vec2>,
+    /// How much wider than the tube this UAV's barriers see it while it joins a re-planned
+    /// tube it was not yet inside, m (0: not joining; [`DissipativeController::join_tube`]).
+    join_m: f32,
     /// Capacity-aware formation scale (`FormationScale::NEUTRAL` unless configured).
     scale: FormationScale,
 }
@@ -236,6 +244,7 @@ impl<const N: usize> DissipativeController<N> {
             vertical: VerticalLoop::new(params.vertical),
             team_hold: false,
             anchor_m: None,
+            join_m: 0.0,
             scale: FormationScale::NEUTRAL,
         })
     }
@@ -254,6 +263,25 @@ impl<const N: usize> DissipativeController<N> {
         if !hold {
             self.anchor_m = None;
         }
+    }
+
+    /// Joins a tube this UAV's node may not lie inside yet (a tube re-planned in flight,
+    /// issue 28; extension to the paper, docs/design.md, "Joining a re-planned tube"). Both
+    /// barriers (own node and tray-centre replica) see the tube widened on both sides by
+    /// `join_m`: at the first step `(r_safe + r_active) / 2 - d`, `d` the node's boundary
+    /// distance, so the node sits mid-band in the widened tube (the barrier is finite and no
+    /// higher than mid-band); then `join_m <- max(0, min(join_m - JOIN_SHRINK_MPS dt,
+    /// (r_safe + r_active) / 2 - d))`: it follows the node inwards, shrinks at a bounded rate
+    /// besides (a node resting inside the band is brought out of the widening), and ends. So
+    /// the UAV flies the team's new tube, passing and formation included, where declining it
+    /// left it on its old tube.
+    pub fn join_tube(&mut self) {
+        self.join_m = f32::INFINITY;
+    }
+
+    /// The widening still in force while joining a tube, m (0: none).
+    pub fn join_widening_m(&self) -> f32 {
+        self.join_m
     }
 
     /// True while the team hold is on.
@@ -349,6 +377,13 @@ impl<const N: usize> DissipativeController<N> {
             return self.hold(m, status);
         };
         self.own_hint = sec.segment;
+        if self.join_m > 0.0 {
+            // Joining a re-planned tube: the widening follows the node in and shrinks by
+            // JOIN_SHRINK_MPS besides (join_tube).
+            let mid_band = 0.5 * (p.r_safe_m + p.r_active_m);
+            let shrunk = if dt_s.is_finite() && dt_s > 0.0 { self.join_m - JOIN_SHRINK_MPS * dt_s } else { self.join_m };
+            self.join_m = vt_fpu::max(vt_fpu::min(shrunk, mid_band - sec.boundary_distance_m(q_i)), 0.0);
+        }
         // Team hold (docs/design.md, "Team failsafe"): no passing term. Once a neighbour is
         // missing during the hold, the UAV holds its own horizontal position where it was then
         // (the anchor; see below): the missing springs no longer fix its place in the formation.
@@ -427,11 +462,21 @@ impl<const N: usize> DissipativeController<N> {
         if dz > h {
             let p_i = m.own_pos_m.xy();
             if let Some(s_uav) = tube.locate(p_i, sec.segment) {
-                let (v, d) = keeping_velocity(&s_uav, &p_i, &self.barrier);
+                let (v, d) = keeping_velocity(&self.joining(&s_uav), &p_i, &self.barrier);
                 return (v * (h / dz), d);
             }
         }
-        keeping_velocity(sec, q_i, &self.barrier)
+        keeping_velocity(&self.joining(sec), q_i, &self.barrier)
+    }
+
+    /// `sec` as the barriers see it while joining a tube: both half-widths `join_m` wider.
+    #[inline]
+    fn joining(&self, sec: &vt_tube::Section) -> vt_tube::Section {
+        if self.join_m > 0.0 {
+            vt_tube::Section { half_width_m: sec.half_width_m + self.join_m, ..*sec }
+        } else {
+            *sec
+        }
     }
 
     fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, dt_s: f32, status: &mut Status) {
@@ -449,7 +494,7 @@ impl<const N: usize> DissipativeController<N> {
                 status.coincident_nodes |= c;
             }
         }
-        v += keeping_velocity(&sec, &q_u, &self.barrier).0;
+        v += keeping_velocity(&self.joining(&sec), &q_u, &self.barrier).0;
         let next = q_u + sat(v, p.v_max_mps) * dt_s;
         if next.x.is_finite() && next.y.is_finite() {
             self.center_m = next;

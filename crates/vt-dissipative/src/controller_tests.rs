@@ -381,3 +381,64 @@ proptest! {
         prop_assert!(c.vel_mps.z.abs() <= params().vertical.vz_max_mps);
     }
 }
+
+/// Joining a re-planned tube (issue 28, `join_tube`): the team flies the wide tube, then a new
+/// one 3 m to the left and 2.5 m wide on each side, which leaves the right-hand nodes outside.
+/// Those join it widened: at the first step their node sits mid-band in the widened tube, the
+/// widening never grows and ends within 15 s, nobody is ever outside the tube its barrier
+/// sees, every command is finite, and afterwards every node keeps `r_safe` to the new tube.
+#[test]
+fn a_uav_outside_a_new_tube_joins_it_widened_and_the_widening_only_shrinks() {
+    let n = 6;
+    let (mut uavs, mut load) = takeoff(n, 4.0);
+    let mut ctl = team(n, &uavs, &load);
+    let new = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 3.0, 2.5, 2.5), Waypoint::new(60.0, 3.0, 2.5, 2.5)]).unwrap();
+    let p = params();
+    let mid_band = 0.5 * (p.r_safe_m + p.r_active_m);
+    let tray = p.tray;
+    let mut joining = vec![false; n];
+    for (i, c) in ctl.iter_mut().enumerate() {
+        let q = tray.project(&uavs[i], &load).0;
+        let d = new.locate(q, 0).unwrap().boundary_distance_m(q);
+        if d < mid_band {
+            c.join_tube();
+            joining[i] = true;
+        }
+    }
+    assert!(joining.iter().filter(|&&j| j).count() >= 2, "the test needs nodes outside the new tube: {joining:?}");
+    let mut last = vec![f32::INFINITY; n];
+    let mut done_at = vec![None; n];
+    for k in 0..(15.0 / DT_S) as usize {
+        let nb = neighbours(&uavs);
+        let vel: Vec<Vec3> = ctl
+            .iter_mut()
+            .enumerate()
+            .map(|(i, c)| {
+                let m = Measurements { own_pos_m: uavs[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+                let cmd = c.update(&new, &m, DT_S);
+                assert!(cmd.vel_mps.iter().all(|v| v.is_finite()) && !cmd.status.invalid_input);
+                assert!(!cmd.status.outside_tube, "UAV {i} outside at step {k}");
+                let w = c.join_widening_m();
+                if k == 0 && joining[i] {
+                    assert_relative_eq!(cmd.boundary_distance_m, mid_band, epsilon = 1e-4);
+                    assert!(w > 0.0);
+                }
+                assert!(w <= last[i], "UAV {i}: the widening grew from {} to {w}", last[i]);
+                last[i] = w;
+                if w == 0.0 && done_at[i].is_none() {
+                    done_at[i] = Some(k);
+                }
+                if done_at[i].is_some_and(|d| k > d + 50) {
+                    assert!(cmd.boundary_distance_m > p.r_safe_m, "UAV {i} at {} m after joining", cmd.boundary_distance_m);
+                }
+                cmd.vel_mps
+            })
+            .collect();
+        for (u, v) in uavs.iter_mut().zip(vel.iter()) {
+            *u += v * DT_S;
+        }
+        let c: Vec2 = uavs.iter().map(|u| u.xy()).sum::<Vec2>() / n as f32;
+        load = Vec3::new(c.x, c.y, LOAD_Z_M);
+    }
+    assert!(done_at.iter().all(Option::is_some), "still joining after 15 s: {last:?}");
+}

@@ -575,6 +575,20 @@ impl Flight {
         self.load_hint = 0;
     }
 
+    /// This UAV switched to a re-planned tube it is not yet inside (issue 28,
+    /// `perception::accept_joining`): as [`Flight::tube_switched`], and the dissipative
+    /// controller's barriers see the tube widened until its node is inside
+    /// (`DissipativeController::join_tube`). False (nothing changed) when the baseline flies:
+    /// it keeps the old tube.
+    pub fn tube_joined(&mut self) -> bool {
+        let Some(HighLevel::Dissipative(c)) = self.high.as_mut() else {
+            return false;
+        };
+        c.join_tube();
+        self.tube_switched();
+        true
+    }
+
     /// This UAV declined a newer tube and keeps flying its own (issue 28): the set-down's watch
     /// waits until it switches.
     pub fn tube_declined(&mut self) {

@@ -339,6 +339,25 @@ pub fn accept(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &Vec3, lo
     Ok(())
 }
 
+/// The accept rule for a UAV that can join a tube it is not inside (the dissipative
+/// controller's `join_tube`): the load must lie inside `new` by `margin_m` (else
+/// [`Keep::LoadOutside`]); then `Ok(false)` when [`accept`] takes `new` as it is, `Ok(true)`
+/// when the own centre is outside it or the barrier would rise (the UAV joins it widened).
+///
+/// # Errors
+/// [`Keep::LoadOutside`].
+pub fn accept_joining(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &Vec3, load_m: &Vec3, margin_m: f32, band_m: f32) -> Result<bool, Keep> {
+    let inside = new.locate(load_m.xy(), 0).is_some_and(|sec| sec.boundary_distance_m(load_m.xy()) >= margin_m);
+    if !inside {
+        return Err(Keep::LoadOutside);
+    }
+    match accept(new, old, own_m, load_m, margin_m, band_m) {
+        Ok(()) => Ok(false),
+        Err(Keep::LoadOutside) => Err(Keep::LoadOutside),
+        Err(Keep::OwnOutside | Keep::BarrierJump) => Ok(true),
+    }
+}
+
 #[cfg(test)]
 #[path = "perception_tests.rs"]
 mod tests;

@@ -133,4 +133,12 @@ fn a_tube_is_kept_when_it_would_leave_a_uav_or_the_load_outside_or_bring_the_bar
     assert_eq!(accept(&off, Some(&wide), &Vec3::new(20.0, 7.5, 7.0), &load, margin, 1.2), Err(Keep::OwnOutside));
     assert_eq!(accept(&wide, None, &Vec3::new(20.0, 10.0, f32::NAN), &load, margin, 1.2), Ok(()), "height does not matter");
     assert_eq!(accept(&wide, None, &Vec3::new(f32::NAN, 10.0, 7.0), &load, margin, 1.2), Err(Keep::OwnOutside));
+    // A UAV that can join a tube widened (the dissipative controller) takes it whenever the
+    // load is inside; the load outside is still a refusal, whatever the UAV's own position.
+    assert_eq!(accept_joining(&wide, Some(&narrow), &own, &load, margin, 1.2), Ok(false));
+    assert_eq!(accept_joining(&narrow, Some(&wide), &own, &load, margin, 1.2), Ok(true));
+    assert_eq!(accept_joining(&narrow, Some(&wide), &Vec3::new(20.0, 12.5, 7.0), &load, margin, 1.2), Ok(true), "own centre outside");
+    assert_eq!(accept_joining(&off, Some(&wide), &Vec3::new(20.0, 7.5, 7.0), &load, margin, 1.2), Err(Keep::LoadOutside));
+    assert_eq!(accept_joining(&off, Some(&wide), &Vec3::new(20.0, 16.0, 7.0), &load, margin, 1.2), Err(Keep::LoadOutside));
+    assert_eq!(accept_joining(&off, Some(&wide), &Vec3::new(20.0, 7.5, 7.0), &Vec3::new(20.0, f32::NAN, 3.0), margin, 1.2), Err(Keep::LoadOutside));
 }

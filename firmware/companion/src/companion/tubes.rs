@@ -24,22 +24,31 @@ impl<'t> Companion<'t> {
     /// # Errors
     /// Why the old tube is kept (no own or load position yet counts as outside).
     pub fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
-        use crate::perception::{accept, Keep};
+        use crate::perception::{accept_joining, Keep};
         let core = &mut self.core;
         let own = core.sources.own.map(|s| s.value.pos_m).ok_or(Keep::OwnOutside)?;
         let load = core.sources.load.map(|s| s.value.pos_m).ok_or(Keep::LoadOutside)?;
         let r_safe = core.params.r_safe_m();
         let band_mid = 0.5 * (r_safe + core.params.get(Param::RActive));
-        if let Err(keep) = accept(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid) {
-            if let Some(fl) = core.flight.as_mut() {
-                fl.tube_declined();
+        let verdict = accept_joining(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid);
+        // A UAV outside the new tube joins it widened when its controller can (the dissipative
+        // one); otherwise it keeps its old tube.
+        let joined = match verdict {
+            Ok(false) => false,
+            Ok(true) if core.flight.as_mut().is_some_and(|fl| fl.tube_joined()) => true,
+            other => {
+                if let Some(fl) = core.flight.as_mut() {
+                    fl.tube_declined();
+                }
+                return Err(other.err().unwrap_or(Keep::OwnOutside));
             }
-            return Err(keep);
-        }
+        };
         core::mem::swap(&mut core.tube, candidate);
         core.tube_ok = true;
-        if let Some(fl) = core.flight.as_mut() {
-            fl.tube_switched();
+        if !joined {
+            if let Some(fl) = core.flight.as_mut() {
+                fl.tube_switched();
+            }
         }
         Ok(())
     }
