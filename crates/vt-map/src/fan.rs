@@ -17,7 +17,8 @@ use crate::Vec2;
 
 /// Most corners of a fan: two per sector, the sensor between runs of them, and the close.
 pub(crate) const MAX_FAN_VERTICES: usize = 3 * crate::MAX_BEAMS + 2;
-const _: () = assert!(MAX_FAN_VERTICES < u16::MAX as usize && MAX_FAN_ROWS < u16::MAX as usize);
+const _: () = assert!(MAX_FAN_VERTICES < u16::MAX as usize);
+const _: () = assert!(MAX_FAN_ROWS < u16::MAX as usize);
 /// Most rows a fan may span, cells (twice the free range at the resolution, plus two: 63 m of
 /// free range at 0.25 m cells); a wider one is folded sector by sector.
 pub(crate) const MAX_FAN_ROWS: usize = 512;
