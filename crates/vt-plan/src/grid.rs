@@ -39,13 +39,7 @@ pub fn distance_transform(
     v: &mut [usize],
     z: &mut [f32],
 ) -> Result<(), PlanError> {
-    let n = width.max(height);
-    if width == 0 || height == 0 || width.checked_mul(height) != Some(cells.len()) {
-        return Err(PlanError::BadParams { field: "cells" });
-    }
-    if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 {
-        return Err(PlanError::BadParams { field: "work space" });
-    }
+    let n = check_sizes(cells.len(), width, height, line, v, z)?;
     let (f, rest) = line.split_at_mut(n);
     let (d, h) = rest.split_at_mut(n);
     // Columns: squared distance to the nearest occupied square of the same column (a column
@@ -101,13 +95,7 @@ pub fn distance_transform_eighths(
     v: &mut [usize],
     z: &mut [f32],
 ) -> Result<(), PlanError> {
-    let n = width.max(height);
-    if width == 0 || height == 0 || width.checked_mul(height) != Some(cells.len()) {
-        return Err(PlanError::BadParams { field: "cells" });
-    }
-    if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 {
-        return Err(PlanError::BadParams { field: "work space" });
-    }
+    let n = check_sizes(cells.len(), width, height, line, v, z)?;
     // Columns, by rows (contiguous): whole cells to the nearest occupied cell of the column,
     // up then down; `u8::MAX` for none within 254 (no row pass can use more: the result is
     // capped below that).
@@ -175,6 +163,19 @@ fn eighths(d2: f32) -> u8 {
     } else {
         EIGHTHS_FAR
     }
+}
+
+/// The transforms' size checks: a non-empty `width x height` grid of `len` cells and work
+/// space for its longest line; returns that length.
+fn check_sizes(len: usize, width: usize, height: usize, line: &[f32], v: &[usize], z: &[f32]) -> Result<usize, PlanError> {
+    let n = width.max(height);
+    if width == 0 || height == 0 || width.checked_mul(height) != Some(len) {
+        return Err(PlanError::BadParams { field: "cells" });
+    }
+    if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 {
+        return Err(PlanError::BadParams { field: "work space" });
+    }
+    Ok(n)
 }
 
 /// One axis of the square kernel: `d(x) = min_q g(x - q) + f(q)`, `g(t) = max(|t| - 1/2, 0)^2`.
