@@ -14,8 +14,9 @@
 //!   al., Autonomous Robots 2013). Rays are walked exactly ([`ray::traverse`], Amanatides and
 //!   Woo, Eurographics 1987); the caller hears of every newly occupied cell.
 //! - [`OccupancyGrid::integrate_sectors`]: the fold for `OBSTACLE_DISTANCE`, whose beams are
-//!   sectors: each sector's free space rasterised by scanlines, its hit across the arc nearby
-//!   ([`sector`]); the one the flight MCU runs.
+//!   sectors: the scan's free space filled as one polygon row by row (or sector by sector when
+//!   the sectors overlap), each hit across its arc nearby ([`sector`]); the one the flight MCU
+//!   runs (about 0.1 M Cortex-M4 instructions a 72-sector scan of 15 m at 0.25 m).
 //! - [`OccupancyGrid::write_planner_cells`]: the occupied cells, optionally coarsened, in the
 //!   convention of `vt_plan::distance_transform` (0.0 occupied, `f32::INFINITY` free or
 //!   unknown).

@@ -9,10 +9,13 @@
 //!   the arc for width `w`: 1.4 cm at 15 m and 5 deg). For a `Hit(r)` the triangle stops half a
 //!   cell diagonal short of `r`, so no cell that may hold the obstacle's surface is freed; a
 //!   `Clear` sector is free out to the sensor's range. Beams are cut at the fold's free range
-//!   ([`SectorFold`], OctoMap's `maxrange`). The triangle is rasterised by scanlines along its
+//!   ([`SectorFold`], OctoMap's `maxrange`). A scan that turns at most once has sectors that
+//!   do not overlap: their triangles' union, the fan, is filled as one polygon row by row
+//!   (`crate::fan`), each cell once, every run along a row four cells at a time: a few
+//!   instructions a cell, where walking a ray cell by cell ([`crate::ray::traverse`]) costs
+//!   over a hundred. Otherwise each triangle is rasterised on its own by scanlines along its
 //!   major axis (rows when it points mostly east or west, columns otherwise), each line one
-//!   contiguous run, a row run four cells at a time: a few instructions a cell, where walking a
-//!   ray cell by cell ([`crate::ray::traverse`]) costs over a hundred;
+//!   contiguous run;
 //! - **hits across the arc** within `spread_range_m`: [`arc_points`] points spread across the
 //!   arc, half a cell apart, each marks its cell. Beyond that range the arc is metres wide
 //!   (1.3 m at 15 m and 5 deg) and only the sector's centre is marked; a guess elsewhere would
@@ -21,8 +24,8 @@
 //!   [`OccupancyGrid::integrate`]): its value from before the scan is put back before the hits,
 //!   and each hit cell gets one hit per sector that marks it.
 //!
-//! Cells on an edge shared by two sectors may get a miss from each (a cell's centre exactly on
-//! an edge, or within rounding of it). Sectors wider than [`MAX_SECTOR_RAD`], or of zero width,
+//! Folded one by one, cells on an edge shared by two sectors may get a miss from each (a cell's
+//! centre exactly on an edge, or within rounding of it). Sectors wider than [`MAX_SECTOR_RAD`], or of zero width,
 //! are not sectors: such a scan is folded ray by ray by [`OccupancyGrid::integrate`].
 
 use crate::fan::Fan;
@@ -326,13 +329,11 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
                 }
             })
         };
-        for slot in sectors.iter().take(beams) {
+        let one_by_one = if fan_filled { 0 } else { beams };
+        for slot in sectors.iter().take(one_by_one) {
             let Some(Usable { free: sector, .. }) = *slot else {
                 continue;
             };
-            if fan_filled {
-                break;
-            }
             let cells = &mut self.cells;
             let updated = &mut stats.cells_updated;
             sector.for_each_run(w, h, |start, step, count| {
