@@ -309,6 +309,28 @@ pub fn start_point(tube: &CompanionTube, load_m: &Vec3) -> vt_plan::Vec2 {
     samples.get(k.min(samples.len().saturating_sub(1))).map_or(load_m.xy(), |p| p.pos_m)
 }
 
+/// Whether every position of `team` (m, the planner's view of its members) lies inside `tube`
+/// by `margin_m`: a tube the whole team can take without joining it from outside.
+pub fn holds_team(tube: &CompanionTube, team: impl IntoIterator<Item = vt_tube::Vec2>, margin_m: f32) -> bool {
+    let mut hint = 0usize;
+    team.into_iter().all(|p| {
+        tube.locate(p, hint).is_some_and(|sec| {
+            hint = sec.segment;
+            sec.boundary_distance_m(p) >= margin_m
+        })
+    })
+}
+
+/// Whether the planner hands a planned tube to the team now (docs/design.md, "Handing a tube
+/// over"): it is `worth` switching to, and either it holds the whole team (`holds_team`), or
+/// the current tube is blocked less than [`HOLD_AHEAD_M`] ahead of the load (`blocked_ahead_m`),
+/// where the team needs it now and the members outside join it. A tube that leaves members
+/// outside while the block is still far is not handed over: the next plan, from further on,
+/// usually holds them.
+pub fn hand_over_now(worth: bool, holds_team: bool, blocked_ahead_m: f32) -> bool {
+    worth && (holds_team || blocked_ahead_m < HOLD_AHEAD_M)
+}
+
 /// The lowest id among `healthy` members (`healthy(j)`: fresh own data, or in the view):
 /// the team's planner (`None`: no one is healthy).
 pub fn designated_planner(n: usize, healthy: impl Fn(usize) -> bool) -> Option<usize> {

@@ -12,7 +12,7 @@ use super::Tick;
 use crate::companion::{on_wire_grid_m, HostCompanion};
 use crate::plan::params_of;
 use crate::scenario::{LoadedScenario, MapKnowledge, SimTube};
-use vt_companion::perception::{designated_planner, Perception, PerceptionConfig, HOLD_AHEAD_M};
+use vt_companion::perception::{designated_planner, hand_over_now, holds_team, Perception, PerceptionConfig, HOLD_AHEAD_M};
 use vt_plan::PlanError;
 use vt_tube::Waypoint;
 
@@ -62,6 +62,8 @@ pub struct TeamPerception {
     pending: Option<(u32, Vec<Waypoint>)>,
     /// The tube the planner's companion switched to last, with a version the world follows.
     published: Option<(u32, SimTube)>,
+    /// The planner's copy of a planned tube, to check that it holds the team.
+    check: Box<vt_companion::CompanionTube>,
     stats: ReplanStats,
 }
 
@@ -79,7 +81,7 @@ impl TeamPerception {
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| crate::sim::SimError(format!("onboard map: {e}")))?;
         let stats = ReplanStats { map_ram_bytes: vt_map::OccupancyGrid::<{ vt_companion::perception::MAP_CELLS }>::ram_bytes(), ..ReplanStats::default() };
-        Ok(Some(Self { maps, pending: None, published: None, stats }))
+        Ok(Some(Self { maps, pending: None, published: None, check: Box::new(vt_companion::CompanionTube::placeholder()), stats }))
     }
 
     /// One high-level period: fuse the scans (own, and the team's that reached each UAV),
@@ -134,15 +136,19 @@ impl TeamPerception {
             match r {
                 Ok(t) => {
                     self.stats.planned += 1;
-                    if !map.worth_switching(tube, &t, &tick.load.pos_m) {
-                        continue;
-                    }
-                    map.handed_over();
+                    let worth = map.worth_switching(tube, &t, &tick.load.pos_m);
                     let w: Vec<Waypoint> = t
                         .waypoints
                         .iter()
                         .map(|w| Waypoint::new(wire(w.pos_m.x), wire(w.pos_m.y), w.w_left_m, w.w_right_m))
                         .collect();
+                    // Whether the planned tube holds the team as the planner sees it.
+                    let team = tick.views.get(i).map(|v| v.iter().flatten().map(|p| p.xy())).into_iter().flatten();
+                    let holds = worth && self.check.rebuild(&w).is_ok() && holds_team(&self.check, team, c.params().r_safe_m());
+                    if !hand_over_now(worth, holds, map.blocked_ahead_m(load_s(tube, tick))) {
+                        continue;
+                    }
+                    map.handed_over();
                     if self.stats.no_route {
                         self.stats.no_route = false;
                         uavs.iter_mut().filter_map(HostCompanion::get_mut).for_each(|c| {
