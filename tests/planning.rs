@@ -2,7 +2,7 @@
 //! tube, the shipped ROS map, a seeded forest campaign, and bad maps refused with exit 2.
 //! `cargo test --release -p host-sim --test planning -- --nocapture` prints the figures.
 
-use host_sim::map::{self, forest::forest, Grid, LoadedMap, Map, Shape};
+use host_sim::map::{self, forest::{corridor_exists, forest}, Grid, LoadedMap, Map, Shape};
 use host_sim::scenario::{self, Scenario};
 use host_sim::sim::{self, RunOptions};
 use proptest::prelude::*;
@@ -309,34 +309,6 @@ fn shipped_yard_map_flies() {
     let s = &o.summary;
     println!("yard: success {} min UAV-boundary {:.3} m min UAV-UAV {:.3} m, tube min half-width {:.2} m", s.success, s.min_uav_boundary_m, s.min_uav_uav_m, ls.tube.min_half_width_m());
     assert!(s.success, "{:?}", s.failures);
-}
-
-/// Whether a corridor of clearance `need` joins start and goal: flood fill over a 0.1 m grid
-/// of exact clearances (independent of the planner's lattice, search and curve fitting).
-fn corridor_exists(m: &LoadedMap, start: [f64; 2], goal: [f64; 2], need: f32) -> bool {
-    let b = m.bounds_m();
-    let h = 0.1;
-    let (w, ht) = (((b[1] - b[0]) / h) as usize + 1, ((b[3] - b[2]) / h) as usize + 1);
-    let free: Vec<bool> = (0..w * ht).map(|k| m.clearance_m([b[0] + (k % w) as f64 * h, b[2] + (k / w) as f64 * h]) >= need).collect();
-    let cell = |p: [f64; 2]| (((p[1] - b[2]) / h).round() as usize) * w + ((p[0] - b[0]) / h).round() as usize;
-    let (s, g) = (cell(start), cell(goal));
-    let mut seen = vec![false; w * ht];
-    let mut stack = vec![s];
-    while let Some(k) = stack.pop() {
-        if k == g {
-            return true;
-        }
-        if seen[k] || !free[k] {
-            continue;
-        }
-        seen[k] = true;
-        let (i, j) = (k % w, k / w);
-        if i > 0 { stack.push(k - 1); }
-        if i + 1 < w { stack.push(k + 1); }
-        if j > 0 { stack.push(k - w); }
-        if j + 1 < ht { stack.push(k + w); }
-    }
-    false
 }
 
 /// Scenario text for the 3-UAV experiment team on a forest: `[world]` holds the trunks (so the

@@ -578,6 +578,7 @@ fn level_axis(key: &str) -> &'static str {
         "load.true_mass_kg" => "true load mass [kg] (declared: load.mass_kg)",
         "disturbances.latency_s" => "sensor latency [s]",
         "disturbances.intensity" => "disturbance intensity (x nominal)",
+        "sensors.lidar.dropout" => "LiDAR beam dropout probability",
         _ => "level",
     }
 }
@@ -709,6 +710,13 @@ fn print_sweep(rep: &host_sim::campaign::SweepReport, wall_s: f64, out: &std::pa
                 if c.failure_reasons.is_empty() { String::new() } else { format!("  {:?}", c.failure_reasons) }
             );
         }
+    }
+    for f in &rep.forest {
+        let lv = f.level.map_or_else(|| "-".to_string(), |v| format!("{v}"));
+        println!(
+            "  unknown forests, level {lv}: solvable {}/{} succeeded ({} held: false no_route), no route {}/{} held, marginal {}/{} succeeded; contacts with a trunk {} (closest {:.2} m), out of the tube {}",
+            f.solvable_successes, f.solvable, f.solvable_held, f.no_route_held, f.no_route, f.marginal_successes, f.marginal, f.contacts, f.min_obstacle_clearance_m, f.out_of_tube
+        );
     }
     println!("  wrote {}", out.display());
 }

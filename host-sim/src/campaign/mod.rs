@@ -20,11 +20,12 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+pub mod forest;
 pub mod shard;
 pub use shard::{merge, ShardFile, ShardSpec};
 
 /// Keys of a campaign file that are not scenario fields.
-const CAMPAIGN_KEYS: [&str; 6] = ["base", "runs", "seed", "levels", "generate", "declare_wind"];
+const CAMPAIGN_KEYS: [&str; 7] = ["base", "runs", "seed", "levels", "generate", "declare_wind", "forest"];
 
 /// A loaded campaign.
 #[derive(Debug, Clone)]
@@ -43,6 +44,8 @@ pub struct Campaign {
     pub generate: bool,
     /// Each run declares its level's wind before take-off (refused above the team's capacity).
     pub declare_wind: bool,
+    /// Each run flies its own unknown forest (`[forest]`, [`forest`]).
+    pub forest: Option<forest::ForestSpec>,
     /// The merged scenario table of each level (what the generator draws over).
     pub tables: Vec<toml::Table>,
 }
@@ -103,7 +106,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(path) = path else {
         let ls = scenario::load(None)?;
         let tables = vec![toml::from_str(scenario::PAPER_10UAV).map_err(|e| err(scenario::DEFAULT_SCENARIO_NAME, None, e.to_string()))?];
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, declare_wind: false, tables });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, declare_wind: false, forest: None, tables });
     };
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
@@ -116,7 +119,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(base) = table.get("base") else {
         let ls = scenario::parse(&text, &name)?;
         let seed = ls.scenario.seed;
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, declare_wind: false, tables: vec![table] });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, declare_wind: false, forest: None, tables: vec![table] });
     };
     let base = base.as_str().ok_or_else(|| err(&name, Some("base"), "must be a path string".into()))?;
     let (base_text, base_name) = if base == "builtin:paper-10uav" {
@@ -167,6 +170,10 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
         Some(v) => v.as_bool().ok_or_else(|| err(&name, Some(key), "must be true or false".into())),
     };
     let (generate, declare_wind) = (flag("generate")?, flag("declare_wind")?);
+    let forest = table.get("forest").map(|v| forest::ForestSpec::parse(v, &name)).transpose()?;
+    if generate && forest.is_some() {
+        return Err(err(&name, Some("forest"), "a campaign either generates its missions or draws forests, not both".into()));
+    }
     let source = format!("{name} (over {base_name})");
     let (level_key, values) = match table.get("levels") {
         None => (None, vec![None]),
@@ -201,7 +208,10 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     if generate {
         name = format!("generated over {name}");
     }
-    Ok(Campaign { name, levels, level_key, runs, seed, generate, declare_wind, tables })
+    if forest.is_some() {
+        name = format!("unknown forests over {name}");
+    }
+    Ok(Campaign { name, levels, level_key, runs, seed, generate, declare_wind, forest, tables })
 }
 
 /// One run's row of `sweep.csv`.
@@ -214,6 +224,9 @@ pub struct Row {
     /// What was generated for the run (generated campaigns only).
     #[serde(default)]
     pub class: Option<RunClass>,
+    /// The forest the run flew and the oracle's verdict (perception campaigns only).
+    #[serde(default)]
+    pub field: Option<forest::FieldClass>,
 }
 
 /// The class of a generated run's scenario, for the per-class tables.
@@ -279,20 +292,28 @@ fn wind_refusal(s: &scenario::Scenario) -> Option<String> {
     sim::wind_check(s, s.cables.rated_n, mean as f32, gust as f32).err().map(|e| e.to_string())
 }
 
+/// What run `(level l, seed)` flies: its scenario, the generated class, the forest field.
+pub type RunScenario<'a> = (std::borrow::Cow<'a, LoadedScenario>, Option<RunClass>, Option<forest::FieldClass>);
+
 /// The scenario run `(level l, seed)` of `c` flies: the level's, or the one generated from the
 /// seed over the level's table.
 ///
 /// # Errors
 /// No valid generated draw (the generator's last validation error).
-pub fn scenario_of(c: &Campaign, l: usize, seed: u64) -> Result<(std::borrow::Cow<'_, LoadedScenario>, Option<RunClass>), String> {
+pub fn scenario_of(c: &Campaign, l: usize, seed: u64) -> Result<RunScenario<'_>, String> {
+    if let Some(spec) = &c.forest {
+        let (t, (_, base)) = c.tables.get(l).zip(c.levels.get(l)).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
+        let (ls, field) = forest::field_of(base, t, spec, seed)?;
+        return Ok((std::borrow::Cow::Owned(ls), None, Some(field)));
+    }
     if c.generate {
         let t = c.tables.get(l).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
         let g = scenario::generate::generate(t, seed).map_err(|e| e.to_string())?;
         let class = RunClass::of(&g);
-        Ok((std::borrow::Cow::Owned(g.loaded), Some(class)))
+        Ok((std::borrow::Cow::Owned(g.loaded), Some(class), None))
     } else {
         let (_, ls) = c.levels.get(l).ok_or_else(|| format!("level {l} is not in campaign {}", c.name))?;
-        Ok((std::borrow::Cow::Borrowed(ls), None))
+        Ok((std::borrow::Cow::Borrowed(ls), None, None))
     }
 }
 
@@ -324,7 +345,7 @@ pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bo
         work.par_iter()
             .map(|&(i, (l, s))| {
                 let level = c.levels.get(l).and_then(|(lv, _)| *lv);
-                let (ls, class) = scenario_of(c, l, s)?;
+                let (ls, class, field) = scenario_of(c, l, s)?;
                 let summary = match c.declare_wind.then(|| wind_refusal(&ls.scenario)).flatten() {
                     Some(reason) => Summary::refused(&ls.scenario, sim::ControllerKind::Dissipative.name(), s, reason),
                     None => sim::run(&ls, &RunOptions { seed: Some(s), record: false, ..RunOptions::default() }).map_err(|e| e.to_string())?.summary,
@@ -332,7 +353,7 @@ pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bo
                 if let Some(b) = &bar {
                     b.inc(1);
                 }
-                Ok((i, Row { level, summary, class }))
+                Ok((i, Row { level, summary, class, field }))
             })
             .collect()
     });
@@ -361,7 +382,7 @@ pub fn refly(c: &Campaign, row: &Row) -> Result<sim::RunOutput, String> {
         .iter()
         .position(|(l, _)| l.map(f64::to_bits) == row.level.map(f64::to_bits))
         .ok_or_else(|| format!("level {:?} is not in campaign {}", row.level, c.name))?;
-    let (ls, _) = scenario_of(c, l, row.summary.seed)?;
+    let (ls, _, _) = scenario_of(c, l, row.summary.seed)?;
     sim::run(&ls, &RunOptions { seed: Some(row.summary.seed), record: true, ..RunOptions::default() }).map_err(|e| e.to_string())
 }
 
@@ -517,6 +538,8 @@ pub struct SweepReport {
     pub classes: Vec<ClassStats>,
     /// Redraws of the generator over all runs (draws that failed validation).
     pub redraws: u64,
+    /// Per level, the outcomes by the oracle's verdict (perception campaigns only).
+    pub forest: Vec<forest::ForestStats>,
 }
 
 fn metric_table(rows: &[&Row]) -> std::collections::BTreeMap<&'static str, Percentiles> {
@@ -590,18 +613,19 @@ pub fn report_for(name: &str, level_key: Option<&str>, level_values: &[Option<f6
         levels,
         classes: class_stats(level_values, rows),
         redraws: rows.iter().filter_map(|r| r.class.as_ref()).map(|c| u64::from(c.redraws)).sum(),
+        forest: forest::forest_stats(level_values, rows),
     }
 }
 
 /// `sweep.csv`: one row per run.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables,wind_capacity_mps,wind_mps,outcome\n",
+        "level,seed,success,reached_end,completion_time_s,min_uav_boundary_m,min_load_boundary_m,min_uav_uav_m,max_tension_n,tension_cv_mean,time_at_cap_fraction,max_load_altitude_error_m,max_thrust_fraction,formation_error_end_m,failures,time_above_rated_fraction,true_load_mass_kg,tube,n_uavs,airframe,load_fraction,equal_cables,wind_capacity_mps,wind_mps,outcome,trunks,verdict,min_obstacle_clearance_m\n",
     );
     for r in rows {
         let m = &r.summary;
         s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\",{},{},{},{},{},{}\n",
             r.level.map_or(String::new(), |l| l.to_string()),
             m.seed,
             m.success,
@@ -624,6 +648,8 @@ pub fn csv(rows: &[Row]) -> String {
                 |c| format!("{},{},{},{},{},{},{}", c.tube, c.n_uavs, c.airframe, c.load_fraction, c.equal_cables, c.wind_capacity_mps, c.wind_mps)
             ),
             m.outcome,
+            r.field.as_ref().map_or_else(|| ",".to_string(), |f| format!("{},{}", f.trunks, serde_json::to_value(f.verdict).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default())),
+            m.min_obstacle_clearance_m,
         );
     }
     s

@@ -105,8 +105,9 @@ impl TeamPerception {
         }
         // A companion that declined the last tube takes it as soon as the rule allows (it keeps
         // the tube until another replaces it).
-        for uav in uavs.iter_mut() {
+        for (uav, map) in uavs.iter_mut().zip(self.maps.iter_mut()) {
             if uav.retry_offer() {
+                map.handed_over();
                 self.stats.switches += 1;
             }
         }
@@ -148,7 +149,6 @@ impl TeamPerception {
                     if !hand_over_now(worth, holds, map.blocked_ahead_m(load_s(tube, tick))) {
                         continue;
                     }
-                    map.handed_over();
                     if self.stats.no_route {
                         self.stats.no_route = false;
                         uavs.iter_mut().filter_map(HostCompanion::get_mut).for_each(|c| {
@@ -177,9 +177,12 @@ impl TeamPerception {
     /// Offers `w` to every companion; the world measures against the planner's new tube.
     fn hand_over(&mut self, w: &[Waypoint], uavs: &mut [HostCompanion]) {
         let mut any = false;
-        for uav in uavs.iter_mut() {
+        for (uav, map) in uavs.iter_mut().zip(self.maps.iter_mut()) {
             match uav.offer_tube(w) {
                 Ok(()) => {
+                    // What blocks a tube is measured along the new one from now on; a companion
+                    // that kept its tube keeps what blocks it.
+                    map.handed_over();
                     self.stats.switches += 1;
                     any = true;
                 }
