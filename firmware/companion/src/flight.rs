@@ -257,6 +257,9 @@ pub struct Flight {
     operator_hold: bool,
     /// Issue 28: no route to the goal ([`HoldReasons::NO_ROUTE`]).
     no_route: bool,
+    /// Issue 28: this UAV's own tube is blocked close ahead by an obstacle its map has seen and
+    /// it has no tube it may switch to (also [`HoldReasons::NO_ROUTE`]).
+    blocked: bool,
     /// The phases: a ground start's whole sequence; an air start's in transport from its start,
     /// for a set-down (`PhaseProfile::air`).
     profile: Option<PhaseProfile>,
@@ -367,6 +370,7 @@ impl Flight {
             invalid_commands: 0,
             operator_hold: false,
             no_route: false,
+            blocked: false,
             profile,
             pending,
             refusal: None,
@@ -391,7 +395,7 @@ impl Flight {
     /// or load data; the controller's team hold while the team holds).
     pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
         let mut reasons = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
-        if self.no_route {
+        if self.no_route || self.blocked {
             reasons |= HoldReasons::NO_ROUTE;
         }
         if self.refusal.is_some() {
@@ -529,7 +533,7 @@ impl Flight {
     /// Current hold reasons (high and low level).
     pub fn hold_reasons(&self) -> HoldReasons {
         let operator = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
-        let no_route = if self.no_route { HoldReasons::NO_ROUTE } else { 0 };
+        let no_route = if self.no_route || self.blocked { HoldReasons::NO_ROUTE } else { 0 };
         HoldReasons(self.hl_reasons.0 | self.ll_reasons.0 | operator | no_route)
     }
 
@@ -564,6 +568,14 @@ impl Flight {
     /// does; off: a later plan found one).
     pub fn set_no_route(&mut self, on: bool) {
         self.no_route = on;
+    }
+
+    /// Issue 28: this UAV's own tube is blocked close ahead and it has no tube it may switch to
+    /// (`perception::Perception::must_stop`; on: hold in place with
+    /// [`HoldReasons::NO_ROUTE`], as the team's no-route hold; off: it switched, or the block
+    /// cleared).
+    pub fn set_blocked(&mut self, on: bool) {
+        self.blocked = on;
     }
 
     /// The tube was switched (issue 28): the set-down's watch restarts on the new tube (its

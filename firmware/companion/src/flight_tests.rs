@@ -128,6 +128,31 @@ fn the_operators_hold_is_broadcast_flown_as_the_team_hold_and_lifted_after_fs_re
 }
 
 #[test]
+fn a_uav_whose_tube_is_blocked_close_ahead_holds_as_for_no_route_until_it_is_cleared() {
+    let (p, t) = (params(1.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let mut r = reference(&p);
+    let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
+    let mut now = 0;
+    assert_eq!(fl.high_level(&t, &sources(now), now), r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
+    fl.set_blocked(true);
+    assert_eq!(fl.hold_reasons().0, HoldReasons::NO_ROUTE);
+    r.set_team_hold(true);
+    for _ in 0..3 {
+        now += HL_MS;
+        let v = fl.high_level(&t, &sources(now), now);
+        assert_eq!(fl.team_mode(), TeamMode::Hold, "the team holds with it");
+        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "the controller's team hold");
+    }
+    // The team's no-route flag does not lift it: only the UAV's own switch or a clear tube does.
+    fl.set_no_route(false);
+    assert_eq!(fl.hold_reasons().0, HoldReasons::NO_ROUTE);
+    fl.set_blocked(false);
+    quiet_steps_resume(&mut fl, &mut r, &p, &t, now);
+    assert!(fl.hold_reasons().is_clear());
+}
+
+#[test]
 fn a_stale_neighbours_hold_flag_is_not_followed() {
     // FS_NBR_ACT = 0: a stale neighbour is dropped from the springs, and its last hold flag
     // with it (its position is what makes the flag current).

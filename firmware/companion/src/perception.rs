@@ -48,6 +48,9 @@ pub const MIN_REPLAN_GAP_MS: u32 = 200;
 /// bottleneck farther off is not final: the map there is seen from afar, through sectors
 /// metres wide, and sharpens as the team comes closer, so the team flies on and re-plans.
 pub const HOLD_AHEAD_M: f32 = 8.0;
+/// A companion whose own tube is blocked less than this far ahead of the load, m, stops
+/// ([`Perception::must_stop`]).
+pub const STOP_AHEAD_M: f32 = 4.0;
 
 /// The onboard map's configuration (from the `PR_*` parameters).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -199,6 +202,15 @@ impl Perception {
     /// obstacle seen in that tube lies, m (infinite: none seen since the last re-plan).
     pub fn blocked_ahead_m(&self, load_s_m: f32) -> f32 {
         self.blocked_s_m - load_s_m
+    }
+
+    /// The companion must stop: an obstacle its map has seen lies in its own tube less than
+    /// [`HOLD_AHEAD_M`] ahead of the load (arc length `load_s_m`), and it has not switched to a
+    /// tube since (a switch clears it, [`Self::handed_over`]). Flying on would take the
+    /// formation into what the map has seen; holding in place never does. The decision of
+    /// docs/design.md, "Stopping before a seen obstacle".
+    pub fn must_stop(&self, load_s_m: f32) -> bool {
+        self.blocked_ahead_m(load_s_m) < STOP_AHEAD_M
     }
 
     /// A newly seen obstacle lies in the tube ahead: re-plan now.

@@ -83,8 +83,14 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     for _ in 0..2 {
         p.integrate(&scan(V2::new(14.0, 10.0), &[rock]), Some(&tube), 11.0);
     }
+    // The companion stops when the rock is less than STOP_AHEAD_M ahead of the load, and a
+    // switch to another tube clears it.
+    let s_rock = p.blocked_ahead_m(0.0);
+    assert!(s_rock > 14.0 && s_rock < 17.5, "{s_rock}");
+    assert!(!p.must_stop(s_rock - STOP_AHEAD_M - 0.1) && p.must_stop(s_rock - STOP_AHEAD_M + 0.1));
     assert!(p.replan_due(0));
     let planned = p.replan(&tube, &load, 0).unwrap();
+    assert!(p.must_stop(s_rock - 1.0), "a re-plan alone does not clear the block: the tube is still the old one");
     assert!(!p.blocked() && !p.replan_due(999) && p.replan_due(1000), "the schedule restarts");
     assert_eq!(p.replans(), 1);
     let new = CompanionTube::from_waypoints(&planned.waypoints).unwrap();
@@ -102,6 +108,8 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     }
     // A UAV above the load is inside the new tube with margin and may switch.
     assert_eq!(accept(&new, Some(&tube), &Vec3::new(14.0, 10.3, 7.0), &load, 0.5, 1.2), Ok(()));
+    p.handed_over();
+    assert!(!p.must_stop(s_rock - 1.0), "switched: what blocked the old tube is gone");
 }
 
 #[test]

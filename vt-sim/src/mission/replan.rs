@@ -111,6 +111,13 @@ impl TeamPerception {
                 self.stats.switches += 1;
             }
         }
+        // A companion whose own tube is blocked close ahead, with no tube it may take, stops.
+        for (uav, map) in uavs.iter_mut().zip(self.maps.iter()) {
+            let stop = uav.get().and_then(|c| c.tube()).is_some_and(|t| map.must_stop(load_s(t, tick)));
+            if let Some(c) = uav.get_mut() {
+                c.set_blocked(stop);
+            }
+        }
         if let Some((at, _)) = &self.pending {
             if immediate || tick.time_ms >= *at {
                 if let Some((_, w)) = self.pending.take() {

@@ -16,6 +16,13 @@ impl<'t> Companion<'t> {
         self.core.flight.as_mut().map(|fl| fl.set_no_route(on)).is_some()
     }
 
+    /// Issue 28: this UAV's own tube is blocked close ahead and it has no tube it may take
+    /// (`perception::Perception::must_stop`): it holds in place with
+    /// [`crate::HoldReasons::NO_ROUTE`] while on. False when no mission runs.
+    pub fn set_blocked(&mut self, on: bool) -> bool {
+        self.core.flight.as_mut().map(|fl| fl.set_blocked(on)).is_some()
+    }
+
     /// Issue 28: switches to the tube the caller built in `candidate` when
     /// [`crate::perception::accept`] allows it for this UAV's and the load's last positions
     /// (margin: the flown `r_safe`; the barrier may rise to its value halfway through the
