@@ -48,9 +48,21 @@ pub const MIN_REPLAN_GAP_MS: u32 = 200;
 /// bottleneck farther off is not final: the map there is seen from afar, through sectors
 /// metres wide, and sharpens as the team comes closer, so the team flies on and re-plans.
 pub const HOLD_AHEAD_M: f32 = 8.0;
-/// A companion whose own tube is blocked less than this far ahead of the load, m, stops
-/// ([`Perception::must_stop`]).
-pub const STOP_AHEAD_M: f32 = 4.0;
+/// The deceleration a stop is planned with, m/s^2 (a team hold brings the team to rest from
+/// `v_m`; a tenth of g, well inside what a tilt-limited UAV with its share of the load does).
+pub const STOP_DECEL_MPS2: f32 = 1.0;
+/// Kept between a stopped UAV's body and what blocks its tube, m (the map's cells, the
+/// LiDAR's noise and the hand-over's 100 ms).
+pub const STOP_MARGIN_M: f32 = 1.0;
+
+/// How far ahead of a UAV an obstacle in its tube makes it stop, m: its body radius
+/// `body_r_m`, the distance to stop from `v_max_mps` at [`STOP_DECEL_MPS2`], and
+/// [`STOP_MARGIN_M`]. Non-finite or negative inputs count as 0.
+pub fn stop_distance_m(body_r_m: f32, v_max_mps: f32) -> f32 {
+    let ok = |x: f32| if x.is_finite() && x > 0.0 { x } else { 0.0 };
+    let v = ok(v_max_mps);
+    ok(body_r_m) + v * v / (2.0 * STOP_DECEL_MPS2) + STOP_MARGIN_M
+}
 
 /// The onboard map's configuration (from the `PR_*` parameters).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -204,13 +216,15 @@ impl Perception {
         self.blocked_s_m - load_s_m
     }
 
-    /// The companion must stop: an obstacle its map has seen lies in its own tube less than
-    /// [`HOLD_AHEAD_M`] ahead of the load (arc length `load_s_m`), and it has not switched to a
-    /// tube since (a switch clears it, [`Self::handed_over`]). Flying on would take the
-    /// formation into what the map has seen; holding in place never does. The decision of
-    /// docs/design.md, "Stopping before a seen obstacle".
-    pub fn must_stop(&self, load_s_m: f32) -> bool {
-        self.blocked_ahead_m(load_s_m) < STOP_AHEAD_M
+    /// The companion must stop: an obstacle its map has seen lies in its own tube ahead of the
+    /// UAV (its own arc length `own_s_m` along that tube), less than `stop_m`
+    /// ([`stop_distance_m`]) ahead, and it has not switched to a tube since (a switch clears
+    /// it, [`Self::handed_over`]). Flying on would take it into what the map has seen; holding
+    /// in place does not. An obstacle already behind the UAV's section does not stop it. The
+    /// decision of docs/design.md, "Stopping before a seen obstacle".
+    pub fn must_stop(&self, own_s_m: f32, stop_m: f32) -> bool {
+        let ahead = self.blocked_ahead_m(own_s_m);
+        ahead >= 0.0 && ahead < stop_m
     }
 
     /// A newly seen obstacle lies in the tube ahead: re-plan now.

@@ -87,10 +87,14 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     // switch to another tube clears it.
     let s_rock = p.blocked_ahead_m(0.0);
     assert!(s_rock > 14.0 && s_rock < 17.5, "{s_rock}");
-    assert!(!p.must_stop(s_rock - STOP_AHEAD_M - 0.1) && p.must_stop(s_rock - STOP_AHEAD_M + 0.1));
+    let stop = stop_distance_m(0.4, 1.0);
+    assert!((stop - (0.4 + 0.5 + STOP_MARGIN_M)).abs() < 1e-6, "{stop}");
+    assert!(!p.must_stop(s_rock - stop - 0.1, stop) && p.must_stop(s_rock - stop + 0.1, stop));
+    assert!(p.must_stop(s_rock - 0.01, stop) && !p.must_stop(s_rock + 0.01, stop), "behind the UAV it no longer stops it");
+    assert_eq!(stop_distance_m(f32::NAN, -1.0), STOP_MARGIN_M, "bad inputs count as 0");
     assert!(p.replan_due(0));
     let planned = p.replan(&tube, &load, 0).unwrap();
-    assert!(p.must_stop(s_rock - 1.0), "a re-plan alone does not clear the block: the tube is still the old one");
+    assert!(p.must_stop(s_rock - 1.0, stop), "a re-plan alone does not clear the block: the tube is still the old one");
     assert!(!p.blocked() && !p.replan_due(999) && p.replan_due(1000), "the schedule restarts");
     assert_eq!(p.replans(), 1);
     let new = CompanionTube::from_waypoints(&planned.waypoints).unwrap();
@@ -109,7 +113,7 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     // A UAV above the load is inside the new tube with margin and may switch.
     assert_eq!(accept(&new, Some(&tube), &Vec3::new(14.0, 10.3, 7.0), &load, 0.5, 1.2), Ok(()));
     p.handed_over();
-    assert!(!p.must_stop(s_rock - 1.0), "switched: what blocked the old tube is gone");
+    assert!(!p.must_stop(s_rock - 1.0, stop), "switched: what blocked the old tube is gone");
 }
 
 #[test]

@@ -111,9 +111,12 @@ impl TeamPerception {
                 self.stats.switches += 1;
             }
         }
-        // A companion whose own tube is blocked close ahead, with no tube it may take, stops.
-        for (uav, map) in uavs.iter_mut().zip(self.maps.iter()) {
-            let stop = uav.get().and_then(|c| c.tube()).is_some_and(|t| map.must_stop(load_s(t, tick)));
+        // A companion whose own tube is blocked close ahead of it, with no tube it may take,
+        // stops (its own position as it measures it).
+        for ((uav, map), own) in uavs.iter_mut().zip(self.maps.iter()).zip(tick.own) {
+            let stop = uav.get().is_some_and(|c| {
+                c.tube().and_then(|t| t.locate(own.pos_m.xy(), 0)).is_some_and(|sec| map.must_stop(sec.s_m, c.stop_distance_m()))
+            });
             if let Some(c) = uav.get_mut() {
                 c.set_blocked(stop);
             }

@@ -16,6 +16,13 @@ impl<'t> Companion<'t> {
         self.core.flight.as_mut().map(|fl| fl.set_no_route(on)).is_some()
     }
 
+    /// Issue 28: how far ahead of this UAV an obstacle in its tube makes it stop, m
+    /// ([`crate::perception::stop_distance_m`] of `VT_BODY_R` and `VT_V_MAX`).
+    pub fn stop_distance_m(&self) -> f32 {
+        let p = &self.core.params;
+        crate::perception::stop_distance_m(p.get(crate::params::Param::BodyR), p.get(crate::params::Param::VMax))
+    }
+
     /// Issue 28: this UAV's own tube is blocked close ahead and it has no tube it may take
     /// (`perception::Perception::must_stop`): it holds in place with
     /// [`crate::HoldReasons::NO_ROUTE`] while on. False when no mission runs.
