@@ -92,6 +92,10 @@ pub struct Sources {
 
 /// Words of [`MemberBits`].
 const MEMBER_WORDS: usize = MAX_UAVS.div_ceil(32);
+/// `Flight::no_route` bit: the team's planner found no route (issue 28).
+const NO_ROUTE_TEAM: u8 = 1;
+/// `Flight::no_route` bit: this UAV's own tube is blocked close ahead (issue 28).
+const NO_ROUTE_BLOCKED: u8 = 2;
 
 /// One bit per team member (`MAX_UAVS` bits).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -255,11 +259,10 @@ pub struct Flight {
     team_mode: TeamMode,
     invalid_commands: u32,
     operator_hold: bool,
-    /// Issue 28: no route to the goal ([`HoldReasons::NO_ROUTE`]).
-    no_route: bool,
-    /// Issue 28: this UAV's own tube is blocked close ahead by an obstacle its map has seen and
-    /// it has no tube it may switch to (also [`HoldReasons::NO_ROUTE`]).
-    blocked: bool,
+    /// Issue 28, why this UAV has no route ([`HoldReasons::NO_ROUTE`] while not 0): bit
+    /// [`NO_ROUTE_TEAM`], the team's planner found none; bit [`NO_ROUTE_BLOCKED`], its own tube
+    /// is blocked close ahead by an obstacle its map has seen and it has no tube it may take.
+    no_route: u8,
     /// The phases: a ground start's whole sequence; an air start's in transport from its start,
     /// for a set-down (`PhaseProfile::air`).
     profile: Option<PhaseProfile>,
@@ -369,8 +372,7 @@ impl Flight {
             team_mode: TeamMode::Transport,
             invalid_commands: 0,
             operator_hold: false,
-            no_route: false,
-            blocked: false,
+            no_route: 0,
             profile,
             pending,
             refusal: None,
@@ -395,7 +397,7 @@ impl Flight {
     /// or load data; the controller's team hold while the team holds).
     pub fn high_level(&mut self, tube: &CompanionTube, src: &Sources, now_ms: u32) -> Vec3 {
         let mut reasons = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
-        if self.no_route || self.blocked {
+        if self.no_route != 0 {
             reasons |= HoldReasons::NO_ROUTE;
         }
         if self.refusal.is_some() {
@@ -533,7 +535,7 @@ impl Flight {
     /// Current hold reasons (high and low level).
     pub fn hold_reasons(&self) -> HoldReasons {
         let operator = if self.operator_hold { HoldReasons::OPERATOR } else { 0 };
-        let no_route = if self.no_route || self.blocked { HoldReasons::NO_ROUTE } else { 0 };
+        let no_route = if self.no_route != 0 { HoldReasons::NO_ROUTE } else { 0 };
         HoldReasons(self.hl_reasons.0 | self.ll_reasons.0 | operator | no_route)
     }
 
@@ -567,7 +569,7 @@ impl Flight {
     /// Issue 28: the team's planner found no route (on: hold in place, as the operator's hold
     /// does; off: a later plan found one).
     pub fn set_no_route(&mut self, on: bool) {
-        self.no_route = on;
+        self.no_route = if on { self.no_route | NO_ROUTE_TEAM } else { self.no_route & !NO_ROUTE_TEAM };
     }
 
     /// Issue 28: this UAV's own tube is blocked close ahead and it has no tube it may switch to
@@ -575,7 +577,7 @@ impl Flight {
     /// [`HoldReasons::NO_ROUTE`], as the team's no-route hold; off: it switched, or the block
     /// cleared).
     pub fn set_blocked(&mut self, on: bool) {
-        self.blocked = on;
+        self.no_route = if on { self.no_route | NO_ROUTE_BLOCKED } else { self.no_route & !NO_ROUTE_BLOCKED };
     }
 
     /// The tube was switched (issue 28): the set-down's watch restarts on the new tube (its
