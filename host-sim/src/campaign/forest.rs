@@ -70,11 +70,9 @@ impl ForestSpec {
 
     /// The number of trunks of run `seed`.
     fn trunks_of(&self, seed: u64) -> usize {
-        // splitmix64's finaliser of the seed (not the forest's own stream, which it seeds).
-        let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
+        // splitmix64's first draw from the seed (the forest's own stream starts from the seed
+        // too; this count only sets how many trunks it places).
+        let z = crate::map::forest::next(&mut { seed });
         let span = (self.trunks[1] - self.trunks[0]) as u64 + 1;
         self.trunks[0] + (z % span) as usize
     }

@@ -4,8 +4,8 @@
 
 use super::{Map, Shape};
 
-/// splitmix64 step.
-fn next(state: &mut u64) -> u64 {
+/// splitmix64 step: advances `state` and returns the next draw.
+pub fn next(state: &mut u64) -> u64 {
     *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
     let mut z = *state;
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
