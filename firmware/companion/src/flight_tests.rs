@@ -104,52 +104,45 @@ fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_aft
     assert!(fl.velocity_command_mps().x > 0.1, "advancing again");
 }
 
-#[test]
-fn the_operators_hold_is_broadcast_flown_as_the_team_hold_and_lifted_after_fs_resume() {
+/// A hold this UAV raises itself (`raise(fl, true)`): its `reason` shows at once, it is
+/// broadcast, and the team hold is flown for three steps; then `before_lift` runs and
+/// `raise(fl, false)` lifts it, and the team resumes after `FS_RESUME`.
+fn own_hold_is_flown_as_the_team_hold(raise: fn(&mut Flight, bool), reason: u8, before_lift: fn(&mut Flight)) {
     let (p, t) = (params(1.0), tube());
     let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
     let mut r = reference(&p);
     let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
     let mut now = 0;
     assert_eq!(fl.high_level(&t, &sources(now), now), r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
-    fl.set_operator_hold(true);
-    assert_eq!(fl.hold_reasons().0, HoldReasons::OPERATOR, "the reason shows at once, before the next step");
+    raise(&mut fl, true);
+    assert_eq!(fl.hold_reasons().0, reason, "the reason shows at once, before the next step");
     r.set_team_hold(true);
     for _ in 0..3 {
         now += HL_MS;
         let v = fl.high_level(&t, &sources(now), now);
         assert_eq!(fl.team_mode(), TeamMode::Hold, "an own detection: the team must follow");
-        assert_eq!(fl.hold_reasons().0, HoldReasons::OPERATOR);
+        assert_eq!(fl.hold_reasons().0, reason);
         assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "the controller's team hold");
     }
-    fl.set_operator_hold(false);
+    before_lift(&mut fl);
+    raise(&mut fl, false);
     quiet_steps_resume(&mut fl, &mut r, &p, &t, now);
     assert!(fl.hold_reasons().is_clear());
 }
 
 #[test]
+fn the_operators_hold_is_broadcast_flown_as_the_team_hold_and_lifted_after_fs_resume() {
+    own_hold_is_flown_as_the_team_hold(Flight::set_operator_hold, HoldReasons::OPERATOR, |_| {});
+}
+
+#[test]
 fn a_uav_whose_tube_is_blocked_close_ahead_holds_as_for_no_route_until_it_is_cleared() {
-    let (p, t) = (params(1.0), tube());
-    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
-    let mut r = reference(&p);
-    let nb = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
-    let mut now = 0;
-    assert_eq!(fl.high_level(&t, &sources(now), now), r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps);
-    fl.set_blocked(true);
-    assert_eq!(fl.hold_reasons().0, HoldReasons::NO_ROUTE);
-    r.set_team_hold(true);
-    for _ in 0..3 {
-        now += HL_MS;
-        let v = fl.high_level(&t, &sources(now), now);
-        assert_eq!(fl.team_mode(), TeamMode::Hold, "the team holds with it");
-        assert_eq!(v, r.update(&t, &measurements(&nb), p.high_level_dt_s()).vel_mps, "the controller's team hold");
-    }
-    // The team's no-route flag does not lift it: only the UAV's own switch or a clear tube does.
-    fl.set_no_route(false);
-    assert_eq!(fl.hold_reasons().0, HoldReasons::NO_ROUTE);
-    fl.set_blocked(false);
-    quiet_steps_resume(&mut fl, &mut r, &p, &t, now);
-    assert!(fl.hold_reasons().is_clear());
+    own_hold_is_flown_as_the_team_hold(Flight::set_blocked, HoldReasons::NO_ROUTE, |fl| {
+        // The team's no-route flag does not lift it: only the UAV's own switch or a clear
+        // tube does.
+        fl.set_no_route(false);
+        assert_eq!(fl.hold_reasons().0, HoldReasons::NO_ROUTE);
+    });
 }
 
 #[test]

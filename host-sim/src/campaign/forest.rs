@@ -90,6 +90,17 @@ pub enum Verdict {
     Marginal,
 }
 
+impl Verdict {
+    /// The verdict as `sweep.csv` and `sweep.json` spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Solvable => "solvable",
+            Self::NoRoute => "no_route",
+            Self::Marginal => "marginal",
+        }
+    }
+}
+
 /// What a forest run flew over.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct FieldClass {
@@ -272,6 +283,9 @@ mod tests {
         let p = crate::plan::params_of(&a.scenario, a.scenario.tube.plan.as_ref().unwrap_or_else(|| panic!("plan")));
         let wide = corridor_exists(&truth, [2.0, 12.0], [38.0, 12.0], p.need_half_width_m + p.margin_m + p.lattice_m);
         assert_eq!(fa.verdict == Verdict::Solvable, wide);
+        for v in [Verdict::Solvable, Verdict::NoRoute, Verdict::Marginal] {
+            assert_eq!(serde_json::to_value(v).ok().and_then(|j| j.as_str().map(str::to_string)).as_deref(), Some(v.name()), "csv and json agree");
+        }
     }
 
     #[test]

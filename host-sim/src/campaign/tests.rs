@@ -1,0 +1,157 @@
+//! Tests of the campaign loader, runner, statistics and CSV.
+
+use super::*;
+
+#[test]
+fn percentiles_by_hand() {
+    let p = percentiles((1..=101).map(f64::from).collect()).unwrap();
+    assert_eq!((p.min, p.p5, p.p50, p.p95, p.max), (1.0, 6.0, 51.0, 96.0, 101.0));
+    assert!(percentiles(vec![f64::NAN]).is_none());
+}
+
+/// `sweep --replay-worst`: the re-flown run is the worst row's flight (same summary, wall
+/// time aside), and it has the time histories the replay needs.
+#[test]
+fn refly_repeats_the_worst_run_with_a_record() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+    let c = load(Some(&path)).unwrap();
+    let rows = fly(&c, 3, 7, 1, false).unwrap();
+    let w = worst(&rows).unwrap();
+    let least = rows.iter().map(|r| r.summary.min_uav_boundary_m).fold(f64::INFINITY, f64::min);
+    assert!(rows.iter().all(|r| r.summary.success), "a failed row would be the worst");
+    assert_eq!(w.summary.min_uav_boundary_m, least);
+    let o = refly(&c, w).unwrap();
+    let strip = |s: &Summary| Summary { wall_time_s: 0.0, realtime_factor: 0.0, ..s.clone() };
+    assert_eq!(strip(&o.summary), strip(&w.summary));
+    assert!(!o.record.time_s.is_empty() && o.record.uav_pos_m.len() == o.record.time_s.len());
+    // A failure comes first whatever the distances.
+    let mut failed = rows.clone();
+    failed[2].summary.success = false;
+    failed[2].summary.min_uav_boundary_m = 99.0;
+    assert_eq!(worst(&failed).map(|r| r.summary.seed), Some(failed[2].summary.seed));
+    assert!(worst(&[]).is_none());
+}
+
+#[test]
+fn merge_overrides_nested_tables() {
+    let mut a: toml::Table = toml::from_str("[x]\na = 1\nb = 2\n[y]\nc = 3").unwrap();
+    let b: toml::Table = toml::from_str("[x]\nb = 5\n[z]\nd = 1").unwrap();
+    merge_tables(&mut a, &b);
+    assert_eq!(a["x"]["a"].as_integer(), Some(1));
+    assert_eq!(a["x"]["b"].as_integer(), Some(5));
+    assert_eq!(a["z"]["d"].as_integer(), Some(1));
+    assert!(set_dotted(&mut a, "x.e", 0.5));
+    assert_eq!(a["x"]["e"].as_float(), Some(0.5));
+    let mut f: toml::Table = toml::from_str("[[faults]]\nuav = 0\n").unwrap();
+    assert!(set_dotted(&mut f, "faults.0.uav", 3.0));
+    assert_eq!(f["faults"][0]["uav"].as_integer(), Some(3));
+    assert!(!set_dotted(&mut f, "faults.5.uav", 3.0));
+}
+
+#[test]
+fn a_campaign_overrides_one_field_of_a_table_its_base_lacks() {
+    // Issue 29: `[link] drop_probability` over experiment-3uav.toml (no `[link]`) failed
+    // with "missing field `delay_s`". Every field of an optional table has its default.
+    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+    let base_text = std::fs::read_to_string(&base).unwrap();
+    assert!(!base_text.contains("[link]") && !base_text.contains("[baseline]"), "the base must lack both tables");
+    let dir = std::env::temp_dir().join(format!("vt-campaign-merge-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("drops.toml");
+    let text = format!("base = {:?}\nruns = 2\n[link]\ndrop_probability = 0.1\n[baseline]\nk1 = 1.5\n", base.display().to_string());
+    std::fs::write(&file, text).unwrap();
+    let c = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+    let s = &c.levels[0].1.scenario;
+    assert_eq!(s.link.drop_probability, 0.1);
+    assert_eq!(s.link.delay_s, 0.0, "absent: its documented default");
+    assert_eq!(s.link.stale_timeout_s, 0.5, "absent: its documented default");
+    assert_eq!(s.baseline.k1, 1.5);
+    assert_eq!((s.baseline.k2, s.baseline.v_max_mps), (1.0, 3.0), "absent: the published values");
+    // A plain scenario file with a partial table parses the same way.
+    let partial = crate::scenario::parse(&(base_text + "\n[link]\ndelay_s = 0.04\n"), "partial.toml").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((partial.scenario.link.delay_s, partial.scenario.link.drop_probability), (0.04, 0.0));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 29: `generate = true` flies each run on the scenario generated from its seed over
+/// the level's table: rows carry the class, the same seeds give the same rows, a refly is
+/// the same flight, shards merge to the whole, and per-class tables cover every row.
+#[test]
+fn a_generated_campaign_flies_one_generated_scenario_per_seed() {
+    let dir = std::env::temp_dir().join(format!("vt-campaign-gen-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("gen.toml");
+    let text = "base = \"builtin:paper-10uav\"\ngenerate = true\nruns = 3\nseed = 5003\n[disturbances]\nposition_noise_m = 0.02\n";
+    // (builtin base: paths relative to nothing.)
+    std::fs::write(&file, text).unwrap();
+    let c = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+    assert!(c.generate && c.name.starts_with("generated over"));
+    let rows = fly(&c, c.runs, c.seed, 2, false).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(rows.len(), 3);
+    for (r, seed) in rows.iter().zip(5003..) {
+        let class = r.class.as_ref().expect("a generated row has its class");
+        assert_eq!(r.summary.scenario, format!("gen-{seed}"));
+        assert_eq!(r.summary.n_uavs, class.n_uavs);
+        assert_eq!(r.summary.seed, seed);
+    }
+    // (Compared through sweep.csv: everything but the wall-clock time.)
+    assert_eq!(csv(&rows), csv(&fly(&c, c.runs, c.seed, 1, false).unwrap_or_else(|e| panic!("{e}"))), "deterministic whatever the threads");
+    let again = refly(&c, &rows[1]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(again.summary.min_uav_uav_m.to_bits(), rows[1].summary.min_uav_uav_m.to_bits());
+    // Sharded through JSON, as between machines.
+    let shards: Vec<(String, ShardFile)> = [2, 1]
+        .iter()
+        .map(|&k| {
+            let spec = ShardSpec { index: k, count: 2 };
+            let part = fly_shard(&c, c.runs, c.seed, 1, false, Some(spec)).unwrap_or_else(|e| panic!("{e}"));
+            let text = serde_json::to_string(&ShardFile::new(&c, c.runs, c.seed, spec, part)).unwrap_or_default();
+            (format!("shard{k}"), serde_json::from_str::<ShardFile>(&text).unwrap_or_else(|e| panic!("{e}")))
+        })
+        .collect();
+    assert_eq!(csv(&merge(&shards).unwrap_or_else(|e| panic!("{e}")).rows), csv(&rows));
+    let rep = report(&c, c.seed, &rows);
+    for dim in ["tube", "airframe", "team", "load"] {
+        assert_eq!(rep.classes.iter().filter(|k| k.dimension == dim).map(|k| k.runs).sum::<usize>(), 3, "{dim}");
+    }
+    assert_eq!(rep.levels[0].out_of_tube, rows.iter().filter(|r| left_the_tube(&r.summary)).count());
+    assert!(csv(&rows).lines().nth(1).is_some_and(|l| l.contains(&rows[0].class.as_ref().map_or(String::new(), |k| k.airframe.clone()))));
+    // A bad flag names its key.
+    std::fs::write(&file, "base = \"builtin:paper-10uav\"\ngenerate = \"yes\"\n").unwrap();
+    let e = load(Some(&file)).unwrap_err();
+    assert_eq!(e.field.as_deref(), Some("generate"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 29: `declare_wind = true` declares each run's forecast (mean + two gust sigma at the
+/// level's intensity); the experiment's team (capacity 7.6 m/s) is refused at 3x of a
+/// 3 m/s + 0.5 m/s-sigma wind (10.5 m/s) and flies at 1x (4.0 m/s). Refused rows fly
+/// nothing, are counted, and are never the run `--replay-worst` picks.
+#[test]
+fn declared_wind_refuses_the_runs_the_team_cannot_hold() {
+    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
+    let dir = std::env::temp_dir().join(format!("vt-campaign-wind-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("windy.toml");
+    let text = format!(
+        "base = {:?}\ndeclare_wind = true\nruns = 2\nseed = 3\n[disturbances]\nwind_mean_mps = [3.0, 0.0, 0.0]\ngust_std_mps = 0.5\n[mission]\ntime_limit_s = 4.0\n[levels]\nkey = \"disturbances.intensity\"\nvalues = [1.0, 3.0]\n",
+        base.display().to_string()
+    );
+    std::fs::write(&file, text).unwrap();
+    let c = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+    assert!(c.declare_wind && !c.generate);
+    let rows = fly(&c, c.runs, c.seed, 2, false).unwrap_or_else(|e| panic!("{e}"));
+    for r in &rows {
+        let refused = r.level == Some(3.0);
+        assert_eq!(r.summary.was_refused(), refused, "{:?}", r.summary.failures);
+        if refused {
+            assert_eq!(r.summary.sim_time_s, 0.0, "nothing flew");
+            assert!(r.summary.failures[0].starts_with("refused before take-off: ") && r.summary.failures[0].contains("capacity 7.6 m/s"), "{:?}", r.summary.failures);
+        } else {
+            assert!(r.summary.sim_time_s > 0.0 && r.summary.outcome == "flown");
+        }
+    }
+    let rep = report(&c, c.seed, &rows);
+    assert_eq!((rep.levels[0].refused, rep.levels[1].refused), (0, 2));
+    assert!(worst(&rows).is_some_and(|w| !w.summary.was_refused()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
