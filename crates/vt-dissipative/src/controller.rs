@@ -197,6 +197,8 @@ pub struct DissipativeController<const N: usize> {
     vertical: VerticalLoop,
     /// Team hold (docs/design.md, "Team failsafe"): the passing term is off.
     team_hold: bool,
+    /// Team hold just began: the next update re-seats the tray-centre replica.
+    reseat: bool,
     /// Where the UAV holds its horizontal position in team hold once a neighbour is missing
     /// (the anchor), world ENU, m.
     anchor_m: Option<Vec2>,
@@ -243,6 +245,7 @@ impl<const N: usize> DissipativeController<N> {
             center_hint: 0,
             vertical: VerticalLoop::new(params.vertical),
             team_hold: false,
+            reseat: false,
             anchor_m: None,
             join_m: 0.0,
             scale: FormationScale::NEUTRAL,
@@ -251,14 +254,18 @@ impl<const N: usize> DissipativeController<N> {
 
     /// Switches the team hold on or off for the following steps (`docs/design.md`, "Team
     /// failsafe"): the passing term eq:2-13 of the own node is off and the tray-centre replica
-    /// stands still (zero tray velocity), so nothing drives the team along the tube and the
-    /// centre springs anchor it; the springs eq:2-5, the tube keeping eq:2-14 and the altitude
+    /// moves to the nodes' centroid at the hold's first step and then stands still (zero tray
+    /// velocity), so nothing drives the team along the tube and the centre springs anchor it
+    /// where it is; the springs eq:2-5, the tube keeping eq:2-14 and the altitude
     /// law act as in transport. With the passing potential gone and the centre fixed, the
     /// spring and barrier energy alone is a Lyapunov function of the node dynamics: the team
     /// comes to rest in its formation around the held centre, inside the tube. Once a
     /// neighbour is missing during the hold, the UAV instead holds its own horizontal position
     /// where it was then (gain [`HOLD_POSITION_GAIN_PER_S`]) plus the tube keeping.
     pub fn set_team_hold(&mut self, hold: bool) {
+        if hold && !self.team_hold {
+            self.reseat = true;
+        }
         self.team_hold = hold;
         if !hold {
             self.anchor_m = None;
@@ -398,6 +405,20 @@ impl<const N: usize> DissipativeController<N> {
                 let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
                 vbar += v;
                 status.coincident_nodes |= c;
+            }
+        }
+        // Entering team hold: the tray-centre replica moves to the nodes' centroid, so the team
+        // rests around where it is, not around where the replica had led it (extension;
+        // docs/design.md, "Team hold: the held centre").
+        if self.reseat {
+            self.reseat = false;
+            let (mut sum, mut k) = (Vec2::zeros(), 0.0f32);
+            for q in nodes.iter().take(self.n).flatten() {
+                sum += q;
+                k += 1.0;
+            }
+            if k > 0.0 {
+                self.center_m = sum / k;
             }
         }
         let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest.own_load_m, p.k2, true);

@@ -223,10 +223,24 @@ fn team_hold_removes_exactly_the_passing_term() {
     uavs[0].y += 0.7; // off its rest position: the springs act on UAV 0
     let nb = neighbours(&uavs);
     let t = tube();
+    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    // Transport first: the replica leads the formation along the tube.
+    for _ in 0..50 {
+        go.update(&t, &m, DT_S);
+    }
     let mut hold = go.clone();
     hold.set_team_hold(true);
     assert!(hold.team_hold() && !go.team_hold());
-    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    // The hold's first step re-seats the replica at the nodes' centroid (the team rests where it
+    // is, not where the replica had led it).
+    hold.update(&t, &m, DT_S);
+    let tray = params().tray;
+    let centroid = uavs.iter().map(|u| tray.project(u, &load).0).sum::<Vec2>() / uavs.len() as f32;
+    assert_relative_eq!(hold.tray_center_m(), centroid, epsilon = 1e-5);
+    assert!((go.tray_center_m() - centroid).norm() > 0.1, "the replica had led the formation");
+    // From the same replica, transport and hold differ by the passing term alone.
+    let mut go = hold.clone();
+    go.set_team_hold(false);
     let (a, b) = (go.update(&t, &m, DT_S), hold.update(&t, &m, DT_S));
     let sec = t.locate(a.node_m, 0).unwrap();
     let ratio = (uavs[0].z - load.z) / params().tray.height_above_load_m;
