@@ -409,7 +409,7 @@ impl<const N: usize> DissipativeController<N> {
         }
         // Entering team hold: the tray-centre replica moves to the nodes' centroid, so the team
         // rests around where it is, not around where the replica had led it (extension;
-        // docs/design.md, "Team hold: the held centre").
+        // docs/design.md, "Safety finding and fix: the held centre").
         if self.reseat {
             self.reseat = false;
             let (mut sum, mut k) = (Vec2::zeros(), 0.0f32);
