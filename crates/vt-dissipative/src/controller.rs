@@ -397,28 +397,25 @@ impl<const N: usize> DissipativeController<N> {
         let mut vbar = Vec2::zeros();
         if !self.team_hold {
             vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) * so.progress;
-        } else if status.neighbours_dropped > 0 && self.anchor_m.is_none() {
-            self.anchor_m = Some(m.own_pos_m.xy());
+        } else {
+            // Entering team hold: the tray-centre replica moves to the nodes' centroid, so the
+            // team rests around where it is, not around where the replica had led it
+            // (extension; docs/design.md, "Safety finding and fix: the held centre").
+            if self.reseat {
+                self.reseat = false;
+                if let Some(c) = centroid(&nodes, self.n) {
+                    self.center_m = c;
+                }
+            }
+            if status.neighbours_dropped > 0 && self.anchor_m.is_none() {
+                self.anchor_m = Some(m.own_pos_m.xy());
+            }
         }
         for (j, (q_j, rest)) in nodes.iter().zip(self.rest.own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
                 let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
                 vbar += v;
                 status.coincident_nodes |= c;
-            }
-        }
-        // Entering team hold: the tray-centre replica moves to the nodes' centroid, so the team
-        // rests around where it is, not around where the replica had led it (extension;
-        // docs/design.md, "Safety finding and fix: the held centre").
-        if self.reseat {
-            self.reseat = false;
-            let (mut sum, mut k) = (Vec2::zeros(), 0.0f32);
-            for q in nodes.iter().take(self.n).flatten() {
-                sum += q;
-                k += 1.0;
-            }
-            if k > 0.0 {
-                self.center_m = sum / k;
             }
         }
         let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest.own_load_m, p.k2, true);
@@ -550,6 +547,20 @@ pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measure
 #[inline]
 pub(crate) fn finite3(v: &Vec3) -> bool {
     v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+}
+
+/// The centroid of the first `n` nodes seen (`None`: dropped), m; `None` when none is seen. Out
+/// of line: it runs once per team hold (the replica's re-seat), and the control step's MCU
+/// budget is counted on the transport path.
+#[cold]
+#[inline(never)]
+fn centroid<const N: usize>(nodes: &[Option<Vec2>; N], n: usize) -> Option<Vec2> {
+    let (mut sum, mut k) = (Vec2::zeros(), 0.0f32);
+    for q in nodes.iter().take(n).flatten() {
+        sum += q;
+        k += 1.0;
+    }
+    (k > 0.0).then(|| sum / k)
 }
 
 #[cfg(test)]
