@@ -105,6 +105,8 @@ pub struct Perception {
     blocked: bool,
     /// Arc length along the tube of the nearest obstacle cell seen in it ahead of the load, m.
     blocked_s_m: f32,
+    /// Arc length along the tube of the farthest such cell, m (`-inf`: none).
+    blocked_end_s_m: f32,
     next_plan_ms: u32,
     last_plan_ms: Option<u32>,
     replans: u32,
@@ -145,6 +147,7 @@ impl Perception {
             ints: [0; 3 * LATTICE_NODES],
             blocked: false,
             blocked_s_m: f32::INFINITY,
+            blocked_end_s_m: f32::NEG_INFINITY,
             next_plan_ms: 0,
             last_plan_ms: None,
             replans: 0,
@@ -167,6 +170,7 @@ impl Perception {
         self.cfg = cfg;
         self.blocked = false;
         self.blocked_s_m = f32::INFINITY;
+        self.blocked_end_s_m = f32::NEG_INFINITY;
         self.next_plan_ms = 0;
         self.last_plan_ms = None;
         self.replans = 0;
@@ -188,7 +192,7 @@ impl Perception {
         // A cell's square reaches into the tube when its centre is within half a diagonal.
         let margin = 0.71 * self.cfg.cell_m;
         let mut blocked = false;
-        let mut blocked_s = self.blocked_s_m;
+        let (mut blocked_s, mut blocked_end_s) = (self.blocked_s_m, self.blocked_end_s_m);
         let map = &mut self.map;
         let (res, origin) = (map.resolution_m(), map.origin_m());
         // The tube lookups of one scan's new cells warm-start from the previous one's section.
@@ -203,11 +207,13 @@ impl Perception {
                 if sec.boundary_distance_m(c) > -margin && sec.s_m > load_s_m {
                     blocked = true;
                     blocked_s = blocked_s.min(sec.s_m);
+                    blocked_end_s = blocked_end_s.max(sec.s_m);
                 }
             }
         });
         self.blocked |= blocked;
         self.blocked_s_m = blocked_s;
+        self.blocked_end_s_m = blocked_end_s;
     }
 
     /// How far ahead of the load (arc length `load_s_m` on the current tube) the nearest
@@ -216,15 +222,16 @@ impl Perception {
         self.blocked_s_m - load_s_m
     }
 
-    /// The companion must stop: an obstacle its map has seen lies in its own tube ahead of the
-    /// UAV (its own arc length `own_s_m` along that tube), less than `stop_m`
-    /// ([`stop_distance_m`]) ahead, and it has not switched to a tube since (a switch clears
-    /// it, [`Self::handed_over`]). Flying on would take it into what the map has seen; holding
-    /// in place does not. An obstacle already behind the UAV's section does not stop it. The
-    /// decision of docs/design.md, "Stopping before a seen obstacle".
+    /// The companion must stop: obstacle cells its map has seen in its own tube span arc
+    /// lengths `[s0, s1]`, the UAV's own section `own_s_m` lies before `s1`, and `s0` is less
+    /// than `stop_m` ([`stop_distance_m`]) ahead of it; and it has not switched to a tube since
+    /// (a switch clears it, [`Self::handed_over`]). Flying on would take it into what the map
+    /// has seen; holding in place does not. A UAV past the nearest cell but not the farthest is
+    /// still stopped: the rest of the obstacle lies ahead of it. An obstacle wholly behind the
+    /// UAV's section does not stop it. The decision of docs/design.md, "Stopping before a seen
+    /// obstacle".
     pub fn must_stop(&self, own_s_m: f32, stop_m: f32) -> bool {
-        let ahead = self.blocked_ahead_m(own_s_m);
-        ahead >= 0.0 && ahead < stop_m
+        own_s_m <= self.blocked_end_s_m && self.blocked_ahead_m(own_s_m) < stop_m
     }
 
     /// A newly seen obstacle lies in the tube ahead: re-plan now.
@@ -281,6 +288,7 @@ impl Perception {
     /// from now on.
     pub fn handed_over(&mut self) {
         self.blocked_s_m = f32::INFINITY;
+        self.blocked_end_s_m = f32::NEG_INFINITY;
     }
 
     /// Re-plans started so far.

@@ -90,7 +90,12 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     let stop = stop_distance_m(0.4, 1.0);
     assert!((stop - (0.4 + 0.5 + STOP_MARGIN_M)).abs() < 1e-6, "{stop}");
     assert!(!p.must_stop(s_rock - stop - 0.1, stop) && p.must_stop(s_rock - stop + 0.1, stop));
-    assert!(p.must_stop(s_rock - 0.01, stop) && !p.must_stop(s_rock + 0.01, stop), "behind the UAV it no longer stops it");
+    assert!(p.must_stop(s_rock - 0.01, stop));
+    // Past the nearest cell the rest of the rock's face is still ahead: the UAV stays stopped.
+    assert!(p.must_stop(s_rock + 0.5, stop), "past the nearest cell, not the rock");
+    // Beyond the rock's far side (its diameter past the nearest cell) nothing seen lies ahead.
+    assert!(!p.must_stop(s_rock + 2.0 * rock.1 + 0.01, stop), "behind the UAV it no longer stops it");
+    assert!(!p.must_stop(f32::NAN, stop), "no section, no stop decision from the map");
     assert_eq!(stop_distance_m(f32::NAN, -1.0), STOP_MARGIN_M, "bad inputs count as 0");
     assert!(p.replan_due(0));
     let planned = p.replan(&tube, &load, 0).unwrap();
