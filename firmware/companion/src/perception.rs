@@ -356,13 +356,13 @@ pub fn holds_team(tube: &CompanionTube, team: impl IntoIterator<Item = vt_tube::
 }
 
 /// Whether the planner hands a planned tube to the team now (docs/design.md, "Handing a tube
-/// over"): it is `worth` switching to, and either it holds the whole team (`holds_team`), or
-/// the current tube is blocked less than [`HOLD_AHEAD_M`] ahead of the load (`blocked_ahead_m`),
-/// where the team needs it now and the members outside join it. A tube that leaves members
-/// outside while the block is still far is not handed over: the next plan, from further on,
-/// usually holds them.
-pub fn hand_over_now(worth: bool, holds_team: bool, blocked_ahead_m: f32) -> bool {
-    worth && (holds_team || blocked_ahead_m < HOLD_AHEAD_M)
+/// over"): it is `worth` switching to, and it holds the whole team (`holds_team`). A tube
+/// that leaves a member outside is never handed over, however close the block ahead: the
+/// member would be outside the team's tube at once, as the issue's switch forbids. The team
+/// flies on (or stops before the block, [`Perception::must_stop`]) and the next plan, from
+/// where it is then, is offered instead.
+pub fn hand_over_now(worth: bool, holds_team: bool) -> bool {
+    worth && holds_team
 }
 
 /// The lowest id among `healthy` members (`healthy(j)`: fresh own data, or in the view):

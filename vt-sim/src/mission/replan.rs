@@ -156,7 +156,7 @@ impl TeamPerception {
                     // Whether the planned tube holds the team as the planner sees it.
                     let team = tick.views.get(i).map(|v| v.iter().flatten().map(|p| p.xy())).into_iter().flatten();
                     let holds = worth && self.check.rebuild(&w).is_ok() && holds_team(&self.check, team, c.params().r_safe_m());
-                    if !hand_over_now(worth, holds, map.blocked_ahead_m(load_s(tube, tick))) {
+                    if !hand_over_now(worth, holds) {
                         continue;
                     }
                     if self.stats.no_route {
