@@ -123,8 +123,10 @@ fn an_air_start_has_no_ground_figures() {
 /// Issue 29 with the ground start: the experiment team (capacity 7.63 m/s, tilt-bound,
 /// docs/design.md "Wind capacity") from the ground in a headwind along its first legs.
 /// - At 0.9 x the capacity it flies.
-/// - A steady 1.11 x or 1.18 x is seen by the hover's observers before the lift and refused on
-///   the ground (code 8), no declaration needed.
+/// - A steady 1.11 x is seen by the hover's observers before the lift and refused on the ground
+///   (code 8), no declaration needed. At 1.18 x the UAVs cannot hold their places in the
+///   take-off (drifted past `STATION_DRIFT_ABORT_M`): refused at once (code 10), they land where
+///   they are, the load never lifted.
 /// - The same winds arriving as a gust front after the lift (onset 22 s, 5 s build-up): the team
 ///   cannot hold the tube and the companions set the load down where it is (the load carried
 ///   back 2 m, or within 0.5 m of the boundary): outcome `set_down`, the load and every UAV
@@ -133,7 +135,9 @@ fn an_air_start_has_no_ground_figures() {
 fn a_wind_the_team_cannot_hold_is_refused_on_the_ground_or_sets_the_load_down_inside_the_tube() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
     let exp = ground(&std::fs::read_to_string(path).expect("experiment scenario"));
-    for (wind, onset, outcome) in [(6.87, None, "flown"), (8.5, None, "refused"), (9.0, None, "refused"), (8.5, Some(22.0), "set_down"), (9.0, Some(22.0), "set_down")] {
+    for (wind, onset, outcome, code) in
+        [(6.87, None, "flown", 0), (8.5, None, "refused", 8), (9.0, None, "refused", 10), (8.5, Some(22.0), "set_down", 0), (9.0, Some(22.0), "set_down", 0)]
+    {
         let front = onset.map_or(String::new(), |t| format!("wind_onset_s = {t}\n"));
         let text = format!("{exp}\n[disturbances]\nwind_mean_mps = [-{wind}, 0.0, 0.0]\n{front}");
         let (s, _) = fly(&text);
@@ -147,8 +151,14 @@ fn a_wind_the_team_cannot_hold_is_refused_on_the_ground_or_sets_the_load_down_in
         match outcome {
             "flown" => assert!(s.success, "{:?}", s.failures),
             "refused" => {
-                assert!(s.failures[0].contains("refusal code 8"), "{:?}", s.failures);
+                assert!(s.failures[0].contains(&format!("refusal code {code})")), "{:?}", s.failures);
                 assert!(!names(&s).contains(&"climb"), "refused before the load left the ground: {:?}", names(&s));
+                if code == 10 {
+                    // The drifting UAV lands at once; its team, held by its refusal, abandons
+                    // after `LIFT_HOLD_ABORT_S` and lands after the slack.
+                    assert_eq!(names(&s).get(..2), Some(&["takeoff", "tension"][..]));
+                    assert!(names(&s).contains(&"released"), "{:?}", names(&s));
+                }
             }
             _ => {
                 assert!(!s.reached_end);

@@ -31,6 +31,7 @@ pub mod controller;
 mod error;
 pub mod feasibility;
 pub mod keeping;
+pub mod landing;
 pub mod passing;
 pub mod phases;
 pub mod separation;

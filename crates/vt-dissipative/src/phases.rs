@@ -17,7 +17,7 @@
 //! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`cannot_hold`]) descends at once |
 //! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off |
 //! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
-//! | released | `z_g - slack` | hover with slack cables (`settle_s` after slack) |
+//! | released | `z_g - slack` | land in place at [`crate::landing::LAND_SPEED_MPS`], motors idle once down ([`crate::landing::LandDetector`]); a UAV that cannot hold its place before the arming comes here at once ([`PhaseProfile::land_now`]) |
 
 use crate::ControlError;
 
@@ -236,6 +236,8 @@ pub struct PhaseProfile {
     /// Arrival ends the transport with the descent (a ground start); an air start hovers at the
     /// end and descends only in a set-down.
     descend_at_end: bool,
+    /// How long the team has held before its arming, s.
+    held_s: f32,
 }
 
 impl PhaseProfile {
@@ -245,7 +247,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true })
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0 })
     }
 
     /// An air start (the paper's): in transport from the start at `z_t`, hovering at the end
@@ -257,7 +259,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn air(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false })
+        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0 })
     }
 
     /// The parameters.
@@ -333,6 +335,17 @@ impl PhaseProfile {
         }
     }
 
+    /// The UAV cannot hold its place before the arming ([`crate::landing::STATION_DRIFT_ABORT_M`]): the start is
+    /// refused and the team lands at once, the cables slack and the load still on the ground.
+    pub fn land_now(&mut self) {
+        if matches!(self.phase, Phase::Takeoff | Phase::Tension) {
+            self.abort = Some(Abort::Refused);
+            self.phase = Phase::Released;
+            self.timer_s = 0.0;
+            self.z_ref_m = self.p.ground_z_m - self.p.slack_m;
+        }
+    }
+
     fn enter_slack(&mut self, from_m: f32) {
         self.phase = Phase::Slack;
         self.timer_s = 0.0;
@@ -357,9 +370,17 @@ impl PhaseProfile {
                     self.abort = Some(Abort::LiftFailed);
                     self.enter_slack(self.z_ref_m);
                 }
+            } else if matches!(self.phase, Phase::Takeoff | Phase::Tension) {
+                // Before the arming, a hold as long abandons the start too (a member that
+                // refused, or cannot hold its place, holds its team): the team lands.
+                self.held_s += dt;
+                if self.held_s > LIFT_HOLD_ABORT_S {
+                    self.refuse();
+                }
             }
             return self.z_ref_m;
         }
+        self.held_s = 0.0;
         if self.phase == Phase::Lift {
             self.timer_s = 0.0;
         }
@@ -515,10 +536,14 @@ mod tests {
     #[test]
     fn a_hold_freezes_the_ramp_and_the_timers() {
         let mut pr = PhaseProfile::ground(params()).unwrap();
-        for _ in 0..1000 {
-            pr.step(0.02, Some(0.3), false, true);
+        // Held for just under `LIFT_HOLD_ABORT_S`, twice: frozen, and the hold time restarts.
+        for _ in 0..2 {
+            for _ in 0..145 {
+                pr.step(0.02, Some(0.3), false, true);
+            }
+            assert_eq!((pr.phase(), pr.load_altitude_ref_m()), (Phase::Takeoff, 0.3 - 0.5));
+            pr.step(0.02, Some(0.3), false, false);
         }
-        assert_eq!(pr.phase(), Phase::Takeoff);
         run(&mut pr, |_| 0.3, false, 10_000);
         while !pr.ready_to_arm() {
             pr.step(0.02, Some(0.3), false, false);
@@ -530,6 +555,36 @@ mod tests {
         }
         // An unknown load altitude also waits.
         assert_eq!(pr.step(0.02, None, false, false), z);
+    }
+
+    #[test]
+    fn a_start_held_too_long_or_off_station_is_abandoned_with_the_load_down() {
+        // A hold longer than `LIFT_HOLD_ABORT_S` before the arming: refused, the cables slacken.
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        for _ in 0..151 {
+            pr.step(0.02, Some(0.3), false, true);
+        }
+        assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::Refused)));
+        assert!(pr.load_altitude_ref_m() <= 0.3);
+        // Off station (the caller's watch): released at once, in take-off and in tension.
+        for tension in [false, true] {
+            let mut pr = PhaseProfile::ground(params()).unwrap();
+            if tension {
+                run(&mut pr, |_| 0.3, false, 10_000);
+                assert_eq!(pr.phase(), Phase::Tension);
+            }
+            pr.land_now();
+            assert_eq!((pr.phase(), pr.abort()), (Phase::Released, Some(Abort::Refused)));
+        }
+        // Not once armed: a lift is abandoned by its own rules.
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        run(&mut pr, |_| 0.3, false, 10_000);
+        while !pr.ready_to_arm() {
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        pr.armed(0.3);
+        pr.land_now();
+        assert_eq!((pr.phase(), pr.abort()), (Phase::Lift, None));
     }
 
     #[test]

@@ -31,7 +31,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
-    phases::HoldWatch, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
+    landing::LandDetector, phases::HoldWatch, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -186,6 +186,13 @@ pub enum StartError {
     /// Ground start: the load did not leave the ground before the lift's allowance (an
     /// overload or a snagged load; the team slackens its cables with the load down).
     LiftFailed,
+    /// Ground start: before its arming the UAV drifted `drift_m` (m) from the place it holds,
+    /// beyond `vt_dissipative::landing::STATION_DRIFT_ABORT_M`: a wind it cannot hold on its own.
+    /// The team lands at once, the load still on the ground.
+    Station {
+        /// How far the UAV had drifted, m.
+        drift_m: f32,
+    },
 }
 
 /// What one low-level step produced.
@@ -288,6 +295,12 @@ pub struct Flight {
     watch_every: u32,
     /// High-level steps since the last look.
     watch_ticks: u32,
+    /// Where the landing after the release holds the UAV, m (set at the first released step).
+    land_xy_m: Option<Vector2<f32>>,
+    /// The landing's detector: once landed the rotors idle.
+    land: LandDetector,
+    /// Horizontal speed limit of the own position holds, m/s (`VT_V_MAX`).
+    v_max_mps: f32,
 }
 
 impl Flight {
@@ -384,6 +397,9 @@ impl Flight {
             on_declined_tube: false,
             watch_every: watch_every(params.high_level_dt_s()),
             watch_ticks: 0,
+            land_xy_m: None,
+            land: LandDetector::default(),
+            v_max_mps: params.get(Param::VMax),
         })
     }
 
@@ -433,6 +449,12 @@ impl Flight {
             let holding = self.team_mode.is_holding();
             self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding);
             let phase = self.phase();
+            if phase == Phase::Released {
+                // The release (a delivery, a set-down, a refusal on the ground): land in place.
+                self.vel_cmd_mps = self.landing_command(own.pos_m);
+                self.hl_reasons = HoldReasons(reasons);
+                return self.vel_cmd_mps;
+            }
             let z_ref = self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m);
             let Some(high) = self.high.as_mut() else {
                 // A ground start before its arming (or refused): own and load data only.
@@ -514,9 +536,19 @@ impl Flight {
             reasons |= HoldReasons::NONFINITE;
             sp = self.level_hover();
         }
+        if self.land.landed() {
+            sp = self.idle();
+        }
         self.ll_reasons = HoldReasons(reasons);
         self.ll_ticks = self.ll_ticks.wrapping_add(1);
         sp
+    }
+
+    /// Down after the release: level, rotors at idle (PX4 disarms on its land detector).
+    #[cold]
+    #[inline(never)]
+    fn idle(&self) -> Setpoint {
+        Setpoint { thrust: 0.0, ..self.level_hover() }
     }
 
     /// Level attitude along the heading at the hover collective (the last-resort output):

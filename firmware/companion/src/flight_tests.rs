@@ -558,6 +558,71 @@ fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming()
     assert_eq!(fl.take_refusal(), None, "reported once");
 }
 
+/// Issue 29, a ground start in a wind the UAV cannot hold on its own: blown more than
+/// `STATION_DRIFT_ABORT_M` off its place during the take-off, it refuses (code 10, with the
+/// drift) and lands at once where it is, descending at `LAND_SPEED_MPS`; once its altitude has
+/// stayed below `LANDED_Z_M` for `LANDED_HOLD_S` its rotors idle (thrust 0, level).
+#[test]
+fn a_ground_start_blown_off_its_place_refuses_and_lands_where_it_is() {
+    use vt_dissipative::landing::{LANDED_HOLD_S, LAND_SPEED_MPS, STATION_DRIFT_ABORT_M};
+    let mut p = params(0.0);
+    p.set(Param::Start, 1.0).unwrap();
+    let t = tube();
+    let ground = Vec3::new(5.0, 0.0, 0.3);
+    let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
+    let at = |j: usize, dx: f32, z: f32| Vec3::new(uav_pos(j).x + dx, uav_pos(j).y, z);
+    let mut src = sources(0);
+    let feed = |src: &mut Sources, dx: f32, z: f32, now: u32| {
+        src.own = Some(st(at(0, dx, z), now));
+        src.load = Some(st(ground, now));
+        for j in 1..3 {
+            src.neighbours[j] = Some(Stamped { value: at(j, dx, z), stamp_ms: now });
+        }
+    };
+    feed(&mut src, 0.0, 1.3, 0);
+    let mut fl = Flight::start(&p, Some(&t), &src, 0).unwrap();
+    // Blown downwind at 2 m/s: still in take-off at 0.9 m, refused past 1 m.
+    let mut now = 0;
+    let mut dx = 0.0;
+    while fl.refusal().is_none() {
+        now += HL_MS;
+        dx += 2.0 * HL_MS as f32 / 1000.0;
+        feed(&mut src, dx, 1.3, now);
+        fl.high_level(&t, &src, now);
+        assert!(dx < STATION_DRIFT_ABORT_M + 0.1, "not refused at {dx} m");
+        if dx <= STATION_DRIFT_ABORT_M - 0.05 {
+            assert_eq!(fl.phase(), Phase::Takeoff);
+        }
+    }
+    let Some(StartError::Station { drift_m }) = fl.take_refusal() else { panic!("{:?}", fl.refusal()) };
+    assert!(drift_m > STATION_DRIFT_ABORT_M && drift_m < STATION_DRIFT_ABORT_M + 0.1);
+    assert_eq!(StartError::Station { drift_m }.code(), 10);
+    assert_eq!(StartError::Station { drift_m: 1.234 }.lines().1.unwrap().as_str(), "drifted 1.23m > 1.00m");
+    assert_eq!(fl.phase(), Phase::Released);
+    // The landing holds where the UAV was when it came down here, and descends.
+    let released_x = at(0, dx, 1.3).x;
+    feed(&mut src, dx + 0.5, 1.0, now + HL_MS);
+    let v = fl.high_level(&t, &src, now + HL_MS);
+    assert!((v.z + LAND_SPEED_MPS).abs() < 1e-6 && v.x < 0.0 && v.y.abs() < 1e-6, "{v:?} back towards x = {released_x}");
+    assert!(fl.low_level(&src, now + HL_MS).thrust > 0.0, "flying until down");
+    // On the ground: idle once the detector has held.
+    now += HL_MS;
+    let mut idle_at = None;
+    for k in 1..200u32 {
+        now += HL_MS;
+        feed(&mut src, dx, 0.02, now);
+        fl.high_level(&t, &src, now);
+        let sp = fl.low_level(&src, now);
+        assert!(sp.q_ned.iter().all(|c| c.is_finite()));
+        if sp.thrust == 0.0 {
+            idle_at = Some(k);
+            break;
+        }
+    }
+    let k = idle_at.expect("rotors idle on the ground");
+    assert!(k as f32 * HL_MS as f32 / 1000.0 >= LANDED_HOLD_S - 1e-3, "not before the detector's hold: {k}");
+}
+
 /// Issue 29, an air start: in transport from the start at `VT_LOAD_ZREF`; the load carried back
 /// more than 2 m along the tube (a headwind the team cannot hold) starts the set-down within one
 /// watch period (`TRANSPORT_WATCH_S`), and the load altitude reference then only goes down, to

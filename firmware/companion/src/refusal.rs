@@ -126,6 +126,12 @@ impl core::fmt::Display for StartError {
             Self::Infeasible(e) => write!(f, "pre-flight check: {e}"),
             Self::Wind(e) => write!(f, "pre-flight wind check: {e}"),
             Self::LiftFailed => f.write_str("lift abandoned: the load did not leave the ground (overload or snagged load)"),
+            Self::Station { drift_m } => {
+                // The fixed-point formatter: no `core::fmt` float machinery in the flash.
+                let mut d = Line::new();
+                d.push_fixed(*drift_m, 2);
+                write!(f, "take-off abandoned: drifted {} m from the own place (a wind beyond what the UAV holds); landing", d.as_str())
+            }
         }
     }
 }
@@ -143,6 +149,7 @@ impl StartError {
             Self::Infeasible(_) => 7,
             Self::Wind(_) => 8,
             Self::LiftFailed => 9,
+            Self::Station { .. } => 10,
         }
     }
 
@@ -191,6 +198,11 @@ impl StartError {
             Self::LiftFailed => {
                 head.push("load did not leave the ground");
                 false
+            }
+            Self::Station { drift_m } => {
+                head.push("cannot hold station, landing");
+                detail.push("drifted ").push_fixed(*drift_m, 2).push("m > ").push_fixed(vt_dissipative::landing::STATION_DRIFT_ABORT_M, 2).push("m");
+                true
             }
         };
         (head, has_detail.then_some(detail))

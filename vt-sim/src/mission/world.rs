@@ -117,6 +117,12 @@ pub struct World<'a> {
 
 /// Flown on after the whole team is released (ground start), s.
 const AFTER_RELEASE_S: f64 = 1.0;
+/// A released UAV whose centre is this low rests on the ground, m (the ground contact puts it
+/// at z = 0; docs/plant.md, "Ground contact").
+const ON_GROUND_Z_M: f64 = 1e-3;
+/// Longest landing after the release before the mission ends anyway, s (from 20 m at
+/// `LAND_SPEED_MPS`, 29 s).
+const LANDING_MAX_S: f64 = 40.0;
 
 impl<'a> World<'a> {
     /// Builds the world of `ls` at take-off (plant at rest with taut cables, sensors sampled:
@@ -397,7 +403,11 @@ impl<'a> World<'a> {
         }
         // A team released (a ground start's end, a refusal on the ground, a set-down) is done.
         if let Some(r) = self.released_step {
-            return (self.step - r) as f64 * self.dt >= AFTER_RELEASE_S;
+            // Released UAVs land in place (vt_dissipative::landing::LAND_SPEED_MPS): done once
+            // every UAV is down, or after `LANDING_MAX_S` (one that cannot land: its link lost).
+            let since = (self.step - r) as f64 * self.dt;
+            let down = self.plant.uavs.iter().all(|u| u.pos_m.z <= ON_GROUND_Z_M);
+            return (since >= AFTER_RELEASE_S && down) || since >= LANDING_MAX_S;
         }
         if self.ground_start {
             return false;

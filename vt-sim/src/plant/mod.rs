@@ -221,6 +221,16 @@ fn finite3(v: &Vector3<f64>) -> bool {
 
 /// Scale `v` (N) down to magnitude `max_n` (N) if it is longer; direction kept.
 /// Robust to finite vectors whose norm overflows.
+/// A body's velocity after a ground contact (m/s): the velocity into the ground taken away (a
+/// perfectly inelastic normal impulse) and friction taking up to [`GROUND_FRICTION`] times that
+/// impulse from the horizontal velocity (Coulomb friction in impulse form).
+fn ground_friction(v: Vector3<f64>) -> Vector3<f64> {
+    let into = (-v.z).max(0.0);
+    let slide = v.x.hypot(v.y);
+    let keep = if slide > 0.0 { (1.0 - GROUND_FRICTION * into / slide).max(0.0) } else { 0.0 };
+    Vector3::new(v.x * keep, v.y * keep, v.z.max(0.0))
+}
+
 fn clamp_magnitude(v: Vector3<f64>, max_n: f64) -> Vector3<f64> {
     let norm = v.norm();
     if norm <= max_n {
@@ -639,7 +649,7 @@ impl Plant {
         for u in &mut self.uavs {
             if u.pos_m.z < 0.0 {
                 u.pos_m.z = 0.0;
-                u.vel_mps = Vector3::zeros();
+                u.vel_mps = ground_friction(u.vel_mps);
             }
         }
         let rest = self.load_rest_z_m;
@@ -649,13 +659,7 @@ impl Plant {
         }
         p.z = rest;
         let into = (-v.z).max(0.0);
-        v.z = v.z.max(0.0);
-        let slide = v.x.hypot(v.y);
-        if slide > 0.0 {
-            let keep = (1.0 - GROUND_FRICTION * into / slide).max(0.0);
-            v.x *= keep;
-            v.y *= keep;
-        }
+        *v = ground_friction(*v);
         Some(into)
     }
 

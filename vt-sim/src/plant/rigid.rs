@@ -145,9 +145,6 @@ impl Plant {
         self.apply_breaks();
     }
 
-    /// The ground stops a quadrotor: one whose centre of mass is below z = 0 is put back at
-    /// rest, level, on the ground (a crashed vehicle: its autopilot restarts holding level at
-    /// zero thrust).
     /// Every quadrotor's loops read their attitude and rates through its own IMU
     /// (`quadrotor::imu`), seeded from `seed`, errors scaled by `scale` (issue 27 §3).
     pub fn fit_imus(&mut self, seed: u64, scale: f64) {
@@ -156,11 +153,18 @@ impl Plant {
         }
     }
 
+    /// The ground stops a quadrotor: one whose centre of mass is below z = 0 is put back on the
+    /// ground, level, with no vertical velocity and its horizontal velocity less the friction
+    /// (a landed or crashed vehicle: its autopilot restarts holding level at zero thrust).
     pub(super) fn ground_quadrotors(&mut self) {
         for q in &mut self.quads {
             let p = q.pos_m();
             if p.z < 0.0 {
-                if let Ok(rest) = Quadrotor::new(*q.params(), Vector3::new(p.x, p.y, 0.0), Vector3::zeros()) {
+                // Coulomb friction in impulse form, as the load's (`Plant::ground_contact`): a
+                // landed UAV pulled by its cable or pushed by the wind slides once the pull
+                // passes `GROUND_FRICTION` times its weight.
+                let v = super::ground_friction(q.vel_mps());
+                if let Ok(rest) = Quadrotor::new(*q.params(), Vector3::new(p.x, p.y, 0.0), Vector3::new(v.x, v.y, 0.0)) {
                     *q = rest;
                 }
             }

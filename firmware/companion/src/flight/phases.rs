@@ -4,6 +4,7 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
+use vt_dissipative::landing::{landing_velocity_mps, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{tension_climb_mps, LIFT_ABORT_FACTOR};
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
@@ -65,6 +66,15 @@ impl Flight {
             }
         }
         if let Some(pending) = self.pending.as_mut() {
+            // Before the arming: a UAV blown off its place by a wind it cannot hold on its own
+            // refuses and lands at once (issue 29; the hover cannot measure that wind safely).
+            let drift_m = vt_fpu::norm(&(own_m.xy() - pending.hold_xy_m));
+            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && drift_m > STATION_DRIFT_ABORT_M && self.refusal.is_none() {
+                self.refusal = Some(StartError::Station { drift_m });
+                self.refusal_unreported = true;
+                profile.land_now();
+                return;
+            }
             if profile.surveying() && !holding {
                 pending.survey.push_own(own_m);
                 pending.survey.push_load(load_m);
@@ -148,6 +158,17 @@ impl Flight {
         };
         let v = Vec3::new(v_xy.x, v_xy.y, v_z);
         if finite3(&v) { v } else { Vec3::zeros() }
+    }
+
+    /// The landing after the release: the place where the UAV was released held, a descent at
+    /// `LAND_SPEED_MPS`; the land detector runs on the own altitude (ENU velocity, m/s).
+    #[cold]
+    #[inline(never)]
+    pub(super) fn landing_command(&mut self, own_m: Vec3) -> Vec3 {
+        let hold = *self.land_xy_m.get_or_insert(own_m.xy());
+        self.land.step(own_m.z, self.hl_dt_s);
+        let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [hold.x, hold.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
+        Vec3::new(x, y, z)
     }
 
     /// The mission's phase (an air start: [`Phase::Transport`] until a set-down).
