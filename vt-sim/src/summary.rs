@@ -276,10 +276,14 @@ impl Summary {
             ("min UAV-boundary", format!("{:.3} m", self.min_uav_boundary_m)),
             ("min load-boundary", format!("{:.3} m", self.min_load_boundary_m)),
             ("min UAV-UAV", format!("{:.3} m", self.min_uav_uav_m)),
-            ("clearances", format!(
-                "{:.3} UAV-UAV, {:.3} UAV-boundary, {:.3} to obstacles (m; bodies {:.3} m, load {:.3} m)",
-                self.min_uav_uav_clearance_m, self.min_uav_boundary_clearance_m, self.min_obstacle_clearance_m, self.uav_body_radius_m, self.load_radius_m
-            )),
+            ("clearances", {
+                // A world without obstacles has no obstacle clearance (NaN, `null` in the JSON).
+                let obstacles = if self.min_obstacle_clearance_m.is_nan() { "no obstacles".to_string() } else { format!("{:.3} to obstacles", self.min_obstacle_clearance_m) };
+                format!(
+                    "{:.3} UAV-UAV, {:.3} UAV-boundary, {obstacles} (m; bodies {:.3} m, load {:.3} m)",
+                    self.min_uav_uav_clearance_m, self.min_uav_boundary_clearance_m, self.uav_body_radius_m, self.load_radius_m
+                )
+            }),
             ("plant", format!("{}: {} UAVs, {} cables", self.plant, self.uav_model, self.cable_model)),
             ("max / mean tension", format!("{:.1} / {:.1} N (rated {:.0} N)", self.max_tension_n, self.mean_tension_n, self.rated_n)),
             ("time above rated", format!("{:.1} %  (cables broken: {})", 100.0 * self.time_above_rated_fraction, self.cables_broken)),

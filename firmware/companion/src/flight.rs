@@ -31,7 +31,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
-    landing::LandDetector, phases::HoldWatch, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
+    landing::LandDetector, phases::{HoldWatch, OverloadWatch}, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
 use crate::frames::{finite3, ned_frd_quaternion};
@@ -299,6 +299,8 @@ pub struct Flight {
     land_xy_m: Option<Vector2<f32>>,
     /// The landing's detector: once landed the rotors idle.
     land: LandDetector,
+    /// The lift's overload watch (the own cable's tension estimate).
+    overload: OverloadWatch,
     /// Horizontal speed limit of the own position holds, m/s (`VT_V_MAX`).
     v_max_mps: f32,
 }
@@ -399,6 +401,7 @@ impl Flight {
             watch_ticks: 0,
             land_xy_m: None,
             land: LandDetector::default(),
+            overload: OverloadWatch::default(),
             v_max_mps: params.get(Param::VMax),
         })
     }

@@ -5,7 +5,7 @@
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::landing::{landing_velocity_mps, STATION_DRIFT_ABORT_M};
-use vt_dissipative::phases::{tension_climb_mps, LIFT_ABORT_FACTOR};
+use vt_dissipative::phases::tension_climb_mps;
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
@@ -59,9 +59,9 @@ impl Flight {
         }
         profile.step(dt_s, Some(load_m.z), arrived, holding);
         if profile.phase() == Phase::Lift && load_m.z < profile.params().ground_z_m + profile.params().lift_clear_m {
-            // An overload shows as the own cable's tension passing the abort level with the
-            // load still down (vt_dissipative::phases::LIFT_ABORT_FACTOR).
-            if cable_tension_n(&self.f_hat_n, own_m, load_m) > LIFT_ABORT_FACTOR * self.rated_n {
+            // An overload shows as the own cable's tension staying past the abort level with
+            // the load still down (vt_dissipative::phases::OverloadWatch).
+            if self.overload.overloaded(cable_tension_n(&self.f_hat_n, own_m, load_m), self.rated_n, dt_s) {
                 profile.abort_lift();
             }
         }
