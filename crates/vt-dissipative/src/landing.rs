@@ -35,6 +35,33 @@ pub fn landing_velocity_mps(own_xy_m: [f32; 2], hold_xy_m: [f32; 2], gain_per_s:
     [vx, vy, -LAND_SPEED_MPS]
 }
 
+/// Horizontal spacing the landing makes between UAVs before they reach the ground, m: two
+/// 0.445 m airframes (the paper's, docs/plant.md) with 0.3 m between them. In flight a
+/// formation may stack UAVs with unequal cables above one another (the 25-UAV team flew pairs
+/// 0.9 m apart in 3-D but 0.3 m apart horizontally); landing in place would put them on one spot.
+pub const LAND_SPACING_M: f32 = 1.2;
+
+/// Speed at which the landing place moves away from a neighbour per metre it lacks, 1/s.
+pub const LAND_SPREAD_GAIN_PER_S: f32 = 1.0;
+
+/// The landing's spread (m/s, horizontal ENU): away from every neighbour closer than
+/// [`LAND_SPACING_M`] horizontally, [`LAND_SPREAD_GAIN_PER_S`] per metre missing (pairwise
+/// antisymmetric, so a pair spreads symmetrically). A neighbour on the same spot (within 0.1 mm)
+/// or not finite gives no push (no direction to take).
+pub fn landing_spread_mps(own_xy_m: [f32; 2], neighbours_xy_m: impl IntoIterator<Item = [f32; 2]>) -> [f32; 2] {
+    let mut v = [0.0f32; 2];
+    for [x, y] in neighbours_xy_m {
+        let (dx, dy) = (own_xy_m[0] - x, own_xy_m[1] - y);
+        let d = vt_fpu::sqrt(dx * dx + dy * dy);
+        if d.is_finite() && d > 1e-4 && d < LAND_SPACING_M {
+            let k = LAND_SPREAD_GAIN_PER_S * (LAND_SPACING_M - d) / d;
+            v[0] += k * dx;
+            v[1] += k * dy;
+        }
+    }
+    v
+}
+
 /// The land detector: an up-down timer on the own altitude (`LANDED_Z_M`, `LANDED_HOLD_S`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LandDetector {
@@ -87,6 +114,18 @@ mod tests {
         let mut nan = LandDetector::default();
         assert!(!(0..100).any(|_| nan.step(f32::NAN, 0.02)));
         assert!(down.step(5.0, 0.02) && down.landed());
+    }
+
+    #[test]
+    fn the_spread_parts_close_neighbours_symmetrically_and_leaves_spaced_ones() {
+        let a = [0.0f32, 0.0];
+        let b = [0.3f32, 0.0];
+        let va = landing_spread_mps(a, [b]);
+        let vb = landing_spread_mps(b, [a]);
+        assert!((va[0] + 0.9).abs() < 1e-6 && va[1] == 0.0, "{va:?}");
+        assert_eq!([va[0] + vb[0], va[1] + vb[1]], [0.0, 0.0], "antisymmetric");
+        assert_eq!(landing_spread_mps(a, [[LAND_SPACING_M, 0.0], [0.0, -1.5]]), [0.0, 0.0]);
+        assert_eq!(landing_spread_mps(a, [[0.0, 0.0], [f32::NAN, 0.0]]), [0.0, 0.0]);
     }
 
     #[test]

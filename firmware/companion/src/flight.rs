@@ -454,7 +454,7 @@ impl Flight {
             let phase = self.phase();
             if phase == Phase::Released {
                 // The release (a delivery, a set-down, a refusal on the ground): land in place.
-                self.vel_cmd_mps = self.landing_command(own.pos_m);
+                self.vel_cmd_mps = self.landing_command(own.pos_m, view.get(..self.n).unwrap_or(&[]));
                 self.hl_reasons = HoldReasons(reasons);
                 return self.vel_cmd_mps;
             }
