@@ -111,7 +111,8 @@ pub fn cable_force(
     if length_m < MIN_CABLE_LENGTH_M || length_m <= params.rest_length_m {
         return CableForce::slack(length_m);
     }
-    let u = d / length_m;
+    // One division for the three components.
+    let u = d * (1.0 / length_m);
     let length_rate_mps = u.dot(&(v_uav - v_load));
     let raw_n = params.stiffness_n_per_m * (length_m - params.rest_length_m)
         + params.damping_ns_per_m * length_rate_mps;

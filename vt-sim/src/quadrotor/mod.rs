@@ -100,8 +100,9 @@ pub struct Quadrotor {
     inv_inertia: Vector3<f64>,
     /// `1 / m`, 1/kg.
     inv_mass: f64,
-    /// `1 / sqrt(k_T)`: rotor speed per square root of thrust, rad/s per sqrt(N).
-    inv_sqrt_thrust_coeff: f64,
+    /// `-k_d / sqrt(k_T)`: the H-force gain `-k_d omega_i` per square root of the rotor's
+    /// thrust (`omega_i = sqrt(T_i / k_T)`), N s/m per sqrt(N).
+    h_force_per_sqrt_n: f64,
     /// Rotor hub positions in the body plane (x, y), m ([`ROTOR_XY`] times the offset).
     rotor_hubs_m: [[f64; 2]; 4],
     /// `(h, 1 - exp(-h / tau_m))` of the last step length (saves an `exp` per step).
@@ -154,7 +155,7 @@ impl Quadrotor {
             nominal_rotor_max_n: params.rotor_thrust_max_n,
             inv_inertia: params.inertia_kgm2.map(|x| 1.0 / x),
             inv_mass: 1.0 / params.mass_kg,
-            inv_sqrt_thrust_coeff: 1.0 / params.thrust_coeff_n_per_rps2.sqrt(),
+            h_force_per_sqrt_n: -params.rotor_drag_coeff / params.thrust_coeff_n_per_rps2.sqrt(),
             rotor_hubs_m: ROTOR_XY.map(|[x, y]| [x * params.rotor_offset_m(), y * params.rotor_offset_m()]),
             imu: None,
         })
@@ -203,7 +204,11 @@ impl Quadrotor {
         }
         let f_ext = sanitise(ext_force_at_attach_world_n, EXT_FORCE_LIMIT_N);
         let wind = sanitise(wind_world_mps, WIND_LIMIT_MPS);
-        let n = (h_s / MAX_SUBSTEP_S).ceil().max(1.0);
+        if h_s <= MAX_SUBSTEP_S {
+            self.substep(target, &f_ext, &wind, h_s);
+            return;
+        }
+        let n = (h_s / MAX_SUBSTEP_S).ceil();
         let h = h_s / n;
         let mut remaining = n;
         while remaining > 0.0 {
@@ -248,9 +253,10 @@ impl Quadrotor {
         // Per hub r = (r_x, r_y, 0): the hub's in-plane airspeed is (v_a + omega x r)_xy =
         // (v_x - omega_z r_y, v_y + omega_z r_x); the H-force -k_d omega_i v_hub,xy lies in
         // the rotor plane, so its torque r x D is about body z alone: r_x D_y - r_y D_x.
-        for (&[rx, ry], &t) in self.rotor_hubs_m.iter().zip(&self.rotor_thrusts_n) {
-            // omega_i = sqrt(T_i / k_T).
-            let gain = -p.rotor_drag_coeff * (t.max(0.0).sqrt() * self.inv_sqrt_thrust_coeff);
+        // omega_i = sqrt(T_i / k_T); the four roots side by side (independent of each other).
+        let sqrt_t = self.rotor_thrusts_n.map(|t| t.max(0.0).sqrt());
+        for (&[rx, ry], &root) in self.rotor_hubs_m.iter().zip(&sqrt_t) {
+            let gain = root * self.h_force_per_sqrt_n;
             let hx = (v_air_b.x - omega.z * ry) * gain;
             let hy = (v_air_b.y + omega.z * rx) * gain;
             drag_b.x += hx;
@@ -283,7 +289,8 @@ impl Quadrotor {
         // phi = omega h / 2, where the body momentum is Rot(phi)^T b = b - phi x b +
         // phi x (phi x b) / 2 + O(phi^3) (Rodrigues to second order: the midpoint rule's
         // own order; |phi| < 0.03 rad at 1 kHz and 50 rad/s).
-        let b = rot_t * self.ang_mom_world;
+        // R^T (L + R tau h) = I omega + tau h: the body momentum without another rotation.
+        let b = self.params.inertia_kgm2.component_mul(&omega) + torque_b * h;
         let phi = inv_i.component_mul(&b) * (0.5 * h);
         let phi_b = phi.cross(&b);
         let b_mid = b - phi_b + phi.cross(&phi_b) * 0.5;
@@ -459,7 +466,8 @@ fn exp_step(q: &UnitQuaternion<f64>, omega: &Vector3<f64>, h: f64) -> UnitQuater
     let v = omega * (0.5 * h);
     let a2 = v.dot(&v);
     let (c, sinc) = if a2 < SERIES_HALF_ANGLE_RAD * SERIES_HALF_ANGLE_RAD {
-        (1.0 - a2 / 2.0 + a2 * a2 / 24.0, 1.0 - a2 / 6.0 + a2 * a2 / 120.0)
+        // Reciprocal factorials as constants: a multiplication, not a division, per term.
+        (1.0 - a2 * 0.5 + a2 * a2 * (1.0 / 24.0), 1.0 - a2 * (1.0 / 6.0) + a2 * a2 * (1.0 / 120.0))
     } else {
         let a = a2.sqrt();
         let (s, c) = a.sin_cos();
