@@ -2,6 +2,8 @@
 //! it lands in place instead of hovering in a wind it may not hold), and the take-off's station
 //! watch that sends a ground start there at once (docs/design.md, "Landing").
 
+use crate::dwell::Dwell;
+
 /// Before its arming a ground-start UAV abandons the start when it has drifted this far from
 /// the place it holds, m (issue 29: a wind beyond what a UAV can hold on its own blows it away
 /// during the hover whose observer was to measure that wind; at the nominal disturbances the
@@ -19,16 +21,25 @@ pub const LANDED_Z_M: f32 = 0.15;
 /// air nor keeps a landed one spinning (PX4's land detector also waits, `LNDMC_TRIG_TIME`).
 pub const LANDED_HOLD_S: f32 = 0.5;
 
-/// The landing after the release: the own horizontal place held (gain `gain_per_s`, speed
-/// capped at `v_max_mps`), a descent at [`LAND_SPEED_MPS`], m/s (ENU). Non-finite input gives a
-/// descent without horizontal correction.
-pub fn landing_velocity_mps(own_xy_m: [f32; 2], hold_xy_m: [f32; 2], gain_per_s: f32, v_max_mps: f32) -> [f32; 3] {
-    let (mut vx, mut vy) = ((hold_xy_m[0] - own_xy_m[0]) * gain_per_s, (hold_xy_m[1] - own_xy_m[1]) * gain_per_s);
+/// Holding a horizontal place: `(hold - own) gain_per_s`, its speed capped at `v_max_mps`
+/// (m/s, ENU). What a ground start flies before its arming and the landing after the release;
+/// non-finite input gives non-finite output (each caller maps it to its safe command).
+#[inline]
+pub fn hold_velocity_xy_mps(own_xy_m: [f32; 2], hold_xy_m: [f32; 2], gain_per_s: f32, v_max_mps: f32) -> [f32; 2] {
+    let (vx, vy) = ((hold_xy_m[0] - own_xy_m[0]) * gain_per_s, (hold_xy_m[1] - own_xy_m[1]) * gain_per_s);
     let speed = vt_fpu::sqrt(vx * vx + vy * vy);
     if speed > v_max_mps && speed > 0.0 {
-        vx *= v_max_mps / speed;
-        vy *= v_max_mps / speed;
+        let k = v_max_mps / speed;
+        return [vx * k, vy * k];
     }
+    [vx, vy]
+}
+
+/// The landing after the release: the own horizontal place held ([`hold_velocity_xy_mps`]), a
+/// descent at [`LAND_SPEED_MPS`], m/s (ENU). Non-finite input gives a descent without
+/// horizontal correction.
+pub fn landing_velocity_mps(own_xy_m: [f32; 2], hold_xy_m: [f32; 2], gain_per_s: f32, v_max_mps: f32) -> [f32; 3] {
+    let [vx, vy] = hold_velocity_xy_mps(own_xy_m, hold_xy_m, gain_per_s, v_max_mps);
     if !(vx.is_finite() && vy.is_finite()) {
         return [0.0, 0.0, -LAND_SPEED_MPS];
     }
@@ -62,24 +73,19 @@ pub fn landing_spread_mps(own_xy_m: [f32; 2], neighbours_xy_m: impl IntoIterator
     v
 }
 
-/// The land detector: an up-down timer on the own altitude (`LANDED_Z_M`, `LANDED_HOLD_S`).
+/// The land detector: an up-down timer ([`Dwell`]) on the own altitude (`LANDED_Z_M`,
+/// `LANDED_HOLD_S`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LandDetector {
-    below_s: f32,
+    below: Dwell,
     landed: bool,
 }
 
 impl LandDetector {
     /// One look at the own altitude `z_m` after `dt_s`; true once landed (it stays landed).
     pub fn step(&mut self, z_m: f32, dt_s: f32) -> bool {
-        let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
         // `!(z >= LANDED_Z_M)` would land on a NaN altitude: only a measured low altitude counts.
-        if z_m < LANDED_Z_M {
-            self.below_s += dt;
-        } else {
-            self.below_s = (self.below_s - dt).max(0.0);
-        }
-        self.landed |= self.below_s >= LANDED_HOLD_S;
+        self.landed |= self.below.step(z_m < LANDED_Z_M, dt_s) >= LANDED_HOLD_S;
         self.landed
     }
 

@@ -28,6 +28,7 @@ pub mod baseline;
 pub mod calibration;
 pub mod capacity;
 pub mod controller;
+pub mod dwell;
 mod error;
 pub mod feasibility;
 pub mod keeping;

@@ -98,21 +98,15 @@ pub const LIFT_ABORT_CONFIRM_S: f32 = 0.1;
 /// [`LIFT_ABORT_FACTOR`] times the rating ([`LIFT_ABORT_CONFIRM_S`] net above it abandons).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OverloadWatch {
-    above_s: f32,
+    above: crate::dwell::Dwell,
 }
 
 impl OverloadWatch {
     /// One look at the own cable's tension estimate `tension_n` (N) against `rated_n` (N) after
     /// `dt_s`; true when the lift must be abandoned. NaN never counts as above.
     pub fn overloaded(&mut self, tension_n: f32, rated_n: f32, dt_s: f32) -> bool {
-        let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
-        if tension_n > LIFT_ABORT_FACTOR * rated_n {
-            self.above_s += dt;
-        } else {
-            self.above_s = (self.above_s - dt).max(0.0);
-        }
         // Within rounding of the confirmation time (a sum of high-level periods).
-        self.above_s >= LIFT_ABORT_CONFIRM_S - 1e-4
+        self.above.step(tension_n > LIFT_ABORT_FACTOR * rated_n, dt_s) >= LIFT_ABORT_CONFIRM_S - 1e-4
     }
 }
 

@@ -4,7 +4,7 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::landing::{landing_spread_mps, landing_velocity_mps, STATION_DRIFT_ABORT_M};
+use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::tension_climb_mps;
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
@@ -68,12 +68,14 @@ impl Flight {
         if let Some(pending) = self.pending.as_mut() {
             // Before the arming: a UAV blown off its place by a wind it cannot hold on its own
             // refuses and lands at once (issue 29; the hover cannot measure that wind safely).
-            let drift_m = vt_fpu::norm(&(own_m.xy() - pending.hold_xy_m));
-            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && drift_m > STATION_DRIFT_ABORT_M && self.refusal.is_none() {
-                self.refusal = Some(StartError::Station { drift_m });
-                self.refusal_unreported = true;
-                profile.land_now();
-                return;
+            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && self.refusal.is_none() {
+                let drift_m = vt_fpu::norm(&(own_m.xy() - pending.hold_xy_m));
+                if drift_m > STATION_DRIFT_ABORT_M {
+                    self.refusal = Some(StartError::Station { drift_m });
+                    self.refusal_unreported = true;
+                    profile.land_now();
+                    return;
+                }
             }
             if profile.surveying() && !holding {
                 pending.survey.push_own(own_m);
@@ -140,11 +142,7 @@ impl Flight {
         };
         let vp = VerticalParams { load_altitude_ref_m: profile.load_altitude_ref_m(), ..pending.vertical };
         let v_max = pending.params.get(Param::VMax);
-        let mut v_xy = (pending.hold_xy_m - own_m.xy()) * HOLD_POSITION_GAIN_PER_S;
-        let speed = vt_fpu::norm(&v_xy);
-        if speed > v_max && speed > 0.0 {
-            v_xy *= v_max / speed;
-        }
+        let [vx, vy] = hold_velocity_xy_mps([own_m.x, own_m.y], [pending.hold_xy_m.x, pending.hold_xy_m.y], HOLD_POSITION_GAIN_PER_S, v_max);
         let d = own_m - load_m;
         let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
         let v_z = if profile.phase() == Phase::Tension {
@@ -156,7 +154,7 @@ impl Flight {
         } else {
             vp.vertical_velocity_mps(own_m.z, offset)
         };
-        let v = Vec3::new(v_xy.x, v_xy.y, v_z);
+        let v = Vec3::new(vx, vy, v_z);
         if finite3(&v) { v } else { Vec3::zeros() }
     }
 
@@ -171,9 +169,8 @@ impl Flight {
         let [sx, sy] = landing_spread_mps([own_m.x, own_m.y], others);
         let place = *self.land_xy_m.get_or_insert(own_m.xy()) + Vector2::new(sx, sy) * self.hl_dt_s;
         self.land_xy_m = Some(place);
-        let hold = place;
         self.land.step(own_m.z, self.hl_dt_s);
-        let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [hold.x, hold.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
+        let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [place.x, place.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
         Vec3::new(x, y, z)
     }
 
