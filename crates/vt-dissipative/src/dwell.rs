@@ -9,6 +9,11 @@ pub struct Dwell {
 }
 
 impl Dwell {
+    /// Nothing held yet.
+    pub const fn new() -> Self {
+        Self { held_s: 0.0 }
+    }
+
     /// Counts `dt_s` (s) up while `holds`, down otherwise (not below 0); a `dt_s` that is not
     /// finite and positive counts as 0. Returns the net time held, s.
     pub fn step(&mut self, holds: bool, dt_s: f32) -> f32 {

@@ -15,7 +15,7 @@ use crate::params::{Param, Params};
 use crate::{CompanionTube, Vec3, MAX_UAVS};
 
 /// In transport the phases look at the load (arrival, the set-down's trigger,
-/// `vt_dissipative::phases::cannot_hold`) this often, s: the wind moves a team over seconds, and
+/// `vt_dissipative::phases::HoldWatch`) this often, s: the wind moves a team over seconds, and
 /// a look costs a tube lookup (about 370 Cortex-M4 instructions) that every step would pay.
 pub const TRANSPORT_WATCH_S: f32 = 0.2;
 
@@ -52,7 +52,7 @@ impl Flight {
                 arrived = sec.remaining_m <= self.end_tol_m;
                 // The team cannot hold the tube (wind beyond its capacity): set the load down
                 // here, inside the tube (issue 29; vt_dissipative::phases::HoldWatch).
-                if !arrived && !self.on_declined_tube && self.hold_watch.cannot_hold(sec.s_m, sec.boundary_distance_m(load_m.xy())) {
+                if !arrived && !self.on_declined_tube && self.hold_watch.cannot_hold(sec.s_m, sec.boundary_distance_m(load_m.xy()), dt_s) {
                     profile.set_down_now();
                 }
             }
