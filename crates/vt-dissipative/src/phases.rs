@@ -36,7 +36,7 @@ pub const SET_DOWN_EDGE_CONFIRM_S: f32 = 0.4;
 pub const SET_DOWN_LOAD_EDGE_HARD_M: f32 = 0.25;
 
 /// The load must have been this far inside its tube before the edge triggers of [`HoldWatch`]
-/// counts, m: a tube re-planned in flight (issue 28) may start with the load near its edge, and
+/// count, m: a tube re-planned in flight (issue 28) may start with the load near its edge, and
 /// that is the planner's fit around an obstacle, not the team losing the tube.
 pub const SET_DOWN_EDGE_ARM_M: f32 = 2.0 * SET_DOWN_LOAD_EDGE_M;
 
