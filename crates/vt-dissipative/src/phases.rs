@@ -35,6 +35,24 @@ pub const SET_DOWN_EDGE_CONFIRM_S: f32 = 0.4;
 /// ... or at once when the load comes this close, m (a load driven at the wall does not wait).
 pub const SET_DOWN_LOAD_EDGE_HARD_M: f32 = 0.25;
 
+/// Horizontal speed limit of the formation while a delivered load descends and the cables
+/// slacken, m/s (phases `Descent` and `Slack` after arrival; not a set-down, which must keep the
+/// tube against a wind it could not hold). The team only holds its place there, and a formation
+/// limit cycle swings with an amplitude proportional to the speed limit (the 25-UAV team: about
+/// 0.3 s x `v_max`, docs/robustness.md), which the touchdown then meets: 20 of 40 nominal
+/// ground starts touched down above 0.5 m/s at `v_max` = 1.5 m/s, none at this limit.
+pub const DESCENT_V_MAX_MPS: f32 = 0.5;
+
+/// The horizontal speed limit of `phase`, m/s: [`DESCENT_V_MAX_MPS`] in a delivery's descent and
+/// slack (`set_down` false), `v_max_mps` otherwise.
+pub fn horizontal_speed_limit_mps(phase: Phase, set_down: bool, v_max_mps: f32) -> f32 {
+    if matches!(phase, Phase::Descent | Phase::Slack) && !set_down {
+        v_max_mps.min(DESCENT_V_MAX_MPS)
+    } else {
+        v_max_mps
+    }
+}
+
 /// The load must have been this far inside its tube before the edge triggers of [`HoldWatch`]
 /// count, m: a tube re-planned in flight (issue 28) may start with the load near its edge, and
 /// that is the planner's fit around an obstacle, not the team losing the tube.
@@ -717,6 +735,18 @@ mod tests {
         assert!(!w.cannot_hold(10.0, 0.3, dt) && !w.cannot_hold(8.5, 0.3, dt));
         assert!(w.cannot_hold(7.9, 0.3, dt), "carried back more than 2 m counts unarmed");
         assert!(!HoldWatch::new().cannot_hold(f32::NAN, f32::NAN, dt));
+    }
+
+    #[test]
+    fn a_delivery_descends_at_the_descent_speed_limit_and_a_set_down_keeps_its_authority() {
+        for phase in Phase::ALL {
+            let lim = horizontal_speed_limit_mps(phase, false, 1.5);
+            let expected = if matches!(phase, Phase::Descent | Phase::Slack) { DESCENT_V_MAX_MPS } else { 1.5 };
+            assert_eq!(lim, expected, "{phase:?}");
+            assert_eq!(horizontal_speed_limit_mps(phase, true, 1.5), 1.5, "a set-down keeps v_max in {phase:?}");
+        }
+        // Never above the airframe's own limit.
+        assert_eq!(horizontal_speed_limit_mps(Phase::Descent, false, 0.3), 0.3);
     }
 
     /// An air start flies the transport at `z_t` from its first step and hovers at the end

@@ -492,6 +492,9 @@ impl Flight {
                 reasons |= HoldReasons::INVALID_INPUT;
             } else {
                 self.vel_cmd_mps = cmd.vel_mps;
+                if matches!(phase, Phase::Descent | Phase::Slack) {
+                    self.limit_descent_speed(phase);
+                }
             }
             if reasons & (HoldReasons::NONFINITE | HoldReasons::INVALID_INPUT) != 0 {
                 self.invalid_commands = self.invalid_commands.wrapping_add(1);

@@ -5,7 +5,7 @@
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, STATION_DRIFT_ABORT_M};
-use vt_dissipative::phases::tension_climb_mps;
+use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
@@ -172,6 +172,22 @@ impl Flight {
         self.land.step(own_m.z, self.hl_dt_s);
         let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [place.x, place.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
         Vec3::new(x, y, z)
+    }
+
+    /// A delivery's descent and slack: the formation's horizontal speed limited
+    /// (`vt_dissipative::phases::DESCENT_V_MAX_MPS`; a set-down keeps `v_max`). Out of line:
+    /// the transport, which the MCU budget measures, pays only the phase test.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn limit_descent_speed(&mut self, phase: Phase) {
+        let set_down = self.profile.as_ref().is_some_and(PhaseProfile::set_down_early);
+        let lim = horizontal_speed_limit_mps(phase, set_down, self.v_max_mps);
+        let v = &mut self.vel_cmd_mps;
+        let h = vt_fpu::sqrt(v.x * v.x + v.y * v.y);
+        if h > lim {
+            v.x *= lim / h;
+            v.y *= lim / h;
+        }
     }
 
     /// The mission's phase (an air start: [`Phase::Transport`] until a set-down).
