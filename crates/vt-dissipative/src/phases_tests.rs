@@ -1,0 +1,310 @@
+//! Tests of the mission phases (`phases.rs`).
+
+use super::*;
+
+fn params() -> PhaseParams {
+    PhaseParams {
+        ground_z_m: 0.3,
+        transport_z_m: 3.0,
+        slack_m: 0.5,
+        takeoff_s: 4.0,
+        tension_vz_mps: 0.2,
+        pretension_n: 5.0,
+        lift_vz_mps: 0.1,
+        climb_vz_mps: 0.5,
+        lift_clear_m: 0.2,
+        lift_extra_m: 0.5,
+        touchdown_band_m: 1.0,
+        settle_s: 2.0,
+    }
+}
+
+/// Steps until `phase` changes (at most `limit` steps), returning the steps taken.
+fn run(pr: &mut PhaseProfile, load_z: impl Fn(f32) -> f32, arrived: bool, limit: usize) -> usize {
+    let start = pr.phase();
+    for k in 0..limit {
+        let z = load_z(pr.load_altitude_ref_m());
+        pr.step(0.02, Some(z), arrived, false);
+        if pr.phase() != start {
+            return k + 1;
+        }
+    }
+    limit
+}
+
+#[test]
+fn the_whole_sequence_in_order_with_a_continuous_reference() {
+    let p = params();
+    let mut pr = PhaseProfile::ground(p).unwrap();
+    assert_eq!(pr.phase(), Phase::Takeoff);
+    assert!((pr.load_altitude_ref_m() - (0.3 - 0.5)).abs() < 1e-6);
+    let k = run(&mut pr, |_| 0.3, false, 10_000);
+    assert_eq!(pr.phase(), Phase::Tension);
+    assert!((k as f32 * 0.02 - 4.0).abs() < 0.03, "take-off lasts takeoff_s: {k}");
+    let mut surveyed = 0;
+    while !pr.ready_to_arm() {
+        surveyed += usize::from(pr.surveying());
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    assert!((surveyed as f32 * 0.02 - p.settle_s).abs() < 0.05, "survey lasts settle_s: {surveyed}");
+    pr.armed(0.31);
+    assert_eq!(pr.phase(), Phase::Lift);
+    assert!((pr.load_altitude_ref_m() - 0.31).abs() < 1e-6, "lift starts at the measured load");
+    // The load follows the ramp once it is 1 cm above the ground reference.
+    let follow = |z: f32| z.max(0.3);
+    let mut last = pr.load_altitude_ref_m();
+    let mut order = vec![pr.phase()];
+    for _ in 0..100_000 {
+        let arrived = pr.phase() == Phase::Transport;
+        let z_load = if pr.phase() == Phase::Descent || pr.phase() == Phase::Slack { follow(pr.load_altitude_ref_m()) } else { follow(last) };
+        let z = pr.step(0.02, Some(z_load), arrived, false);
+        assert!((z - last).abs() <= 0.5 * 0.02 + 1e-5, "the reference moves at most v_climb: {last} -> {z}");
+        last = z;
+        if order.last() != Some(&pr.phase()) {
+            order.push(pr.phase());
+        }
+        if pr.phase() == Phase::Released {
+            break;
+        }
+    }
+    assert_eq!(order, vec![Phase::Lift, Phase::Climb, Phase::Transport, Phase::Descent, Phase::Slack, Phase::Released]);
+    assert!((pr.load_altitude_ref_m() - (0.3 - 0.5)).abs() < 1e-5);
+    assert_eq!(pr.abort(), None);
+}
+
+#[test]
+fn a_hold_freezes_the_ramp_and_the_timers() {
+    let mut pr = PhaseProfile::ground(params()).unwrap();
+    // Held for just under `LIFT_HOLD_ABORT_S`, twice: frozen, and the hold time restarts.
+    for _ in 0..2 {
+        for _ in 0..145 {
+            pr.step(0.02, Some(0.3), false, true);
+        }
+        assert_eq!((pr.phase(), pr.load_altitude_ref_m()), (Phase::Takeoff, 0.3 - 0.5));
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    run(&mut pr, |_| 0.3, false, 10_000);
+    while !pr.ready_to_arm() {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    pr.armed(0.3);
+    let z = pr.load_altitude_ref_m();
+    for _ in 0..100 {
+        assert_eq!(pr.step(0.02, Some(0.3), false, true), z);
+    }
+    // An unknown load altitude also waits.
+    assert_eq!(pr.step(0.02, None, false, false), z);
+}
+
+#[test]
+fn a_start_held_too_long_or_off_station_is_abandoned_with_the_load_down() {
+    // A hold longer than `LIFT_HOLD_ABORT_S` before the arming: refused, the cables slacken.
+    let mut pr = PhaseProfile::ground(params()).unwrap();
+    for _ in 0..151 {
+        pr.step(0.02, Some(0.3), false, true);
+    }
+    assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::Refused)));
+    assert!(pr.load_altitude_ref_m() <= 0.3);
+    // Off station (the caller's watch): released at once, in take-off and in tension.
+    for tension in [false, true] {
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        if tension {
+            run(&mut pr, |_| 0.3, false, 10_000);
+            assert_eq!(pr.phase(), Phase::Tension);
+        }
+        pr.land_now();
+        assert_eq!((pr.phase(), pr.abort()), (Phase::Released, Some(Abort::Refused)));
+    }
+    // Not once armed: a_refusal_before_the_lift_slackens_from_the_ground.
+}
+
+#[test]
+fn the_overload_watch_ignores_a_bounce_and_confirms_an_overload() {
+    let dt = 0.02;
+    // A bouncing cable: above the 25 N level for one step in three, never for long.
+    let mut w = OverloadWatch::default();
+    for k in 0..1000 {
+        let t = if k % 3 == 0 { 26.0 } else { 18.0 };
+        assert!(!w.overloaded(t, 20.0, dt), "bounce at step {k}");
+    }
+    // An overload: abandoned after the confirmation time, not before.
+    let mut w = OverloadWatch::default();
+    let steps = (0..100).position(|_| w.overloaded(25.5, 20.0, dt)).unwrap();
+    assert_eq!(steps + 1, (LIFT_ABORT_CONFIRM_S / dt).round() as usize);
+    let mut nan = OverloadWatch::default();
+    assert!(!(0..100).any(|_| nan.overloaded(f32::NAN, 20.0, dt)));
+}
+
+#[test]
+fn a_lift_held_too_long_is_abandoned_and_the_slack_goes_on_in_a_hold() {
+    let mut pr = PhaseProfile::ground(params()).unwrap();
+    run(&mut pr, |_| 0.3, false, 10_000);
+    while !pr.ready_to_arm() {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    pr.armed(0.3);
+    let steps = (LIFT_HOLD_ABORT_S / 0.02) as usize;
+    for _ in 0..steps - 5 {
+        pr.step(0.02, Some(0.3), false, true);
+    }
+    pr.step(0.02, Some(0.3), false, false);
+    for _ in 0..steps - 5 {
+        pr.step(0.02, Some(0.3), false, true);
+    }
+    assert_eq!(pr.phase(), Phase::Lift, "a released hold restarts the count");
+    for _ in 0..10 {
+        pr.step(0.02, Some(0.3), false, true);
+    }
+    assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::LiftFailed)));
+    let z = pr.load_altitude_ref_m();
+    pr.step(0.02, Some(0.3), false, true);
+    assert!(pr.load_altitude_ref_m() < z, "the slack goes on in a hold");
+}
+
+#[test]
+fn a_load_that_stays_on_the_ground_abandons_the_lift() {
+    let p = params();
+    let mut pr = PhaseProfile::ground(p).unwrap();
+    run(&mut pr, |_| 0.3, false, 10_000);
+    while !pr.ready_to_arm() {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    pr.armed(0.3);
+    let k = run(&mut pr, |_| 0.3, false, 100_000);
+    assert_eq!(pr.phase(), Phase::Slack);
+    assert_eq!(pr.abort(), Some(Abort::LiftFailed));
+    let expected = (p.lift_clear_m + p.lift_extra_m) / p.lift_vz_mps;
+    assert!((k as f32 * 0.02 - expected).abs() < 0.05, "abandoned after {k} steps");
+    assert!(pr.load_altitude_ref_m() <= p.ground_z_m);
+    run(&mut pr, |_| 0.3, false, 100_000);
+    assert_eq!(pr.phase(), Phase::Released);
+}
+
+#[test]
+fn a_set_down_in_transport_descends_at_once_and_only_from_transport() {
+    let mut pr = PhaseProfile::ground(params()).unwrap();
+    pr.set_down_now();
+    assert_eq!(pr.phase(), Phase::Takeoff, "nothing before the transport");
+    run(&mut pr, |_| 0.3, false, 10_000);
+    while !pr.ready_to_arm() {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    pr.armed(0.3);
+    while pr.phase() != Phase::Transport {
+        let z = pr.load_altitude_ref_m();
+        pr.step(0.02, Some(z), false, false);
+    }
+    pr.set_down_now();
+    assert_eq!(pr.phase(), Phase::Descent);
+    assert!(pr.set_down_early());
+    run(&mut pr, |z| z.max(0.3), false, 100_000);
+    assert_eq!(pr.phase(), Phase::Slack);
+}
+
+/// The set-down's trigger: carried back beyond 2 m, or within the edge of the boundary.
+#[test]
+fn the_watch_arms_the_edge_once_the_load_was_well_inside() {
+    let dt = 0.2;
+    let mut w = HoldWatch::new();
+    // A re-planned tube with the load near its edge: not the team losing it.
+    assert!(!w.cannot_hold(4.0, 0.2, dt) && !w.cannot_hold(4.0, 0.2, dt));
+    assert!(!w.cannot_hold(4.5, SET_DOWN_EDGE_ARM_M, dt));
+    // Armed: the edge band counts once confirmed, the hard edge at once.
+    assert!(!w.cannot_hold(5.0, 0.45, dt), "one look in the band is a swing");
+    assert!(w.cannot_hold(5.0, 0.45, dt), "confirmed after 0.4 s");
+    let mut w = HoldWatch::new();
+    assert!(!w.cannot_hold(4.5, SET_DOWN_EDGE_ARM_M, dt));
+    assert!(w.cannot_hold(5.0, 0.2, dt), "nearer than the hard edge: at once");
+    // A swing that grazes the band for one look in every three never triggers.
+    let mut w = HoldWatch::new();
+    for k in 0..300 {
+        let d = if k % 3 == 0 { 0.45 } else { 0.9 };
+        assert!(!w.cannot_hold(5.0 + k as f32 * 0.01, d, dt), "swing at look {k}");
+    }
+    let mut w = HoldWatch::new();
+    assert!(!w.cannot_hold(10.0, 0.3, dt) && !w.cannot_hold(8.5, 0.3, dt));
+    assert!(w.cannot_hold(7.9, 0.3, dt), "carried back more than 2 m counts unarmed");
+    assert!(!HoldWatch::new().cannot_hold(f32::NAN, f32::NAN, dt));
+}
+
+#[test]
+fn a_delivery_descends_at_the_descent_speed_limit_and_a_set_down_keeps_its_authority() {
+    for phase in Phase::ALL {
+        let lim = horizontal_speed_limit_mps(phase, false, 1.5);
+        let expected = if matches!(phase, Phase::Descent | Phase::Slack) { DESCENT_V_MAX_MPS } else { 1.5 };
+        assert_eq!(lim, expected, "{phase:?}");
+        assert_eq!(horizontal_speed_limit_mps(phase, true, 1.5), 1.5, "a set-down keeps v_max in {phase:?}");
+    }
+    // Never above the airframe's own limit.
+    assert_eq!(horizontal_speed_limit_mps(Phase::Descent, false, 0.3), 0.3);
+}
+
+/// An air start flies the transport at `z_t` from its first step and hovers at the end
+/// after arrival; only a set-down descends, to `z_g`, and then slackens and releases.
+#[test]
+fn an_air_start_hovers_at_the_end_and_sets_down_only_when_it_cannot_hold() {
+    let p = params();
+    let mut pr = PhaseProfile::air(p).unwrap();
+    assert_eq!((pr.phase(), pr.load_altitude_ref_m()), (Phase::Transport, p.transport_z_m));
+    assert_eq!(run(&mut pr, |z| z, true, 10_000), 10_000, "arrival does not end an air start's transport");
+    assert_eq!(pr.load_altitude_ref_m(), p.transport_z_m);
+    let mut pr = PhaseProfile::air(p).unwrap();
+    pr.set_down_now();
+    assert_eq!(pr.phase(), Phase::Descent);
+    let mut last = pr.load_altitude_ref_m();
+    for _ in 0..100_000 {
+        let z = pr.step(0.02, Some(pr.load_altitude_ref_m().max(p.ground_z_m)), false, false);
+        assert!(z <= last, "the reference only goes down: {z} after {last}");
+        last = z;
+        if pr.phase() == Phase::Released {
+            break;
+        }
+    }
+    assert_eq!(pr.phase(), Phase::Released);
+    assert_eq!(pr.load_altitude_ref_m(), p.ground_z_m - p.slack_m);
+    assert!(PhaseProfile::air(PhaseParams { ground_z_m: 3.5, ..p }).is_err(), "the ground above the transport altitude");
+}
+
+#[test]
+fn a_refusal_before_the_lift_slackens_from_the_ground() {
+    let mut pr = PhaseProfile::ground(params()).unwrap();
+    pr.refuse();
+    assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::Refused)));
+    // Too late to refuse once lifted: nothing changes.
+    let mut lifted = PhaseProfile::ground(params()).unwrap();
+    run(&mut lifted, |_| 0.3, false, 10_000);
+    while !lifted.ready_to_arm() {
+        lifted.step(0.02, Some(0.3), false, false);
+    }
+    lifted.armed(0.3);
+    lifted.refuse();
+    assert_eq!((lifted.phase(), lifted.abort()), (Phase::Lift, None));
+    // Nor to land off station: a lift is abandoned by its own rules.
+    lifted.land_now();
+    assert_eq!((lifted.phase(), lifted.abort()), (Phase::Lift, None));
+}
+
+#[test]
+fn tension_law_climbs_holds_and_backs_off() {
+    let p = params();
+    assert!((tension_climb_mps(0.0, &p) - p.tension_vz_mps).abs() < 1e-6);
+    assert!(tension_climb_mps(p.pretension_n, &p).abs() < 1e-6);
+    assert!(tension_climb_mps(50.0, &p) < 0.0);
+    assert_eq!(tension_climb_mps(f32::NAN, &p), 0.0);
+    for code in 0..=255u8 {
+        if let Some(ph) = Phase::from_code(code) {
+            assert_eq!(ph as u8, code);
+        }
+    }
+    assert_eq!(Phase::ALL.iter().filter(|p| p.passing_off()).count(), 7);
+}
+
+#[test]
+fn bad_parameters_are_named() {
+    let mut p = params();
+    p.transport_z_m = 0.1;
+    assert_eq!(PhaseProfile::ground(p).err(), Some(ControlError::InvalidParameter("phases.transport_z_m")));
+    let mut p = params();
+    p.lift_vz_mps = f32::NAN;
+    assert_eq!(PhaseProfile::ground(p).err(), Some(ControlError::InvalidParameter("phases.lift_vz_mps")));
+}
