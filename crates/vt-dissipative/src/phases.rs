@@ -97,8 +97,8 @@ impl HoldWatch {
         let in_band = self.edge_armed && load_boundary_m < SET_DOWN_LOAD_EDGE_M;
         // Within rounding of the confirmation time (a sum of watch periods).
         let confirmed = self.near_edge.step(in_band, dt_s) >= SET_DOWN_EDGE_CONFIRM_S - 1e-4;
-        let hard = if self.edge_armed { load_boundary_m } else { f32::INFINITY };
-        self.s_max_m - s_m > SET_DOWN_BLOWN_BACK_M || hard < SET_DOWN_LOAD_EDGE_HARD_M || confirmed
+        let hard = self.edge_armed && load_boundary_m < SET_DOWN_LOAD_EDGE_HARD_M;
+        self.s_max_m - s_m > SET_DOWN_BLOWN_BACK_M || hard || confirmed
     }
 }
 

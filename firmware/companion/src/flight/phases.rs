@@ -182,12 +182,9 @@ impl Flight {
     pub(super) fn limit_descent_speed(&mut self, phase: Phase) {
         let set_down = self.profile.as_ref().is_some_and(PhaseProfile::set_down_early);
         let lim = horizontal_speed_limit_mps(phase, set_down, self.v_max_mps);
-        let v = &mut self.vel_cmd_mps;
-        let h = vt_fpu::sqrt(v.x * v.x + v.y * v.y);
-        if h > lim {
-            v.x *= lim / h;
-            v.y *= lim / h;
-        }
+        let v_xy = vt_tube::sat(self.vel_cmd_mps.xy(), lim);
+        self.vel_cmd_mps.x = v_xy.x;
+        self.vel_cmd_mps.y = v_xy.y;
     }
 
     /// The mission's phase (an air start: [`Phase::Transport`] until a set-down).
