@@ -82,7 +82,9 @@ impl ThrustLimits {
         if !(tilt_max_rad > 0.0 && tilt_max_rad < core::f32::consts::FRAC_PI_2) {
             return Err(CfoError::InvalidTiltMax);
         }
-        let tilt_max_cos = libm::cosf(tilt_max_rad);
+        // `vt_fpu`'s short cosine (within 1 ulp of `libm::cosf` here): `libm`'s brings its full
+        // range reduction and `f64` arithmetic, about 7 KiB of the flight MCU's flash.
+        let tilt_max_cos = vt_fpu::sin_cos(tilt_max_rad).map_or(f32::NAN, |sc| sc.1);
         // tan = sin / cos with sin = sqrt(1 - cos^2) on (0, pi/2).
         let tilt_max_tan = vt_fpu::sqrt(1.0 - tilt_max_cos * tilt_max_cos) / tilt_max_cos;
         if !(tilt_max_cos > 0.0 && tilt_max_tan.is_finite() && tilt_max_tan > 0.0) {

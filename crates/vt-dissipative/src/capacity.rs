@@ -185,9 +185,11 @@ impl Team for Circle<'_> {
     }
     fn offset(&self, i: usize) -> Vec2 {
         // Nodes equally spaced on the circle (the scenario's take-off formation; its rotation
-        // changes neither leans nor pair distances). Configuration only: trigonometry allowed.
+        // changes neither leans nor pair distances). Configuration only: trigonometry allowed,
+        // `vt_fpu`'s (`libm`'s brings about 7 KiB of range reduction and `f64` to the MCU).
         let a = core::f32::consts::TAU * i as f32 / self.lengths.len().max(1) as f32;
-        Vec2::new(self.radius_m * libm::cosf(a), self.radius_m * libm::sinf(a))
+        let (sin, cos) = vt_fpu::sin_cos(a).unwrap_or((0.0, 1.0));
+        Vec2::new(self.radius_m * cos, self.radius_m * sin)
     }
     fn length(&self, i: usize) -> f32 {
         self.lengths.get(i).copied().unwrap_or(0.0)

@@ -15,6 +15,7 @@
 use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
+use crate::shape::{narrowest_half_width_m, next_quantum, quantum, stadium_point, ShapeParams, QUANTA};
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, Formation, NodeId};
 use crate::tray::TrayParams;
@@ -207,6 +208,49 @@ pub struct DissipativeController<const N: usize> {
     join_m: f32,
     /// Capacity-aware formation scale (`FormationScale::NEUTRAL` unless configured).
     scale: FormationScale,
+    /// The formation shaped to the tube ahead (`None`: the paper's rest lengths; shape.rs).
+    shape: Option<TubeShape<N>>,
+}
+
+/// The take-off formation as the tube-shaped formation needs it (shape.rs).
+#[derive(Debug, Clone)]
+struct TubeShape<const N: usize> {
+    params: ShapeParams,
+    /// UAV nodes' offsets from the tray centre's take-off node, world, m.
+    offsets_m: [Vec2; N],
+    /// The load node's offset from the tray centre's take-off node, world, m.
+    load_offset_m: Vec2,
+    /// The ring's node radius, the largest offset, m.
+    radius_m: f32,
+    /// The take-off rest lengths (eq:2-7), the shape of quantum [`QUANTA`].
+    ring: RestLengths<N>,
+    /// The tube's direction at the load at the first look: node angles are taken from it.
+    frame: Option<Vec2>,
+    /// The quantum flown.
+    quantum: i32,
+}
+
+impl<const N: usize> TubeShape<N> {
+    /// Rest lengths of UAV `id` (and the tray centre's) on the stadium of quantum `q`, before the
+    /// formation scale: the nodes at their take-off angles from `frame` on a stadium of the
+    /// ring's perimeter and half-width `r q / QUANTA` (shape.rs).
+    #[inline(never)]
+    fn rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize) -> RestLengths<N> {
+        let normal = Vec2::new(-frame.y, frame.x);
+        let b = self.radius_m * q as f32 / QUANTA as f32;
+        let place = |o: &Vec2| stadium_point(vt_fpu::atan2(o.dot(&normal), o.dot(&frame)), self.radius_m, b);
+        let own = self.offsets_m.get(id).map_or(Vec2::zeros(), place);
+        let load = Vec2::new(self.load_offset_m.dot(&frame), self.load_offset_m.dot(&normal));
+        let mut out = self.ring;
+        for ((o, c), offset) in out.own_m.iter_mut().zip(out.center_m.iter_mut()).zip(self.offsets_m.iter()).take(n) {
+            let e = place(offset);
+            *o = vt_fpu::norm(&(own - e));
+            *c = vt_fpu::norm(&e);
+        }
+        out.own_load_m = vt_fpu::norm(&(own - load));
+        out.own_center_m = vt_fpu::norm(&own);
+        out
+    }
 }
 
 impl<const N: usize> DissipativeController<N> {
@@ -249,6 +293,7 @@ impl<const N: usize> DissipativeController<N> {
             anchor_m: None,
             join_m: 0.0,
             scale: FormationScale::NEUTRAL,
+            shape: None,
         })
     }
 
@@ -310,6 +355,59 @@ impl<const N: usize> DissipativeController<N> {
     /// Without it the controller is the paper's, bit for bit.
     pub fn set_capacity(&mut self, scale: FormationScale) {
         self.scale = scale;
+    }
+
+    /// Turns on the formation shaped to the tube ahead (extension; shape.rs, docs/design.md "A
+    /// formation shaped to the tube") for the take-off `formation` this controller was built
+    /// from. Until [`Self::shape_to_tube`] narrows it, the formation is the ring.
+    ///
+    /// # Errors
+    /// Invalid `params`.
+    pub fn set_shape(&mut self, params: ShapeParams, formation: &Formation<N>) -> Result<(), ControlError> {
+        params.validate()?;
+        let centre = formation.node_m(NodeId::Center);
+        let mut offsets_m = [Vec2::zeros(); N];
+        let mut radius_m: f32 = 0.0;
+        for (j, o) in offsets_m.iter_mut().enumerate().take(self.n) {
+            *o = formation.node_m(NodeId::Uav(j)) - centre;
+            radius_m = vt_fpu::max(radius_m, vt_fpu::norm(o));
+        }
+        // The take-off rest lengths: `rest` before any step has scaled them (`rest_scale` 1).
+        let ring = self.rest;
+        let load_offset_m = formation.node_m(NodeId::Load) - centre;
+        self.shape = Some(TubeShape { params, offsets_m, load_offset_m, radius_m, ring, frame: None, quantum: QUANTA });
+        Ok(())
+    }
+
+    /// The tube-shaped formation's look at the tube (every few steps; `load_sec` the load's
+    /// section): the stadium whose half-width fits the narrowest section from one ring radius
+    /// behind the load to one radius plus `ahead_m` ahead of it, less the barrier's safety
+    /// radius and `margin_m`, in [`QUANTA`] steps (narrower at once, wider with hysteresis);
+    /// the rest lengths change only when the step does. Nothing without [`Self::set_shape`].
+    #[cold]
+    #[inline(never)]
+    pub fn shape_to_tube<const S: usize>(&mut self, tube: &Tube<S>, load_sec: &vt_tube::Section) {
+        let Some(shape) = self.shape.as_mut() else {
+            return;
+        };
+        let frame = *shape.frame.get_or_insert(load_sec.tangent);
+        let ring_m = shape.radius_m * self.rest_scale;
+        let Some(w) = narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m) else {
+            return;
+        };
+        let q = next_quantum(shape.quantum, quantum(w - self.params.r_safe_m - shape.params.margin_m, ring_m));
+        if q == shape.quantum {
+            return;
+        }
+        shape.quantum = q;
+        let rest = if q == QUANTA { shape.ring } else { shape.rest_lengths(self.id, q, frame, self.n) };
+        self.rest = rest.scaled(self.rest_scale, self.n);
+    }
+
+    /// The tube-shaped formation's half-width now, fraction of the ring's radius (1: the ring,
+    /// or the shape off).
+    pub fn shape_fraction(&self) -> f32 {
+        self.shape.as_ref().map_or(1.0, |s| s.quantum as f32 / QUANTA as f32)
     }
 
     /// [`Self::set_capacity`] as a builder.

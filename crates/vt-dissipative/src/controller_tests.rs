@@ -3,6 +3,7 @@
 use super::*;
 use approx::assert_relative_eq;
 use proptest::prelude::*;
+use crate::shape::ShapeParams;
 use vt_tube::Waypoint;
 
 const N: usize = 16;
@@ -174,15 +175,31 @@ fn fly(n: usize, steps: usize) -> (f32, f32, f32) {
 /// [`fly`] with the whole team in team hold during the steps `hold`; also returns the
 /// load's arc position at every step.
 fn fly_with_hold(n: usize, steps: usize, hold: core::ops::Range<usize>) -> ((f32, f32, f32), Vec<f32>) {
+    fly_team(n, steps, hold, false)
+}
+
+/// [`fly_with_hold`], the formation shaped to the tube (shape.rs) when `shaped`: a look every
+/// ten steps, as the companion's phases look every 0.2 s.
+fn fly_team(n: usize, steps: usize, hold: core::ops::Range<usize>, shaped: bool) -> ((f32, f32, f32), Vec<f32>) {
     let t = tube();
     let (mut uavs, mut load) = takeoff(n, 4.0);
     let mut ctl = team(n, &uavs, &load);
+    if shaped {
+        let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+        for c in ctl.iter_mut() {
+            c.set_shape(ShapeParams::default(), &f).unwrap();
+        }
+    }
     let (mut min_dt, mut min_sep) = (f32::MAX, f32::MAX);
     let tray = params().tray;
     let mut s_load = Vec::with_capacity(steps);
     for k in 0..steps {
+        let sec = t.locate(load.xy(), 0).unwrap();
         for c in ctl.iter_mut() {
             c.set_team_hold(hold.contains(&k));
+            if k % 10 == 0 {
+                c.shape_to_tube(&t, &sec);
+            }
         }
         let nb = neighbours(&uavs);
         let vel: Vec<Vec3> = ctl
@@ -310,6 +327,58 @@ fn virtual_system_passes_the_narrow_tube_without_touching_the_boundary() {
     assert!(min_dt > params().r_safe_m, "node came within {min_dt} m of the boundary");
     assert!(min_sep > 0.5, "nodes came within {min_sep} m");
     assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
+}
+
+/// The formation shaped to the tube (shape.rs): ten nodes on the 3 m ring pass the 2.2 m
+/// narrowing further apart than the ring squeezed by the tube keeping, as far from the
+/// boundary, and arrive.
+#[test]
+fn a_shaped_formation_keeps_its_nodes_further_apart_in_a_narrowing() {
+    let (ring_dt, ring_sep, _) = fly_team(10, 3000, 0..0, false).0;
+    let (dt, sep, s_end) = fly_team(10, 3000, 0..0, true).0;
+    assert!(sep > ring_sep + 0.2, "shaped {sep} m against the ring's {ring_sep} m");
+    assert!(dt > params().r_safe_m && dt > ring_dt - 0.05, "node within {dt} m of the boundary (ring {ring_dt})");
+    assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
+}
+
+/// Every UAV derives the same stadium: each spring's rest length is the same at both ends,
+/// the tray centre's are the same in every replica; the wide tube leaves the ring bit for bit,
+/// and without `set_shape` a look changes nothing.
+#[test]
+fn shaped_rest_lengths_agree_at_both_ends() {
+    let n = 10;
+    let t = tube();
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let mut ctl = team(n, &uavs, &load);
+    let ring: Vec<_> = ctl.iter().map(|c| c.rest).collect();
+    let mut plain = ctl[0].clone();
+    for c in ctl.iter_mut() {
+        c.set_shape(ShapeParams::default(), &f).unwrap();
+    }
+    let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
+    let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
+    for (c, r) in ctl.iter_mut().zip(ring.iter()) {
+        c.shape_to_tube(&t, &wide);
+        assert_eq!(c.shape_fraction(), 1.0);
+        assert_eq!(c.rest.own_m, r.own_m, "the ring, bit for bit");
+        c.shape_to_tube(&t, &narrow);
+        assert!(c.shape_fraction() < 0.6, "{}", c.shape_fraction());
+    }
+    for i in 0..n {
+        for j in 0..n {
+            assert_eq!(ctl[i].rest.own_m[j], ctl[j].rest.own_m[i], "spring {i}-{j}");
+        }
+        assert_eq!(ctl[i].rest.center_m, ctl[0].rest.center_m);
+        assert_eq!(ctl[i].rest.own_center_m, ctl[0].rest.center_m[i]);
+    }
+    // Longer, narrower: front-back rest lengths grow, left-right ones shrink.
+    let (front, back, left, right) = (0, n / 2, n / 4, 3 * n / 4);
+    assert!(ctl[front].rest.own_m[back] > ring[front].own_m[back] + 0.5);
+    assert!(ctl[left].rest.own_m[right] < ring[left].own_m[right] - 1.0);
+    plain.shape_to_tube(&t, &narrow);
+    assert_eq!(plain.rest.own_m, ring[0].own_m, "no shape without set_shape");
+    assert_eq!(plain.shape_fraction(), 1.0);
 }
 
 /// Overload (issue 15): with the load far below its reference a UAV flies higher than `H`

@@ -107,8 +107,8 @@ pub fn rotor_capacity_n(weight_n: f32, thrust_max_n: f32, tilt_max_rad: f32, cos
     let sin2 = (1.0 - cos_lean * cos_lean).max(0.0);
     let sin_lean = vt_fpu::sqrt(sin2);
     let by_thrust = vt_fpu::sqrt((thrust_max_n * thrust_max_n - weight_n * weight_n * sin2).max(0.0)) - weight_n * cos_lean;
-    // sin from cos on (0, pi/2), as vt-cfo's thrust limits do: one trig function linked.
-    let ca = libm::cosf(tilt_max_rad);
+    // sin from cos on (0, pi/2), as vt-cfo's thrust limits do, by the same short cosine.
+    let ca = vt_fpu::sin_cos(tilt_max_rad).map_or(f32::NAN, |sc| sc.1);
     let sa = vt_fpu::sqrt((1.0 - ca * ca).max(0.0));
     // sin(theta - alpha) > 0 exactly when the cable leans more than the tilt limit.
     let s = sin_lean * ca - cos_lean * sa;

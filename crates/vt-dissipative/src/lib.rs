@@ -11,6 +11,7 @@
 //! - [`springs`]: virtual springs eq:2-5 .. eq:2-7 and their energy (Prop. 1).
 //! - [`passing`]: passing term eq:2-13. [`keeping`]: tube-keeping term eq:2-14/eq:2-15.
 //! - [`separation`]: the UAV-UAV separation barrier (extension for real airframes, issue 27).
+//! - [`shape`]: the formation shaped to the tube ahead (extension, issues 27 and 29).
 //! - [`vertical`]: the altitude law (the paper gives none; see `docs/design.md`).
 //! - [`capacity`]: the capacity-aware formation (Remark 1 made automatic; issue 15).
 //! - [`calibration`]: take-off cable calibration and the tension share (run once, at start).
@@ -36,6 +37,7 @@ pub mod landing;
 pub mod passing;
 pub mod phases;
 pub mod separation;
+pub mod shape;
 pub mod springs;
 pub mod survey;
 mod status;
@@ -50,6 +52,7 @@ pub use calibration::{calibrate, Calibration, CalibrationError, CalibrationParam
 pub use controller::{Command, DissipativeController, DissipativeParams, Measurements};
 pub use error::ControlError;
 pub use phases::{Abort, Phase, PhaseParams, PhaseProfile};
+pub use shape::ShapeParams;
 pub use feasibility::{Feasibility, FeasibilityError, FeasibilityParams};
 pub use springs::Formation;
 pub use status::Status;

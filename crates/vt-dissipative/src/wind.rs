@@ -171,7 +171,7 @@ pub fn capacity(p: &WindParams) -> Result<WindCapacity, WindError> {
     let f_z = p.uav_mass_kg * GRAVITY_MPS2 + share_n;
     let sin_lean = vt_fpu::sqrt((1.0 - p.cos_lean * p.cos_lean).max(0.0));
     let tan_lean = sin_lean / p.cos_lean;
-    let ca = libm::cosf(p.tilt_max_rad);
+    let ca = vt_fpu::sin_cos(p.tilt_max_rad).map_or(f32::NAN, |sc| sc.1);
     let tan_tilt = vt_fpu::sqrt((1.0 - ca * ca).max(0.0)) / ca;
     let by_tilt = f_z * tan_tilt;
     let by_thrust = vt_fpu::sqrt((p.thrust_max_n * p.thrust_max_n - f_z * f_z).max(0.0));

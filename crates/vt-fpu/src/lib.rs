@@ -1,5 +1,6 @@
 //! `f32` square root and Euclidean norms for the controller crates, and a four-lane byte add for
-//! the onboard map, in hardware where the MCU has it.
+//! the onboard map, in hardware where the MCU has it; short sine, cosine and arc tangent
+//! ([`trig`]).
 //!
 //! `libm::sqrtf` (and nalgebra's `norm()`, which calls it under `no_std`) is a software routine
 //! of about 55 instructions on a Cortex-M4F, which has a single-precision `VSQRT.F32`. Stable
@@ -12,6 +13,9 @@
 #![deny(missing_docs)]
 
 use nalgebra::SVector;
+
+pub mod trig;
+pub use trig::{atan2, sin_cos};
 
 /// Correctly rounded square root (IEEE 754): NaN for negative input or NaN, `-0.0` for `-0.0`,
 /// `+inf` for `+inf`.

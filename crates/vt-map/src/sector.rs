@@ -422,31 +422,10 @@ fn cell_index(g: Vec2, w: usize, h: usize) -> Option<usize> {
     Some(j * w + i)
 }
 
-/// `(sin x, cos x)` in `f32` for finite `x` (`libm`'s beyond about 1e9 rad): reduced to `[-pi/4, pi/4]` by quarter turns (Cody and Waite's
-/// split of `pi/2`) and the minimax polynomials of Moshier's Cephes `sinf.c` / `cosf.c` there;
-/// within 2e-7 of the true values for `|x| <= 100` (test).
+/// `(sin x, cos x)`: `vt_fpu::sin_cos` (within 2e-7 for `|x| <= 100`), `libm`'s beyond its
+/// quarter-turn reduction (about 1e9 rad).
 pub(crate) fn sin_cos(x: f32) -> (f32, f32) {
-    const TWO_OVER_PI: f32 = core::f32::consts::FRAC_2_PI;
-    // pi/2 = PIO2_HI + PIO2_LO, PIO2_HI with trailing zero bits so `k PIO2_HI` is exact.
-    const PIO2_HI: f32 = 1.570_312_5;
-    const PIO2_LO: f32 = 4.838_268e-4;
-    let q = x * TWO_OVER_PI;
-    let k = if q >= 0.0 { (q + 0.5) as i32 } else { (q - 0.5) as i32 };
-    let kf = k as f32;
-    let r = (x - kf * PIO2_HI) - kf * PIO2_LO;
-    if !(libm::fabsf(r) <= 1.0) {
-        // Beyond i32's quarter turns: `libm`'s full reduction.
-        return (libm::sinf(x), libm::cosf(x));
-    }
-    let z = r * r;
-    let sin = r + r * z * (-1.666_665_5e-1 + z * (8.332_161e-3 + z * -1.951_529_6e-4));
-    let cos = 1.0 - 0.5 * z + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
-    match k & 3 {
-        0 => (sin, cos),
-        1 => (cos, -sin),
-        2 => (-sin, -cos),
-        _ => (-cos, sin),
-    }
+    vt_fpu::sin_cos(x).unwrap_or_else(|| (libm::sinf(x), libm::cosf(x)))
 }
 
 /// `v` turned counter-clockwise by the angle of cosine `c` and sine `s`.

@@ -702,6 +702,9 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
     } else {
         let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         high.set_capacity(FormationScale::new(&plan, &cap));
+        if let Some(shape) = params.shape() {
+            high.set_shape(shape, &formation).map_err(StartError::Controller)?;
+        }
         HighLevel::Dissipative(high)
     })
 }

@@ -12,7 +12,7 @@ use nalgebra::{Unit, Vector2, Vector3};
 use vt_cfo::{CfoError, CfoParams, PidGains, ThrustLimits, VelocityLoopParams};
 use vt_dissipative::calibration::MIN_COS_LEAN;
 use vt_dissipative::wind::WindParams;
-use vt_dissipative::{Calibration, CalibrationParams, CapacityParams, ControlError, DissipativeParams, FeasibilityParams, PhaseParams, TrayParams, VerticalParams};
+use vt_dissipative::{Calibration, CalibrationParams, CapacityParams, ControlError, DissipativeParams, FeasibilityParams, PhaseParams, ShapeParams, TrayParams, VerticalParams};
 
 /// Ground start: the tension each cable is brought to before the survey, as a fraction of the
 /// declared share (enough for the observer to see a taut cable, far from lifting).
@@ -188,6 +188,9 @@ params! {
     EndTol => real("VT_END_TOL", 1.0, 0.0, 100.0), "Arrival: the load within this arc length of the tube's end, m (ground start: the descent follows).";
     Ctrl => int("VT_CTRL", 0.0, 0.0, 1.0), "High-level controller: 0 the paper's dissipative controller; 1 traditional virtual-tube control (the baseline, REFERENCE §2: `VT_K1`..`VT_R_ACT` are its gains, no springs).";
     LoadGz => real("VT_LOAD_GZ", 0.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Air start: the load's altitude resting on the ground, m (ENU up, the local frame's origin on the ground: the load's half-height), where a set-down in a wind the team cannot hold puts it (a ground start measures it).";
+    Shape => int("VT_SHAPE", 0.0, 0.0, 1.0), "Formation shape: 0 the take-off ring (the paper's rest lengths); 1 shaped to the tube ahead, a stadium of the ring's perimeter as narrow as the narrowest section ahead allows (extension; `vt_dissipative::shape`, docs/design.md \"A formation shaped to the tube\").";
+    ShapeMrg => real("VT_SHAPE_MRG", 0.5, 0.0, LENGTH_MAX_M), "Shaped formation: room kept between the nodes and the tube barrier's safety radius, m.";
+    ShapeAhd => real("VT_SHAPE_AHD", 6.0, 0.0, LENGTH_MAX_M), "Shaped formation: how far past the formation's front the tube's width is looked at, m.";
 }
 
 /// Number of parameters.
@@ -353,7 +356,7 @@ impl Params {
             v_max_mps: g(Param::VMax),
             r_safe_m: self.r_safe_m(),
             r_active_m: g(Param::RActive),
-            separation_m: self.separation_m(),
+            separation_m: self.separation_barrier_m(),
             tray: self.tray(),
             vertical: VerticalParams {
                 load_altitude_ref_m: g(Param::LoadZRef),
@@ -421,6 +424,11 @@ impl Params {
         }
     }
 
+    /// The tube-shaped formation's settings, `None` when `VT_SHAPE` is 0 (the paper's ring).
+    pub fn shape(&self) -> Option<ShapeParams> {
+        (self.get_u32(Param::Shape) == 1).then(|| ShapeParams { margin_m: self.get(Param::ShapeMrg), ahead_m: self.get(Param::ShapeAhd) })
+    }
+
     /// The capacity-aware formation's parameters (validated by `vt-dissipative`; issue 15).
     ///
     /// # Errors
@@ -478,7 +486,8 @@ impl Params {
     /// `(sin psi, cos psi)` in (east, north). Trigonometry here runs once, at mission start.
     pub fn heading(&self) -> Unit<Vector2<f32>> {
         let yaw = self.get(Param::Yaw);
-        let h = Vector2::new(libm::sinf(yaw), libm::cosf(yaw));
+        let (sin, cos) = vt_fpu::sin_cos(yaw).unwrap_or((0.0, 1.0));
+        let h = Vector2::new(sin, cos);
         Unit::try_new(h, 1e-6).unwrap_or_else(|| Unit::new_unchecked(Vector2::new(0.0, 1.0)))
     }
 
@@ -522,6 +531,16 @@ impl Params {
     pub fn separation_m(&self) -> f32 {
         let body = self.get(Param::BodyR);
         if body > 0.0 { 2.0 * body + self.get(Param::ClrMin) } else { 0.0 }
+    }
+
+    /// Pole of the separation barrier flown, m: [`Self::separation_m`], or 0 (off) with the
+    /// formation shaped to the tube (`VT_SHAPE` 1). Measured on the paper mission with 0.445 m
+    /// bodies (docs/design.md, "A formation shaped to the tube"): the barrier against the shaped
+    /// formation's neighbours, 1.2-1.5 m apart inside its 0.3 m band, slows the team to a crawl
+    /// (arrival 115.8 s against 33.7 s) and leaves pairs closer (0.090 m of clearance against
+    /// 0.189 m).
+    pub fn separation_barrier_m(&self) -> f32 {
+        if self.get_u32(Param::Shape) == 1 { 0.0 } else { self.separation_m() }
     }
 
     /// The tube barrier's safety radius flown, m: `VT_R_SAFE`, raised to
@@ -587,6 +606,20 @@ mod tests {
         assert!((p.capacity().unwrap().separation_m - 1.09).abs() < 1e-6, "raised from VT_SEP_MIN 0.9");
         p.set(Param::RSafe, 0.8).unwrap();
         assert_eq!(p.r_safe_m(), 0.8, "a larger VT_R_SAFE is kept");
+        assert_eq!(p.separation_barrier_m(), p.separation_m());
+    }
+
+    #[test]
+    fn the_shaped_formation_flies_without_the_separation_barrier() {
+        let mut p = Params::default();
+        assert!(p.shape().is_none(), "the paper's ring by default");
+        p.set(Param::BodyR, 0.445).unwrap();
+        p.set(Param::Shape, 1.0).unwrap();
+        p.set(Param::ShapeMrg, 0.3).unwrap();
+        assert_eq!(p.shape(), Some(ShapeParams { margin_m: 0.3, ahead_m: 6.0 }));
+        assert_eq!(p.separation_barrier_m(), 0.0);
+        assert!((p.separation_m() - 1.09).abs() < 1e-6, "the capacity floor keeps the body's separation");
+        assert!((p.r_safe_m() - 0.645).abs() < 1e-6, "and the tube barrier its radius");
     }
 
     #[test]

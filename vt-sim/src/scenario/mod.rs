@@ -449,6 +449,9 @@ pub struct ControllerSpec {
     /// Capacity-aware formation (issue 15).
     #[serde(default)]
     pub capacity: CapacitySpec,
+    /// The formation shaped to the tube ahead (extension, issues 27 and 29).
+    #[serde(default)]
+    pub shape: ShapeSpec,
 }
 
 fn one() -> f64 {
@@ -748,10 +751,12 @@ mod capacity;
 mod disturbances;
 pub mod generate;
 mod perception;
+mod shape;
 mod validate;
 
 pub use capacity::CapacitySpec;
 pub use disturbances::{DisturbanceSpec, WIND_ONSET_RAMP_S};
 pub use perception::{AppearSpec, MapKnowledge, PerceptionSpec, SensorsSpec};
+pub use shape::ShapeSpec;
 
 use validate::{field_at_line, line_of_offset, Validator};

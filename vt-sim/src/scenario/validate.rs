@@ -183,6 +183,8 @@ impl Validator<'_> {
         if !(cap.sag_full_m.is_finite() && cap.sag_full_m > cap.sag_start_m) {
             return Err(self.err("controller.capacity", "sag_full_m", format!("must be > sag_start_m = {} (got {})", cap.sag_start_m, cap.sag_full_m)));
         }
+        self.non_negative("controller.shape", "margin_m", c.shape.margin_m)?;
+        self.non_negative("controller.shape", "ahead_m", c.shape.ahead_m)?;
         let bl = &s.baseline;
         for (k, v) in [("k1", bl.k1), ("k2", bl.k2), ("k3", bl.k3), ("v_max_mps", bl.v_max_mps), ("r_safe_m", bl.r_safe_m)] {
             self.positive("baseline", k, v)?;

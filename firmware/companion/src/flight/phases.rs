@@ -9,7 +9,7 @@ use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
-use super::{arm, Flight, StartError};
+use super::{arm, Flight, HighLevel, StartError};
 use crate::frames::finite3;
 use crate::params::{Param, Params};
 use crate::{CompanionTube, Vec3, MAX_UAVS};
@@ -50,6 +50,10 @@ impl Flight {
             if let Some(sec) = tube.locate(load_m.xy(), self.load_hint) {
                 self.load_hint = sec.segment;
                 arrived = sec.remaining_m <= self.end_tol_m;
+                // The formation shaped to the tube ahead (vt_dissipative::shape), at the same looks.
+                if let Some(HighLevel::Dissipative(c)) = self.high.as_mut() {
+                    c.shape_to_tube(tube, &sec);
+                }
                 // The team cannot hold the tube (wind beyond its capacity): set the load down
                 // here, inside the tube (issue 29; vt_dissipative::phases::HoldWatch).
                 if !arrived && !self.on_declined_tube && self.hold_watch.cannot_hold(sec.s_m, sec.boundary_distance_m(load_m.xy()), dt_s) {

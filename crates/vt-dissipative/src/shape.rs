@@ -1,0 +1,235 @@
+//! A formation shaped to the tube ahead (extension to the paper, issues 27 and 29;
+//! docs/design.md, "A formation shaped to the tube").
+//!
+//! The paper's springs hold the take-off ring (eq:2-7). In a passage narrower than the ring the
+//! tube keeping (eq:2-14) squeezes it sideways only: the UAVs at the ring's front and back, whose
+//! neighbours lie beside them, are pushed together, and the springs push the ring back out
+//! against the boundary. Here the rest lengths are instead those of a *stadium* (two half
+//! circles joined by straight sides) whose half-width `b` fits the narrowest section ahead and
+//! whose perimeter is the ring's `2 pi r`: each node keeps its place along the perimeter (its
+//! take-off angle from the tube's direction), so neighbours keep their spacing along it while the
+//! formation grows longer as it grows narrower. With room for the ring the shape *is* the ring.
+//!
+//! The rest lengths change only at discrete steps of `b` ([`QUANTA`]), each a bounded jump of the
+//! spring energy (eq:2-8) as the capacity-aware formation's scale steps are; between steps
+//! Prop. 1 holds unchanged. Every UAV derives the same shape from shared data (the tube, the
+//! load's section, the take-off formation), so each spring's rest length is the same at both ends.
+
+use crate::{ControlError, Vec2};
+use core::f32::consts::{FRAC_PI_2, TAU};
+use vt_tube::Tube;
+
+/// Steps of the stadium's half-width between the narrowest shape and the ring: `b = r q / QUANTA`.
+pub const QUANTA: i32 = 32;
+
+/// The narrowest stadium, quanta of the ring's radius (its half circles keep neighbours at
+/// least `2 r sin(pi / n ...)`-like spacing; below this the formation would be a line).
+pub const MIN_QUANTUM: i32 = 10;
+
+/// Settings of the tube-shaped formation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShapeParams {
+    /// Room kept between the formation's nodes and the tube barrier's safety radius, m.
+    pub margin_m: f32,
+    /// How far past the formation's front the tube's width is looked at, m.
+    pub ahead_m: f32,
+}
+
+impl Default for ShapeParams {
+    /// 0.5 m of margin, 6 m ahead (measured on the paper mission with bodies; docs/design.md).
+    fn default() -> Self {
+        Self { margin_m: 0.5, ahead_m: 6.0 }
+    }
+}
+
+impl ShapeParams {
+    /// Checks that both settings are finite and non-negative.
+    ///
+    /// # Errors
+    /// [`ControlError::InvalidParameter`] naming the field.
+    pub fn validate(&self) -> Result<(), ControlError> {
+        if !(self.margin_m.is_finite() && self.margin_m >= 0.0) {
+            return Err(ControlError::InvalidParameter("shape.margin_m"));
+        }
+        if !(self.ahead_m.is_finite() && self.ahead_m >= 0.0) {
+            return Err(ControlError::InvalidParameter("shape.ahead_m"));
+        }
+        Ok(())
+    }
+}
+
+/// The point at angle `theta_rad` (from `+x`, counter-clockwise) of a stadium of half-width
+/// `b_m` whose perimeter is that of the circle of radius `r_m`, long axis along `+x`, centred on
+/// the origin, m: the point at arc length `theta r` from the front `(a, 0)`. With `b >= r` it is
+/// the circle's `r (cos theta, sin theta)`. Non-finite or non-positive sizes give the origin.
+pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
+    if !(r_m.is_finite() && r_m > 0.0 && b_m.is_finite() && b_m > 0.0 && theta_rad.is_finite()) {
+        return Vec2::zeros();
+    }
+    let b = if b_m < r_m { b_m } else { r_m };
+    // Half the straight side: the perimeter 2 pi b + 4 c equals 2 pi r.
+    let c = FRAC_PI_2 * (r_m - b);
+    // Whole turns off (the angles given are within a turn or two), into [0, 2 pi).
+    let turns = theta_rad * (1.0 / TAU);
+    let whole = if turns >= 0.0 { turns as i32 } else { turns as i32 - 1 };
+    let th = vt_fpu::max(theta_rad - whole as f32 * TAU, 0.0);
+    let cap = FRAC_PI_2 * b;
+    let side = 2.0 * c;
+    let mut u = th * r_m;
+    let on_cap = |centre_x: f32, from_rad: f32, u: f32| on_circle(centre_x, b, from_rad + u / b);
+    if u <= cap {
+        return on_cap(c, 0.0, u);
+    }
+    u -= cap;
+    if u <= side {
+        return Vec2::new(c - u, b);
+    }
+    u -= side;
+    if u <= 2.0 * cap {
+        return on_cap(-c, FRAC_PI_2, u);
+    }
+    u -= 2.0 * cap;
+    if u <= side {
+        return Vec2::new(u - c, -b);
+    }
+    u -= side;
+    on_cap(c, -FRAC_PI_2, u)
+}
+
+/// The point of the circle of radius `b_m` about `(centre_x_m, 0)` at angle `a_rad`, m.
+#[inline(never)]
+fn on_circle(centre_x_m: f32, b_m: f32, a_rad: f32) -> Vec2 {
+    let (sin, cos) = vt_fpu::sin_cos(a_rad).unwrap_or((0.0, 1.0));
+    Vec2::new(centre_x_m + b_m * cos, b_m * sin)
+}
+
+/// The narrowest half-width `(w_L + w_R) / 2` of `tube` over arc lengths
+/// `[s_m - behind_m, s_m + ahead_m]` (clamped to the tube), m; `None` for a non-finite window.
+pub fn narrowest_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, behind_m: f32, ahead_m: f32) -> Option<f32> {
+    let ds = tube.ds_m();
+    let (lo, hi) = ((s_m - behind_m) / ds, (s_m + ahead_m) / ds);
+    if !(lo.is_finite() && hi.is_finite() && ds > 0.0) {
+        return None;
+    }
+    let last = S.saturating_sub(1);
+    let k0 = (lo.max(0.0) as usize).min(last);
+    let k1 = (libm::ceilf(hi.max(0.0)) as usize).min(last);
+    tube.samples().get(k0..=k1.max(k0)).map(|w| w.iter().fold(f32::INFINITY, |m, s| vt_fpu::min(m, 0.5 * (s.w_left_m + s.w_right_m))))
+}
+
+/// The shape's quantum for a formation of node radius `ring_m` given lateral `room_m` for its
+/// nodes: `floor(QUANTA room / ring)` within `[MIN_QUANTUM, QUANTA]` (`QUANTA`: the ring).
+pub fn quantum(room_m: f32, ring_m: f32) -> i32 {
+    let q = room_m / ring_m * QUANTA as f32;
+    if q.is_nan() || !(ring_m > 0.0) {
+        return QUANTA;
+    }
+    (libm::floorf(q.clamp(MIN_QUANTUM as f32, QUANTA as f32)) as i32).clamp(MIN_QUANTUM, QUANTA)
+}
+
+/// The quantum to fly given the one flown (`held`) and the one the tube asks for now (`asked`):
+/// narrower at once, wider only by two quanta or back to the ring, so that a section at a
+/// quantum's edge does not switch the shape back and forth.
+pub fn next_quantum(held: i32, asked: i32) -> i32 {
+    if asked < held || asked >= held + 2 || asked == QUANTA {
+        asked
+    } else {
+        held
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::f32::consts::PI;
+    use vt_tube::Waypoint;
+
+    #[test]
+    fn the_ring_is_the_widest_stadium() {
+        for k in 0..24 {
+            let th = k as f32 * 0.3 - 2.0;
+            let p = stadium_point(th, 2.5, 2.5);
+            assert!((p - Vec2::new(2.5 * th.cos(), 2.5 * th.sin())).norm() < 1e-5, "{th}: {p:?}");
+            assert_eq!(stadium_point(th, 2.5, 7.0), p, "b beyond r is the ring");
+        }
+    }
+
+    /// Points lie on the stadium, and equal angles are equal arc lengths: the perimeter is the
+    /// ring's, walked at a uniform pace.
+    #[test]
+    fn points_walk_the_stadium_at_the_rings_pace() {
+        let (r, b) = (3.0_f32, 1.2_f32);
+        let c = FRAC_PI_2 * (r - b);
+        let k = 2000;
+        let pts: Vec<Vec2> = (0..=k).map(|i| stadium_point(TAU * i as f32 / k as f32, r, b)).collect();
+        let mut length = 0.0;
+        for w in pts.windows(2) {
+            let step = (w[1] - w[0]).norm();
+            assert!((step - TAU * r / k as f32).abs() < 1e-3, "uniform pace: {step}");
+            length += step;
+        }
+        assert!((length - TAU * r).abs() < 1e-2, "perimeter {length}");
+        for p in &pts {
+            let on_side = p.x.abs() <= c + 1e-4 && (p.y.abs() - b).abs() < 1e-4;
+            let on_cap = p.x.abs() >= c - 1e-4 && ((p - Vec2::new(c * p.x.signum(), 0.0)).norm() - b).abs() < 1e-4;
+            assert!(on_side || on_cap, "{p:?} off the stadium");
+            assert!(p.y.abs() <= b + 1e-5, "within the half-width: {p:?}");
+        }
+        // Symmetric front-back and left-right.
+        let p = stadium_point(0.4, r, b);
+        assert!((stadium_point(-0.4, r, b) - Vec2::new(p.x, -p.y)).norm() < 1e-5);
+        assert!((stadium_point(PI - 0.4, r, b) - Vec2::new(-p.x, p.y)).norm() < 1e-5);
+    }
+
+    /// Ten nodes on a ring keep their spacing along the perimeter when the stadium narrows:
+    /// neighbours never come closer than the chord of their arc on the half circles.
+    #[test]
+    fn narrowing_keeps_neighbours_apart() {
+        let (r, n) = (3.0_f32, 10);
+        let ring: Vec<Vec2> = (0..n).map(|i| stadium_point(TAU * i as f32 / n as f32, r, r)).collect();
+        let ring_gap = (ring[1] - ring[0]).norm();
+        for q in MIN_QUANTUM..=QUANTA {
+            let b = r * q as f32 / QUANTA as f32;
+            let pts: Vec<Vec2> = (0..n).map(|i| stadium_point(TAU * i as f32 / n as f32 + 0.1, r, b)).collect();
+            let arc = TAU * r / n as f32;
+            let chord = 2.0 * b * (arc / (2.0 * b)).min(FRAC_PI_2).sin();
+            for i in 0..n {
+                let gap = (pts[(i + 1) % n] - pts[i]).norm();
+                assert!(gap >= chord.min(ring_gap) - 1e-4, "q {q}: gap {gap} < {chord}");
+                assert!(pts[i].y.abs() <= b + 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_give_the_origin() {
+        for (th, r, b) in [(f32::NAN, 1.0, 1.0), (0.0, 0.0, 1.0), (0.0, 1.0, -1.0), (0.0, f32::INFINITY, 1.0)] {
+            assert_eq!(stadium_point(th, r, b), Vec2::zeros());
+        }
+    }
+
+    #[test]
+    fn quanta_narrow_at_once_and_widen_with_hysteresis() {
+        assert_eq!(quantum(10.0, 3.0), QUANTA);
+        assert_eq!(quantum(1.5, 3.0), 16);
+        assert_eq!(quantum(0.1, 3.0), MIN_QUANTUM);
+        assert_eq!(quantum(f32::NAN, 3.0), QUANTA);
+        assert_eq!(quantum(1.0, 0.0), QUANTA);
+        assert_eq!(next_quantum(20, 19), 19);
+        assert_eq!(next_quantum(20, 21), 20);
+        assert_eq!(next_quantum(20, 22), 22);
+        assert_eq!(next_quantum(31, QUANTA), QUANTA);
+    }
+
+    #[test]
+    fn the_narrowest_section_in_the_window() {
+        let w = |x: f32, h: f32| Waypoint::new(x, 0.0, h, h);
+        let tube: Tube<256> = Tube::from_waypoints(&[w(0.0, 5.0), w(10.0, 5.0), w(15.0, 2.0), w(20.0, 5.0), w(40.0, 5.0)]).unwrap();
+        let far = narrowest_half_width_m(&tube, 2.0, 1.0, 3.0).unwrap();
+        let near = narrowest_half_width_m(&tube, 10.0, 1.0, 6.0).unwrap();
+        assert!(far > 4.9, "{far}");
+        assert!((near - 2.0).abs() < 0.1, "{near}");
+        assert!(narrowest_half_width_m(&tube, f32::NAN, 1.0, 3.0).is_none());
+        assert!(narrowest_half_width_m(&tube, 1e6, 1.0, 3.0).unwrap() > 4.9, "clamped to the tube's end");
+    }
+}
