@@ -175,6 +175,23 @@ fn pil_ground_start_lifts_off_and_sets_down_bit_exact() {
     assert!(s.touchdown_speed_mps.is_some_and(|v| v <= 0.5) && s.lift_peak_tension_n.is_some_and(|p| p <= 1.5 * s.rated_n));
 }
 
+/// The formation shaped to the tube (`VT_SHAPE`, vt_dissipative::shape) aboard: the 2.5 m
+/// narrowing's three UAVs with the shape on, the first 25 s (the stadium narrows as the
+/// narrowing comes into view), the firmware bit for bit the SIL crates; and the shape acted:
+/// the same flight without it differs.
+#[test]
+fn pil_shaped_formation_bit_exact() {
+    let Some(elf) = firmware() else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/narrowing-3uav.toml");
+    let mut ls = scenario::load(Some(&path)).expect("narrowing scenario");
+    ls.scenario.controller.shape.enabled = true;
+    let r = pil_same_as_sil(&ls, elf, "shaped", Some(25.0));
+    let mut ring = ls.clone();
+    ring.scenario.controller.shape.enabled = false;
+    let plain = host_sim::sim::run(&ring, &host_sim::sim::RunOptions { duration_s: Some(25.0), ..Default::default() }).unwrap();
+    assert_ne!(comparable(&r.summary), comparable(&plain.summary), "the shape changed nothing in 25 s");
+}
+
 /// `ls` flown in PIL (three QEMUs running `elf`) beside the SIL twin and the SIL crates: every
 /// command bit for bit, the three summaries equal, a clean link, every emulator shut down.
 fn pil_same_as_sil(ls: &LoadedScenario, elf: PathBuf, name: &str, duration_s: Option<f64>) -> pil::PilReport {

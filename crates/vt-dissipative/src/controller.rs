@@ -15,7 +15,7 @@
 use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
-use crate::shape::{narrowest_half_width_m, next_quantum, quantum, stadium_point, ShapeParams, QUANTA};
+use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, stadium_point, ShapeParams, QUANTA};
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, Formation, NodeId};
 use crate::tray::TrayParams;
@@ -232,8 +232,8 @@ struct TubeShape<const N: usize> {
 
 impl<const N: usize> TubeShape<N> {
     /// Rest lengths of UAV `id` (and the tray centre's) on the stadium of quantum `q`, before the
-    /// formation scale: the nodes at their take-off angles from `frame` on a stadium of the
-    /// ring's perimeter and half-width `r q / QUANTA` (shape.rs).
+    /// formation scale: the nodes at their take-off angles from `frame` on the stadium of the
+    /// ring's half-length and half-width `r q / QUANTA` (shape.rs).
     #[inline(never)]
     fn rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize) -> RestLengths<N> {
         let normal = Vec2::new(-frame.y, frame.x);
@@ -395,7 +395,7 @@ impl<const N: usize> DissipativeController<N> {
         let Some(w) = narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m) else {
             return;
         };
-        let q = next_quantum(shape.quantum, quantum(w - self.params.r_safe_m - shape.params.margin_m, ring_m));
+        let q = next_quantum(shape.quantum, quantum(w - self.params.r_safe_m - shape.params.margin_m, ring_m, min_quantum(self.n)));
         if q == shape.quantum {
             return;
         }

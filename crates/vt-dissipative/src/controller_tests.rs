@@ -330,14 +330,14 @@ fn virtual_system_passes_the_narrow_tube_without_touching_the_boundary() {
 }
 
 /// The formation shaped to the tube (shape.rs): ten nodes on the 3 m ring pass the 2.2 m
-/// narrowing further apart than the ring squeezed by the tube keeping, as far from the
-/// boundary, and arrive.
+/// narrowing well inside the boundary where the ring is pressed against it (1.29 against
+/// 0.86 m measured), their closest pair no closer (1.16 against 1.12 m), and arrive.
 #[test]
-fn a_shaped_formation_keeps_its_nodes_further_apart_in_a_narrowing() {
+fn a_shaped_formation_passes_a_narrowing_further_from_the_boundary() {
     let (ring_dt, ring_sep, _) = fly_team(10, 3000, 0..0, false).0;
     let (dt, sep, s_end) = fly_team(10, 3000, 0..0, true).0;
-    assert!(sep > ring_sep + 0.2, "shaped {sep} m against the ring's {ring_sep} m");
-    assert!(dt > params().r_safe_m && dt > ring_dt - 0.05, "node within {dt} m of the boundary (ring {ring_dt})");
+    assert!(dt > ring_dt + 0.3, "boundary: shaped {dt} m, ring {ring_dt} m");
+    assert!(sep >= ring_sep, "closest pair: shaped {sep} m, ring {ring_sep} m");
     assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
 }
 
@@ -372,10 +372,14 @@ fn shaped_rest_lengths_agree_at_both_ends() {
         assert_eq!(ctl[i].rest.center_m, ctl[0].rest.center_m);
         assert_eq!(ctl[i].rest.own_center_m, ctl[0].rest.center_m[i]);
     }
-    // Longer, narrower: front-back rest lengths grow, left-right ones shrink.
+    // Narrower, no longer: left-right rest lengths shrink, no node farther from the centre
+    // than on the ring (no cable leans more than the capacity-aware formation chose).
     let (front, back, left, right) = (0, n / 2, n / 4, 3 * n / 4);
-    assert!(ctl[front].rest.own_m[back] > ring[front].own_m[back] + 0.5);
+    assert!(ctl[front].rest.own_m[back] <= ring[front].own_m[back] + 1e-4);
     assert!(ctl[left].rest.own_m[right] < ring[left].own_m[right] - 1.0);
+    for j in 0..n {
+        assert!(ctl[0].rest.center_m[j] <= ring[0].center_m[j] + 1e-4, "node {j}");
+    }
     plain.shape_to_tube(&t, &narrow);
     assert_eq!(plain.rest.own_m, ring[0].own_m, "no shape without set_shape");
     assert_eq!(plain.shape_fraction(), 1.0);

@@ -95,8 +95,38 @@ impl LandDetector {
     }
 }
 
+/// The landing place kept `keep_m` inside the tube: within `half_width_m - keep_m` of the
+/// section's midpoint (the tube's cross-section disc, eq:1-7; `keep_m` the barrier's safety
+/// radius, which a body raises), moved straight towards the midpoint when beyond; `place_m`
+/// unchanged otherwise and for non-finite input. The spread above has no sense of the tube: a
+/// team set down in a passage would otherwise land some of its UAVs outside it (measured,
+/// docs/design.md "Landing").
+pub fn place_inside_tube(place_m: [f32; 2], midpoint_m: [f32; 2], half_width_m: f32, keep_m: f32) -> [f32; 2] {
+    let (dx, dy) = (place_m[0] - midpoint_m[0], place_m[1] - midpoint_m[1]);
+    let dist = vt_fpu::sqrt(dx * dx + dy * dy);
+    let room = vt_fpu::max(half_width_m - keep_m, 0.0);
+    if !(dist > room && dist.is_finite() && room.is_finite()) {
+        return place_m;
+    }
+    let k = room / dist;
+    [midpoint_m[0] + dx * k, midpoint_m[1] + dy * k]
+}
+
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn the_landing_place_stays_inside_the_tube() {
+        let m = [10.0, 2.0];
+        assert_eq!(place_inside_tube([10.5, 2.5], m, 2.0, 0.5), [10.5, 2.5], "inside: unchanged");
+        let p = place_inside_tube([10.0, 4.4], m, 2.0, 0.5);
+        assert!((p[0] - 10.0).abs() < 1e-6 && (p[1] - 3.5).abs() < 1e-6, "{p:?}");
+        let q = place_inside_tube([13.0, 6.0], m, 2.0, 0.5);
+        assert!(((q[0] - 10.0).hypot(q[1] - 2.0) - 1.5).abs() < 1e-5, "onto the kept circle: {q:?}");
+        assert_eq!(place_inside_tube([10.0, 9.0], m, 0.3, 0.5), m, "a section narrower than the keep: its midpoint");
+        assert_eq!(place_inside_tube([f32::NAN, 1.0], m, 2.0, 0.5)[1], 1.0, "non-finite: unchanged");
+        assert_eq!(place_inside_tube([10.0, 4.4], m, f32::NAN, 0.5), [10.0, 4.4]);
+    }
     use super::*;
 
     #[test]

@@ -6,9 +6,12 @@
 //! neighbours lie beside them, are pushed together, and the springs push the ring back out
 //! against the boundary. Here the rest lengths are instead those of a *stadium* (two half
 //! circles joined by straight sides) whose half-width `b` fits the narrowest section ahead and
-//! whose perimeter is the ring's `2 pi r`: each node keeps its place along the perimeter (its
-//! take-off angle from the tube's direction), so neighbours keep their spacing along it while the
-//! formation grows longer as it grows narrower. With room for the ring the shape *is* the ring.
+//! whose half-length is the ring's radius `r`: each node keeps its place along the perimeter (its
+//! take-off angle from the tube's direction, as a fraction of the perimeter), so the pairs that
+//! the squeezed ring puts side by side at its front and back lie along the sides instead. No node
+//! lies farther from the centre than on the ring, so no cable leans more than the capacity-aware
+//! formation chose for it (a longer stadium, of the ring's perimeter, sank heavy loads: measured,
+//! docs/design.md). With room for the ring the shape *is* the ring.
 //!
 //! The rest lengths change only at discrete steps of `b` ([`QUANTA`]), each a bounded jump of the
 //! spring energy (eq:2-8) as the capacity-aware formation's scale steps are; between steps
@@ -16,14 +19,16 @@
 //! load's section, the take-off formation), so each spring's rest length is the same at both ends.
 
 use crate::{ControlError, Vec2};
-use core::f32::consts::{FRAC_PI_2, TAU};
+use core::f32::consts::{FRAC_PI_2, PI, TAU};
 use vt_tube::Tube;
 
 /// Steps of the stadium's half-width between the narrowest shape and the ring: `b = r q / QUANTA`.
 pub const QUANTA: i32 = 32;
+#[allow(missing_docs)]
+pub const REACH_TMP: f32 = 1.3;
 
-/// The narrowest stadium, quanta of the ring's radius (its half circles keep neighbours at
-/// least `2 r sin(pi / n ...)`-like spacing; below this the formation would be a line).
+/// The narrowest stadium for any team, quanta of the ring's radius (below it the formation
+/// would be nearly a line, every node on the two straight sides).
 pub const MIN_QUANTUM: i32 = 10;
 
 /// Settings of the tube-shaped formation.
@@ -58,24 +63,26 @@ impl ShapeParams {
     }
 }
 
-/// The point at angle `theta_rad` (from `+x`, counter-clockwise) of a stadium of half-width
-/// `b_m` whose perimeter is that of the circle of radius `r_m`, long axis along `+x`, centred on
-/// the origin, m: the point at arc length `theta r` from the front `(a, 0)`. With `b >= r` it is
-/// the circle's `r (cos theta, sin theta)`. Non-finite or non-positive sizes give the origin.
+/// The point at angle `theta_rad` (from `+x`, counter-clockwise) of the stadium of half-width
+/// `b_m` and half-length `r_m` (long axis along `+x`, centred on the origin), m: the point at the
+/// fraction `theta / 2 pi` of its perimeter `2 pi b + 4 (r - b)`, walked from the front `(r, 0)`.
+/// With `b >= r` it is the circle's `r (cos theta, sin theta)`. Non-finite or non-positive sizes
+/// give the origin.
 pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
     if !(r_m.is_finite() && r_m > 0.0 && b_m.is_finite() && b_m > 0.0 && theta_rad.is_finite()) {
         return Vec2::zeros();
     }
     let b = if b_m < r_m { b_m } else { r_m };
-    // Half the straight side: the perimeter 2 pi b + 4 c equals 2 pi r.
-    let c = FRAC_PI_2 * (r_m - b);
+    // Half the straight side, and the perimeter's length per radian of `theta`.
+    let c = r_m - b;
+    let per_rad = b + c * (2.0 / PI);
     // Whole turns off (the angles given are within a turn or two), into [0, 2 pi).
     let turns = theta_rad * (1.0 / TAU);
     let whole = if turns >= 0.0 { turns as i32 } else { turns as i32 - 1 };
     let th = vt_fpu::max(theta_rad - whole as f32 * TAU, 0.0);
     let cap = FRAC_PI_2 * b;
     let side = 2.0 * c;
-    let mut u = th * r_m;
+    let mut u = th * per_rad;
     let on_cap = |centre_x: f32, from_rad: f32, u: f32| on_circle(centre_x, b, from_rad + u / b);
     if u <= cap {
         return on_cap(c, 0.0, u);
@@ -117,14 +124,28 @@ pub fn narrowest_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, behind_m
     tube.samples().get(k0..=k1.max(k0)).map(|w| w.iter().fold(f32::INFINITY, |m, s| vt_fpu::min(m, 0.5 * (s.w_left_m + s.w_right_m))))
 }
 
+/// The narrowest quantum for a ring of `n` nodes: the stadium's sides stay at least the ring's
+/// neighbour spacing `2 r sin(pi / n)` apart (`b >= r sin(pi / n)`), so a small team is not
+/// folded flat (two rows of two are closer across than neighbours on their ring); at least
+/// [`MIN_QUANTUM`].
+pub fn min_quantum(n: usize) -> i32 {
+    if n < 2 {
+        return QUANTA;
+    }
+    let sin = vt_fpu::sin_cos(PI / n as f32).map_or(1.0, |sc| sc.0);
+    (libm::ceilf(sin * QUANTA as f32) as i32).clamp(MIN_QUANTUM, QUANTA)
+}
+
 /// The shape's quantum for a formation of node radius `ring_m` given lateral `room_m` for its
-/// nodes: `floor(QUANTA room / ring)` within `[MIN_QUANTUM, QUANTA]` (`QUANTA`: the ring).
-pub fn quantum(room_m: f32, ring_m: f32) -> i32 {
+/// nodes: `floor(QUANTA room / ring)` within `[narrowest, QUANTA]` (`QUANTA`: the ring;
+/// `narrowest` at least [`MIN_QUANTUM`]).
+pub fn quantum(room_m: f32, ring_m: f32, narrowest: i32) -> i32 {
+    let lo = narrowest.clamp(MIN_QUANTUM, QUANTA);
     let q = room_m / ring_m * QUANTA as f32;
     if q.is_nan() || !(ring_m > 0.0) {
         return QUANTA;
     }
-    (libm::floorf(q.clamp(MIN_QUANTUM as f32, QUANTA as f32)) as i32).clamp(MIN_QUANTUM, QUANTA)
+    (libm::floorf(q.clamp(lo as f32, QUANTA as f32)) as i32).clamp(lo, QUANTA)
 }
 
 /// The quantum to fly given the one flown (`held`) and the one the tube asks for now (`asked`):
@@ -141,7 +162,6 @@ pub fn next_quantum(held: i32, asked: i32) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use core::f32::consts::PI;
     use vt_tube::Waypoint;
 
     #[test]
@@ -154,49 +174,56 @@ mod tests {
         }
     }
 
-    /// Points lie on the stadium, and equal angles are equal arc lengths: the perimeter is the
-    /// ring's, walked at a uniform pace.
+    /// Points lie on the stadium, and equal angles are equal arc lengths: the perimeter
+    /// `2 pi b + 4 (r - b)` walked at a uniform pace, never farther out than the ring.
     #[test]
-    fn points_walk_the_stadium_at_the_rings_pace() {
+    fn points_walk_the_stadium_at_a_uniform_pace() {
         let (r, b) = (3.0_f32, 1.2_f32);
-        let c = FRAC_PI_2 * (r - b);
+        let c = r - b;
+        let perimeter = TAU * b + 4.0 * c;
         let k = 2000;
         let pts: Vec<Vec2> = (0..=k).map(|i| stadium_point(TAU * i as f32 / k as f32, r, b)).collect();
         let mut length = 0.0;
         for w in pts.windows(2) {
             let step = (w[1] - w[0]).norm();
-            assert!((step - TAU * r / k as f32).abs() < 1e-3, "uniform pace: {step}");
+            assert!((step - perimeter / k as f32).abs() < 1e-3, "uniform pace: {step}");
             length += step;
         }
-        assert!((length - TAU * r).abs() < 1e-2, "perimeter {length}");
+        assert!((length - perimeter).abs() < 1e-2, "perimeter {length}");
         for p in &pts {
             let on_side = p.x.abs() <= c + 1e-4 && (p.y.abs() - b).abs() < 1e-4;
             let on_cap = p.x.abs() >= c - 1e-4 && ((p - Vec2::new(c * p.x.signum(), 0.0)).norm() - b).abs() < 1e-4;
             assert!(on_side || on_cap, "{p:?} off the stadium");
-            assert!(p.y.abs() <= b + 1e-5, "within the half-width: {p:?}");
+            assert!(p.y.abs() <= b + 1e-5 && p.norm() <= r + 1e-5, "within the half-width and the ring: {p:?}");
         }
+        assert!((pts[0] - Vec2::new(r, 0.0)).norm() < 1e-5, "the front");
         // Symmetric front-back and left-right.
         let p = stadium_point(0.4, r, b);
         assert!((stadium_point(-0.4, r, b) - Vec2::new(p.x, -p.y)).norm() < 1e-5);
         assert!((stadium_point(PI - 0.4, r, b) - Vec2::new(-p.x, p.y)).norm() < 1e-5);
     }
 
-    /// Ten nodes on a ring keep their spacing along the perimeter when the stadium narrows:
-    /// neighbours never come closer than the chord of their arc on the half circles.
+    /// Nodes equally spaced on a ring stay equally spaced along the narrowed stadium: each
+    /// neighbour at least the chord of its arc on the half circles, and no two nodes closer
+    /// than that across the stadium at the team's narrowest quantum.
     #[test]
     fn narrowing_keeps_neighbours_apart() {
-        let (r, n) = (3.0_f32, 10);
-        let ring: Vec<Vec2> = (0..n).map(|i| stadium_point(TAU * i as f32 / n as f32, r, r)).collect();
-        let ring_gap = (ring[1] - ring[0]).norm();
-        for q in MIN_QUANTUM..=QUANTA {
-            let b = r * q as f32 / QUANTA as f32;
-            let pts: Vec<Vec2> = (0..n).map(|i| stadium_point(TAU * i as f32 / n as f32 + 0.1, r, b)).collect();
-            let arc = TAU * r / n as f32;
-            let chord = 2.0 * b * (arc / (2.0 * b)).min(FRAC_PI_2).sin();
-            for i in 0..n {
-                let gap = (pts[(i + 1) % n] - pts[i]).norm();
-                assert!(gap >= chord.min(ring_gap) - 1e-4, "q {q}: gap {gap} < {chord}");
-                assert!(pts[i].y.abs() <= b + 1e-5);
+        let r = 3.0_f32;
+        for n in [3usize, 4, 5, 7, 10, 20, 30] {
+            for q in min_quantum(n)..=QUANTA {
+                let b = r * q as f32 / QUANTA as f32;
+                let arc = (TAU * b + 4.0 * (r - b)) / n as f32;
+                let chord = 2.0 * b * (arc / (2.0 * b)).min(FRAC_PI_2).sin();
+                let pts: Vec<Vec2> = (0..n).map(|i| stadium_point(TAU * i as f32 / n as f32 + 0.1, r, b)).collect();
+                for i in 0..n {
+                    let gap = (pts[(i + 1) % n] - pts[i]).norm();
+                    assert!(gap >= chord - 1e-4, "n {n} q {q}: gap {gap} < {chord}");
+                    for j in 0..n {
+                        if j != i {
+                            assert!((pts[j] - pts[i]).norm() >= chord.min(2.0 * b) - 1e-4, "n {n} q {q}: {i}-{j}");
+                        }
+                    }
+                }
             }
         }
     }
@@ -210,11 +237,15 @@ mod tests {
 
     #[test]
     fn quanta_narrow_at_once_and_widen_with_hysteresis() {
-        assert_eq!(quantum(10.0, 3.0), QUANTA);
-        assert_eq!(quantum(1.5, 3.0), 16);
-        assert_eq!(quantum(0.1, 3.0), MIN_QUANTUM);
-        assert_eq!(quantum(f32::NAN, 3.0), QUANTA);
-        assert_eq!(quantum(1.0, 0.0), QUANTA);
+        assert_eq!(quantum(10.0, 3.0, MIN_QUANTUM), QUANTA);
+        assert_eq!(quantum(1.5, 3.0, MIN_QUANTUM), 16);
+        assert_eq!(quantum(0.1, 3.0, MIN_QUANTUM), MIN_QUANTUM);
+        assert_eq!(quantum(0.1, 3.0, 23), 23);
+        assert_eq!(quantum(f32::NAN, 3.0, MIN_QUANTUM), QUANTA);
+        assert_eq!(quantum(1.0, 0.0, MIN_QUANTUM), QUANTA);
+        // Small teams fold less: 3, 4 and 5 nodes keep sin(pi / n) of the ring's radius.
+        assert_eq!((min_quantum(3), min_quantum(4), min_quantum(5)), (28, 23, 19));
+        assert_eq!((min_quantum(10), min_quantum(30), min_quantum(1)), (MIN_QUANTUM, MIN_QUANTUM, QUANTA));
         assert_eq!(next_quantum(20, 19), 19);
         assert_eq!(next_quantum(20, 21), 20);
         assert_eq!(next_quantum(20, 22), 22);

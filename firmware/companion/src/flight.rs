@@ -303,6 +303,11 @@ pub struct Flight {
     overload: OverloadWatch,
     /// Horizontal speed limit of the own position holds, m/s (`VT_V_MAX`).
     v_max_mps: f32,
+    /// How far inside the tube's boundary a landing place stays, m (the barrier's safety
+    /// radius flown, `Params::r_safe_m`).
+    land_keep_m: f32,
+    /// Warm start of the landing place's tube lookup.
+    land_hint: usize,
 }
 
 impl Flight {
@@ -403,6 +408,8 @@ impl Flight {
             land: LandDetector::default(),
             overload: OverloadWatch::default(),
             v_max_mps: params.get(Param::VMax),
+            land_keep_m: params.r_safe_m(),
+            land_hint: 0,
         })
     }
 
@@ -454,7 +461,7 @@ impl Flight {
             let phase = self.phase();
             if phase == Phase::Released {
                 // The release (a delivery, a set-down, a refusal on the ground): land in place.
-                self.vel_cmd_mps = self.landing_command(own.pos_m, view.get(..self.n).unwrap_or(&[]));
+                self.vel_cmd_mps = self.landing_command(tube, own.pos_m, view.get(..self.n).unwrap_or(&[]));
                 self.hl_reasons = HoldReasons(reasons);
                 return self.vel_cmd_mps;
             }

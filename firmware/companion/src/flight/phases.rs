@@ -4,7 +4,7 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, STATION_DRIFT_ABORT_M};
+use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, place_inside_tube, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
 use vt_dissipative::wind::wind_from_observer;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
@@ -166,12 +166,18 @@ impl Flight {
     /// `LAND_SPEED_MPS`; the land detector runs on the own altitude (ENU velocity, m/s).
     #[cold]
     #[inline(never)]
-    pub(super) fn landing_command(&mut self, own_m: Vec3, view: &[Option<Vec3>]) -> Vec3 {
+    pub(super) fn landing_command(&mut self, tube: &CompanionTube, own_m: Vec3, view: &[Option<Vec3>]) -> Vec3 {
         // The landing place moves away from neighbours too close horizontally (a formation may
-        // stack UAVs above one another): `vt_dissipative::landing::landing_spread_mps`.
+        // stack UAVs above one another): `vt_dissipative::landing::landing_spread_mps`; and it
+        // stays inside the tube (`place_inside_tube`).
         let others = view.iter().enumerate().filter(|&(j, _)| j != self.id).filter_map(|(_, v)| v.map(|p| [p.x, p.y]));
         let [sx, sy] = landing_spread_mps([own_m.x, own_m.y], others);
-        let place = *self.land_xy_m.get_or_insert(own_m.xy()) + Vector2::new(sx, sy) * self.hl_dt_s;
+        let mut place = *self.land_xy_m.get_or_insert(own_m.xy()) + Vector2::new(sx, sy) * self.hl_dt_s;
+        if let Some(sec) = tube.locate(place, self.land_hint) {
+            self.land_hint = sec.segment;
+            let [x, y] = place_inside_tube([place.x, place.y], [sec.midpoint_m.x, sec.midpoint_m.y], sec.half_width_m, self.land_keep_m);
+            place = Vector2::new(x, y);
+        }
         self.land_xy_m = Some(place);
         self.land.step(own_m.z, self.hl_dt_s);
         let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [place.x, place.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
