@@ -176,20 +176,21 @@ fn pil_ground_start_lifts_off_and_sets_down_bit_exact() {
 }
 
 /// The formation shaped to the tube (`VT_SHAPE`, vt_dissipative::shape) aboard: the 2.5 m
-/// narrowing's three UAVs with the shape on, the first 25 s (the stadium narrows as the
-/// narrowing comes into view), the firmware bit for bit the SIL crates; and the shape acted:
-/// the same flight without it differs.
+/// narrowing's three UAVs with the shape on, the first 20 s (the stadium narrows as the
+/// narrowing comes into view; the flights part at 6 s), the firmware bit for bit the SIL
+/// crates; and the shape acted: the same flight without it differs.
 #[test]
 fn pil_shaped_formation_bit_exact() {
     let Some(elf) = firmware() else { return };
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/narrowing-3uav.toml");
     let mut ls = scenario::load(Some(&path)).expect("narrowing scenario");
     ls.scenario.controller.shape.enabled = true;
-    let r = pil_same_as_sil(&ls, elf, "shaped", Some(25.0));
+    let r = pil_same_as_sil(&ls, elf, "shaped", Some(20.0));
+    eprintln!("PIL shaped, UAV 0: {:?}", r.defmt_log_uav0.iter().filter(|l| l.contains("stack")).collect::<Vec<_>>());
     let mut ring = ls.clone();
     ring.scenario.controller.shape.enabled = false;
-    let plain = host_sim::sim::run(&ring, &host_sim::sim::RunOptions { duration_s: Some(25.0), ..Default::default() }).unwrap();
-    assert_ne!(comparable(&r.summary), comparable(&plain.summary), "the shape changed nothing in 25 s");
+    let plain = host_sim::sim::run(&ring, &host_sim::sim::RunOptions { duration_s: Some(20.0), ..Default::default() }).unwrap();
+    assert_ne!(comparable(&r.summary), comparable(&plain.summary), "the shape changed nothing in 20 s");
 }
 
 /// `ls` flown in PIL (three QEMUs running `elf`) beside the SIL twin and the SIL crates: every

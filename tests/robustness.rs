@@ -114,11 +114,11 @@ fn same_seed_list_gives_the_same_sweep_whatever_the_thread_count() {
 }
 
 /// Issue 29: generated missions (`generated.toml`: its first 40 seeds at 1x and 3x, wind
-/// declared). No UAV or load ever leaves its tube; among accepted runs at least 90 % succeed at
-/// 1x (37/40 measured with the control thrust reserve, the declared-share horizontal reserve and
-/// the long-cable take-off check; 35/39 before them, 2 runs out of the tube) and the 3x
-/// refusals are those the wind law makes (34 of 40). The full 200-seed tables:
-/// docs/robustness.md.
+/// declared, the formation shaped to the tube). No UAV or load ever leaves its tube; among
+/// accepted runs at least 95 % succeed at 1x (39/40 measured with the shaped formation; 37/40
+/// with the ring, 35/39 before the control thrust reserve, the declared-share horizontal
+/// reserve and the long-cable take-off check) and the 3x refusals are those the wind law makes
+/// (34 of 40). The full 200-seed tables: docs/robustness.md.
 #[test]
 fn generated_missions_never_leave_the_tube() {
     let mut c = load("generated.toml");
@@ -131,6 +131,6 @@ fn generated_missions_never_leave_the_tube() {
     let at = |x: f64| rep.levels.iter().find(|l| l.level == Some(x)).expect("level");
     let (one, three) = (at(1.0), at(3.0));
     assert_eq!(one.refused, 0, "3 + 2 m/s is within every generated team's capacity here");
-    assert!(one.accepted_success_rate >= 0.9, "1x: {:.3}", one.accepted_success_rate);
+    assert!(one.accepted_success_rate >= 0.95, "1x: {:.3}", one.accepted_success_rate);
     assert!(three.refused >= 30 && three.refused < 40, "3x refusals: {}", three.refused);
 }
