@@ -212,18 +212,19 @@ pub struct DissipativeController<const N: usize> {
     shape: Option<TubeShape<N>>,
 }
 
-/// The take-off formation as the tube-shaped formation needs it (shape.rs).
+/// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
+/// lives in every companion's `Flight`, which the mission's start builds on the stack.
 #[derive(Debug, Clone)]
 struct TubeShape<const N: usize> {
     params: ShapeParams,
-    /// UAV nodes' offsets from the tray centre's take-off node, world, m.
-    offsets_m: [Vec2; N],
-    /// The load node's offset from the tray centre's take-off node, world, m.
-    load_offset_m: Vec2,
-    /// The ring's node radius, the largest offset, m.
+    /// The UAV nodes at take-off (eq:2-4), world, m.
+    nodes_m: [Vec2; N],
+    /// The load node at take-off, world, m.
+    load_node_m: Vec2,
+    /// The tray centre's node at take-off, world, m.
+    centre_m: Vec2,
+    /// The ring's node radius, the largest node distance from the centre, m.
     radius_m: f32,
-    /// The take-off rest lengths (eq:2-7), the shape of quantum [`QUANTA`].
-    ring: RestLengths<N>,
     /// The tube's direction at the load at the first look: node angles are taken from it.
     frame: Option<Vec2>,
     /// The quantum flown.
@@ -231,25 +232,39 @@ struct TubeShape<const N: usize> {
 }
 
 impl<const N: usize> TubeShape<N> {
-    /// Rest lengths of UAV `id` (and the tray centre's) on the stadium of quantum `q`, before the
-    /// formation scale: the nodes at their take-off angles from `frame` on the stadium of the
-    /// ring's half-length and half-width `r q / QUANTA` (shape.rs).
+    /// UAV `id`'s rest lengths (and the tray centre's) written into `rest`, times `scale` (the
+    /// capacity-aware formation's): at quantum [`QUANTA`] the take-off ones (eq:2-7, computed
+    /// as `Formation::rest_length_m` does, so bit for bit), else the nodes at their take-off
+    /// angles from `frame` on the stadium of the ring's half-length and half-width
+    /// `r q / QUANTA` (shape.rs).
     #[inline(never)]
-    fn rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize) -> RestLengths<N> {
+    fn write_rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize, scale: f32, rest: &mut RestLengths<N>) {
         let normal = Vec2::new(-frame.y, frame.x);
         let b = self.radius_m * q as f32 / QUANTA as f32;
-        let place = |o: &Vec2| stadium_point(vt_fpu::atan2(o.dot(&normal), o.dot(&frame)), self.radius_m, b);
-        let own = self.offsets_m.get(id).map_or(Vec2::zeros(), place);
-        let load = Vec2::new(self.load_offset_m.dot(&frame), self.load_offset_m.dot(&normal));
-        let mut out = self.ring;
-        for ((o, c), offset) in out.own_m.iter_mut().zip(out.center_m.iter_mut()).zip(self.offsets_m.iter()).take(n) {
-            let e = place(offset);
-            *o = vt_fpu::norm(&(own - e));
-            *c = vt_fpu::norm(&e);
+        let ring = q >= QUANTA;
+        // A node's place: the take-off node itself (the ring), or its stadium point about the centre.
+        let place = |p: &Vec2| {
+            if ring {
+                *p
+            } else {
+                let o = p - self.centre_m;
+                stadium_point(vt_fpu::atan2(o.dot(&normal), o.dot(&frame)), self.radius_m, b)
+            }
+        };
+        let (centre, load) = if ring {
+            (self.centre_m, self.load_node_m)
+        } else {
+            let o = self.load_node_m - self.centre_m;
+            (Vec2::zeros(), Vec2::new(o.dot(&frame), o.dot(&normal)))
+        };
+        let own = self.nodes_m.get(id).map_or(centre, place);
+        for ((o, c), node) in rest.own_m.iter_mut().zip(rest.center_m.iter_mut()).zip(self.nodes_m.iter()).take(n) {
+            let e = place(node);
+            *o = vt_fpu::norm(&(own - e)) * scale;
+            *c = vt_fpu::norm(&(centre - e)) * scale;
         }
-        out.own_load_m = vt_fpu::norm(&(own - load));
-        out.own_center_m = vt_fpu::norm(&own);
-        out
+        rest.own_load_m = vt_fpu::norm(&(own - load)) * scale;
+        rest.own_center_m = vt_fpu::norm(&(own - centre)) * scale;
     }
 }
 
@@ -365,17 +380,15 @@ impl<const N: usize> DissipativeController<N> {
     /// Invalid `params`.
     pub fn set_shape(&mut self, params: ShapeParams, formation: &Formation<N>) -> Result<(), ControlError> {
         params.validate()?;
-        let centre = formation.node_m(NodeId::Center);
-        let mut offsets_m = [Vec2::zeros(); N];
+        let centre_m = formation.node_m(NodeId::Center);
+        let mut nodes_m = [Vec2::zeros(); N];
         let mut radius_m: f32 = 0.0;
-        for (j, o) in offsets_m.iter_mut().enumerate().take(self.n) {
-            *o = formation.node_m(NodeId::Uav(j)) - centre;
-            radius_m = vt_fpu::max(radius_m, vt_fpu::norm(o));
+        for (j, p) in nodes_m.iter_mut().enumerate().take(self.n) {
+            *p = formation.node_m(NodeId::Uav(j));
+            radius_m = vt_fpu::max(radius_m, vt_fpu::norm(&(*p - centre_m)));
         }
-        // The take-off rest lengths: `rest` before any step has scaled them (`rest_scale` 1).
-        let ring = self.rest;
-        let load_offset_m = formation.node_m(NodeId::Load) - centre;
-        self.shape = Some(TubeShape { params, offsets_m, load_offset_m, radius_m, ring, frame: None, quantum: QUANTA });
+        let load_node_m = formation.node_m(NodeId::Load);
+        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, frame: None, quantum: QUANTA });
         Ok(())
     }
 
@@ -400,8 +413,7 @@ impl<const N: usize> DissipativeController<N> {
             return;
         }
         shape.quantum = q;
-        let rest = if q == QUANTA { shape.ring } else { shape.rest_lengths(self.id, q, frame, self.n) };
-        self.rest = rest.scaled(self.rest_scale, self.n);
+        shape.write_rest_lengths(self.id, q, frame, self.n, self.rest_scale, &mut self.rest);
     }
 
     /// The tube-shaped formation's half-width now, fraction of the ring's radius (1: the ring,

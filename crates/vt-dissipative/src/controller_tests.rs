@@ -380,6 +380,12 @@ fn shaped_rest_lengths_agree_at_both_ends() {
     for j in 0..n {
         assert!(ctl[0].rest.center_m[j] <= ring[0].center_m[j] + 1e-4, "node {j}");
     }
+    // Back where the ring fits: the take-off rest lengths again, bit for bit.
+    for (c, r) in ctl.iter_mut().zip(ring.iter()) {
+        c.shape_to_tube(&t, &wide);
+        assert_eq!(c.shape_fraction(), 1.0);
+        assert_eq!((c.rest.own_m, c.rest.center_m, c.rest.own_load_m, c.rest.own_center_m), (r.own_m, r.center_m, r.own_load_m, r.own_center_m));
+    }
     plain.shape_to_tube(&t, &narrow);
     assert_eq!(plain.rest.own_m, ring[0].own_m, "no shape without set_shape");
     assert_eq!(plain.shape_fraction(), 1.0);
