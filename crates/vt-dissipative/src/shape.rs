@@ -24,8 +24,6 @@ use vt_tube::Tube;
 
 /// Steps of the stadium's half-width between the narrowest shape and the ring: `b = r q / QUANTA`.
 pub const QUANTA: i32 = 32;
-#[allow(missing_docs)]
-pub const REACH_TMP: f32 = 1.3;
 
 /// The narrowest stadium for any team, quanta of the ring's radius (below it the formation
 /// would be nearly a line, every node on the two straight sides).
@@ -72,7 +70,7 @@ pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
     if !(r_m.is_finite() && r_m > 0.0 && b_m.is_finite() && b_m > 0.0 && theta_rad.is_finite()) {
         return Vec2::zeros();
     }
-    let b = if b_m < r_m { b_m } else { r_m };
+    let b = vt_fpu::min(b_m, r_m);
     // Half the straight side, and the perimeter's length per radian of `theta`.
     let c = r_m - b;
     let per_rad = b + c * (2.0 / PI);
@@ -145,7 +143,7 @@ pub fn quantum(room_m: f32, ring_m: f32, narrowest: i32) -> i32 {
     if q.is_nan() || !(ring_m > 0.0) {
         return QUANTA;
     }
-    (libm::floorf(q.clamp(lo as f32, QUANTA as f32)) as i32).clamp(lo, QUANTA)
+    (libm::floorf(q) as i32).clamp(lo, QUANTA)
 }
 
 /// The quantum to fly given the one flown (`held`) and the one the tube asks for now (`asked`):
