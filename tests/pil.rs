@@ -175,6 +175,23 @@ fn pil_ground_start_lifts_off_and_sets_down_bit_exact() {
     assert!(s.touchdown_speed_mps.is_some_and(|v| v <= 0.5) && s.lift_peak_tension_n.is_some_and(|p| p <= 1.5 * s.rated_n));
 }
 
+/// The RAM budget with a whole flight's stack (configuration, mission upload, start, every
+/// phase, shutdown): UAV 0's stack high-water mark from its own log, plus each board's static
+/// RAM read from its ELF, within 32 KiB. The STM32 board is not flown here: its stack is taken
+/// to be the QEMU board's, as both run the same companion core and executor (the drivers
+/// differ, and their frames are small next to `Core::start`'s 6.9 KB).
+fn static_ram_and_flight_stack_within_budget(r: &pil::PilReport, qemu_elf: &Path) {
+    use host_sim::pil::image::{elf_size, stack_high_water_bytes, RAM_BUDGET_BYTES};
+    let stack = stack_high_water_bytes(&r.defmt_log_uav0).expect("UAV 0 logs its stack high-water mark");
+    let stm32 = pil::build_firmware_bin("stm32f405", "vt-firmware-stm32f405").expect("the STM32 image builds");
+    for (board, elf) in [("qemu", qemu_elf), ("stm32f405", stm32.as_path())] {
+        let size = elf_size(&std::fs::read(elf).expect("the ELF is readable")).expect("a 32-bit ELF");
+        let total = size.static_ram_bytes + stack;
+        eprintln!("{board}: static RAM {} B + flight stack {stack} B = {total} B (budget {RAM_BUDGET_BYTES} B)", size.static_ram_bytes);
+        assert!(total <= RAM_BUDGET_BYTES, "{board}: static RAM {} B + a flight's stack {stack} B = {total} B over {RAM_BUDGET_BYTES} B", size.static_ram_bytes);
+    }
+}
+
 /// The formation shaped to the tube (`VT_SHAPE`, vt_dissipative::shape) aboard: the 2.5 m
 /// narrowing's three UAVs with the shape on, the first 20 s (the stadium narrows as the
 /// narrowing comes into view; the flights part at 6 s), the firmware bit for bit the SIL
@@ -186,7 +203,6 @@ fn pil_shaped_formation_bit_exact() {
     let mut ls = scenario::load(Some(&path)).expect("narrowing scenario");
     ls.scenario.controller.shape.enabled = true;
     let r = pil_same_as_sil(&ls, elf, "shaped", Some(20.0));
-    eprintln!("PIL shaped, UAV 0: {:?}", r.defmt_log_uav0.iter().filter(|l| l.contains("stack")).collect::<Vec<_>>());
     let mut ring = ls.clone();
     ring.scenario.controller.shape.enabled = false;
     let plain = host_sim::sim::run(&ring, &host_sim::sim::RunOptions { duration_s: Some(20.0), ..Default::default() }).unwrap();
@@ -194,9 +210,10 @@ fn pil_shaped_formation_bit_exact() {
 }
 
 /// `ls` flown in PIL (three QEMUs running `elf`) beside the SIL twin and the SIL crates: every
-/// command bit for bit, the three summaries equal, a clean link, every emulator shut down.
+/// command bit for bit, the three summaries equal, a clean link, every emulator shut down, and
+/// the flight's stack with each board's static RAM within the RAM budget.
 fn pil_same_as_sil(ls: &LoadedScenario, elf: PathBuf, name: &str, duration_s: Option<f64>) -> pil::PilReport {
-    let opts = pil::PilOptions { firmware: elf, qemu: QEMU.into(), out_dir: out_dir(name), duration_s, uav_model: None, cable_model: None, mcap: None };
+    let opts = pil::PilOptions { firmware: elf.clone(), qemu: QEMU.into(), out_dir: out_dir(name), duration_s, uav_model: None, cable_model: None, mcap: None };
     let r = pil::run(ls, &opts).unwrap();
     let s = &r.summary;
     eprintln!(
@@ -208,6 +225,7 @@ fn pil_same_as_sil(ls: &LoadedScenario, elf: PathBuf, name: &str, duration_s: Op
     assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "{name}: PIL and SIL-crates summaries");
     assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "{name}: clean link, no error counted");
     assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "{name}: every emulator shut down on command");
+    static_ram_and_flight_stack_within_budget(&r, &elf);
     r
 }
 

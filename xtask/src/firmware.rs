@@ -21,67 +21,14 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Map, Value};
 
+pub use host_sim::pil::image::{elf_size, ImageSize, FLASH_BUDGET_BYTES, RAM_BUDGET_BYTES};
+
 use crate::Paths;
 
 /// Boards the firmware builds for (cargo features of `firmware/`).
 pub const BOARDS: [&str; 2] = ["qemu", "stm32f405"];
-/// ELF section flag: writable.
-const SHF_WRITE: u32 = 0x1;
-/// ELF section flag: occupies memory at run time.
-const SHF_ALLOC: u32 = 0x2;
-/// ELF section type: no file data (`.bss`).
-const SHT_NOBITS: u32 = 8;
-/// Size of an ELF32 section header, bytes.
-const SHDR_SIZE: usize = 40;
 /// Longest the hook command may run.
 const HOOK_TIMEOUT: Duration = Duration::from_secs(600);
-
-/// Memory of one linked image, bytes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ImageSize {
-    /// Everything stored in flash: vector table, code, read-only data, `.data` initialisers.
-    pub flash_bytes: u64,
-    /// Statically allocated RAM: `.data`, `.bss`, `.uninit` (the stack is not included).
-    pub static_ram_bytes: u64,
-}
-
-/// Reads flash and static RAM from the section headers of a 32-bit little-endian ELF.
-///
-/// # Errors
-/// Not a 32-bit little-endian ELF, or truncated.
-pub fn elf_size(bytes: &[u8]) -> Result<ImageSize, String> {
-    let u16_at = |o: usize| bytes.get(o..o + 2).and_then(|b| b.try_into().ok()).map(u16::from_le_bytes);
-    let u32_at = |o: usize| bytes.get(o..o + 4).and_then(|b| b.try_into().ok()).map(u32::from_le_bytes);
-    if bytes.get(0..6) != Some(&[0x7f, b'E', b'L', b'F', 1, 1][..]) {
-        return Err("not a 32-bit little-endian ELF".into());
-    }
-    let truncated = || "truncated ELF".to_string();
-    let shoff = u32_at(0x20).ok_or_else(truncated)? as usize;
-    let shentsize = usize::from(u16_at(0x2E).ok_or_else(truncated)?);
-    let shnum = usize::from(u16_at(0x30).ok_or_else(truncated)?);
-    if shentsize < SHDR_SIZE {
-        return Err(format!("unexpected section header size {shentsize}"));
-    }
-    let mut size = ImageSize { flash_bytes: 0, static_ram_bytes: 0 };
-    for i in 0..shnum {
-        let h = shoff + i * shentsize;
-        let (sh_type, flags, len) = (
-            u32_at(h + 4).ok_or_else(truncated)?,
-            u32_at(h + 8).ok_or_else(truncated)?,
-            u64::from(u32_at(h + 20).ok_or_else(truncated)?),
-        );
-        if flags & SHF_ALLOC == 0 {
-            continue;
-        }
-        if sh_type != SHT_NOBITS {
-            size.flash_bytes += len;
-        }
-        if flags & SHF_WRITE != 0 {
-            size.static_ram_bytes += len;
-        }
-    }
-    Ok(size)
-}
 
 /// Builds the firmware for `board` (release, the firmware's own target directory) and measures
 /// its image.
@@ -175,12 +122,6 @@ fn rel(paths: &Paths, p: &Path) -> String {
     p.strip_prefix(&paths.root).unwrap_or(p).display().to_string()
 }
 
-/// Flash budget of the firmware image, bytes (the project's: under 128 KiB).
-pub const FLASH_BUDGET_BYTES: u64 = 128 * 1024;
-/// Static RAM budget, bytes (the project's 32 KiB covers static RAM and the stack peak; the
-/// stack peak is measured in QEMU by `firmware/bench.sh`, so this check is on static RAM alone).
-pub const RAM_BUDGET_BYTES: u64 = 32 * 1024;
-
 /// `cargo xtask firmware-size`: builds every board, prints flash and static RAM, and fails
 /// (false) when an image is over [`FLASH_BUDGET_BYTES`] or [`RAM_BUDGET_BYTES`].
 ///
@@ -204,44 +145,3 @@ pub fn size_check(paths: &Paths) -> Result<bool, String> {
     }
     Ok(ok)
 }
-
-#[cfg(test)]
-#[allow(clippy::indexing_slicing)]
-mod tests {
-    use super::*;
-
-    /// A minimal ELF32 with three sections: `.text` (alloc), `.data` (alloc + write),
-    /// `.bss` (alloc + write, no bits), plus one non-alloc section.
-    fn tiny_elf() -> Vec<u8> {
-        let mut b = vec![0u8; 0x34];
-        b[..6].copy_from_slice(&[0x7f, b'E', b'L', b'F', 1, 1]);
-        let shoff = 0x34u32;
-        b[0x20..0x24].copy_from_slice(&shoff.to_le_bytes());
-        b[0x2E..0x30].copy_from_slice(&(SHDR_SIZE as u16).to_le_bytes());
-        b[0x30..0x32].copy_from_slice(&4u16.to_le_bytes());
-        let sections = [(1u32, SHF_ALLOC, 1000u32), (1, SHF_ALLOC | SHF_WRITE, 200), (SHT_NOBITS, SHF_ALLOC | SHF_WRITE, 300), (1, 0, 5000)];
-        for (t, f, s) in sections {
-            let mut h = vec![0u8; SHDR_SIZE];
-            h[4..8].copy_from_slice(&t.to_le_bytes());
-            h[8..12].copy_from_slice(&f.to_le_bytes());
-            h[20..24].copy_from_slice(&s.to_le_bytes());
-            b.extend(h);
-        }
-        b
-    }
-
-    #[test]
-    fn elf_size_counts_flash_and_static_ram() {
-        let s = elf_size(&tiny_elf()).unwrap_or(ImageSize { flash_bytes: 0, static_ram_bytes: 0 });
-        assert_eq!(s, ImageSize { flash_bytes: 1200, static_ram_bytes: 500 });
-    }
-
-    #[test]
-    fn elf_size_rejects_other_files() {
-        assert!(elf_size(b"not an elf").is_err());
-        let mut e = tiny_elf();
-        e.truncate(0x40);
-        assert!(elf_size(&e).is_err());
-    }
-}
-

@@ -130,14 +130,11 @@ pub fn bench(firmware: &Path, qemu: &str, socket_dir: &Path, teams: &[usize], du
             return err(format!("bench emulator exited with {code:?}"));
         }
         let log = decode_defmt(firmware, &bytes)?;
-        let mut stack = None;
+        let stack = super::image::stack_high_water_bytes(&log);
         let mut tube_ticks = None;
         for l in &log {
             if let Some(c) = parse_after(l, "built in ") {
                 tube_ticks = Some(c);
-            }
-            if let Some(s) = parse_after(l, "stack high-water mark ") {
-                stack = Some(s);
             }
         }
         let (i, t, k) = calibration(&log)?;

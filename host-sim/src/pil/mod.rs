@@ -19,6 +19,7 @@
 
 pub mod bench;
 pub mod cli;
+pub mod image;
 pub mod perception_bench;
 pub mod qemu;
 pub mod report;
