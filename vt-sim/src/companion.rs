@@ -348,9 +348,11 @@ mod tests {
                     assert_eq!(p.neighbour_timeout_ms(), ((0.5 / s.rates.high_level_hz as f32) * 1000.0) as u32, "{label}: FS_NBR_TMO");
                     // VL_H_RES: the scenario's value, else min(0.5, sqrt(1 - ((m g + pull) / T)^2))
                     // (host: f64; aboard: f32). The pull was the cable's rating; since issue 29 it
-                    // is the declared load's share with the formation's margin when that is less.
+                    // is the declared load's share with a margin (the formation's, at least the
+                    // vertical cap's 15 %) when that is less.
                     let host = s.velocity_loop.horizontal_reserve(model).unwrap_or_else(|| {
-                        let share = (1.0 + s.controller.capacity.margin) * s.load.mass_kg * crate::plant::GRAVITY_MPS2 / n as f64;
+                        let margin = s.controller.capacity.margin.max(f64::from(vt_companion::params::VERTICAL_PULL_MARGIN));
+                        let share = (1.0 + margin) * s.load.mass_kg * crate::plant::GRAVITY_MPS2 / n as f64;
                         let pull = if share > 0.0 && share < s.cables.rated_n { share } else { s.cables.rated_n };
                         let need = (s.uavs.mass_kg * crate::plant::GRAVITY_MPS2 + pull) / s.uavs.thrust_max_n;
                         let room = if need < 1.0 { (1.0 - need * need).sqrt() } else { 0.0 };

@@ -17,7 +17,7 @@ use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, stadium_point, ShapeParams, QUANTA};
 use crate::keeping::keeping_velocity;
-use crate::springs::{spring_velocity, Formation, NodeId};
+use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
@@ -269,7 +269,8 @@ impl<const N: usize> TubeShape<N> {
 }
 
 impl<const N: usize> DissipativeController<N> {
-    /// Controller of UAV `id` with rest lengths from the take-off `formation` (eq:2-7).
+    /// Controller of UAV `id` with rest lengths from the take-off `formation` (eq:2-7); a team
+    /// of more than ten flies the spring gain [`team_spring_gain`] (`k2 * 10 / n`).
     ///
     /// # Errors
     /// Invalid parameters, or `id` not below the formation's team size.
@@ -279,6 +280,8 @@ impl<const N: usize> DissipativeController<N> {
         if id >= n {
             return Err(ControlError::IdOutOfRange { id, n_uavs: n });
         }
+        // The spring gain scaled to the team (springs.rs): `params.k2` beyond ten UAVs.
+        let params = DissipativeParams { k2: team_spring_gain(params.k2, n), ..params };
         let mut rest_own_m = [0.0; N];
         let mut rest_center_m = [0.0; N];
         for (j, (ro, rc)) in rest_own_m.iter_mut().zip(rest_center_m.iter_mut()).enumerate().take(n) {
@@ -439,7 +442,7 @@ impl<const N: usize> DissipativeController<N> {
         self.id
     }
 
-    /// The parameters in use.
+    /// The parameters in use (`k2` as flown: [`team_spring_gain`] of the given one).
     pub fn params(&self) -> &DissipativeParams {
         &self.params
     }

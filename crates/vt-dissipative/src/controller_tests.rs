@@ -52,6 +52,14 @@ fn neighbours(uavs: &[Vec3]) -> Vec<Option<Vec3>> {
 }
 
 #[test]
+fn a_team_above_ten_flies_the_scaled_spring_gain() {
+    let (uavs, load) = takeoff(10, 0.0);
+    assert!(team(10, &uavs, &load).iter().all(|c| c.params().k2 == params().k2), "the paper's ten: k2 as given");
+    let (uavs, load) = takeoff(16, 0.0);
+    assert!(team(16, &uavs, &load).iter().all(|c| c.params().k2 == params().k2 * 10.0 / 16.0), "k2 x 10/16");
+}
+
+#[test]
 fn nan_inputs_give_hold_and_are_flagged() {
     let (uavs, load) = takeoff(4, 5.0);
     let mut ctl = team(4, &uavs, &load);

@@ -54,6 +54,11 @@ pub const AUTO: f32 = -1.0;
 /// (docs/design.md, "Overload in flight": measured against 0 .. 0.5 on the nominal and overload
 /// campaigns of the rigid-body plant).
 pub const HORIZONTAL_RESERVE_CAP: f32 = 0.5;
+/// The smallest margin the vertical thrust cap keeps over the declared load's share, fraction
+/// (`reserve_pull_n`; docs/design.md, "Vertical margin of the thrust cap"): with the capacity
+/// law's 5 % alone, a team flying 93 % of its capacity could not climb back from a swing of its
+/// load, which sank 1.05-1.21 m below its reference (issue 29's generated seeds 5091, 5195).
+pub const VERTICAL_PULL_MARGIN: f32 = 0.15;
 /// The derived smallest vertical thrust (`VL_T_MIN = -1`) as a fraction of `VL_T_MAX` (keeps
 /// the rotors spinning; PX4's `MPC_THR_MIN` is 12 % of throttle, 5 % of thrust is this project's
 /// choice).
@@ -566,12 +571,14 @@ impl Params {
     }
 
     /// The cable pull the vertical cap keeps beyond the UAV's weight, N: `VT_CABLE_RATED`,
-    /// or the declared load's share with the formation's margin, `(1 + VT_CAP_MRG) VT_LOAD_KG g /
-    /// VT_N_UAVS`, when that is less (issue 29; docs/design.md, "Overload in flight": rotors
-    /// weaker than their cable then still keep a horizontal reserve).
+    /// or the declared load's share with a margin, `(1 + max(VT_CAP_MRG,
+    /// VERTICAL_PULL_MARGIN)) VT_LOAD_KG g / VT_N_UAVS`, when that is less (issue 29;
+    /// docs/design.md, "Overload in flight": rotors weaker than their cable then still keep a
+    /// horizontal reserve; "Vertical margin of the thrust cap").
     pub fn reserve_pull_n(&self) -> f32 {
         let rated = self.get(Param::CableRated);
-        let share = (1.0 + self.get(Param::CapMargin)) * self.declared_share_n();
+        let margin = vt_fpu::max(self.get(Param::CapMargin), VERTICAL_PULL_MARGIN);
+        let share = (1.0 + margin) * self.declared_share_n();
         if share > 0.0 && share < rated { share } else { rated }
     }
 
@@ -672,10 +679,24 @@ mod tests {
         assert_eq!(p.min_height_m(), 1.0);
         assert_eq!(p.max_cable_m(), 4.5);
         assert_eq!(p.thrust_min_n(), 1.5);
-        // The declared 3.06 kg's share with 5 % margin, 10.5 N, binds before the 30 N rating:
-        // sqrt(1 - ((14.42 + 10.51) / 30)^2) = 0.556, so the cap.
-        assert!((p.reserve_pull_n() - 1.05 * 3.06 * vt_cfo::GRAVITY_MPS2 / 3.0).abs() < 1e-5);
+        // The declared 3.06 kg's share with the vertical cap's 15 % margin, 11.5 N, binds before
+        // the 30 N rating: sqrt(1 - ((14.42 + 11.51) / 30)^2) = 0.504, so the cap.
+        assert!((p.reserve_pull_n() - 1.15 * 3.06 * vt_cfo::GRAVITY_MPS2 / 3.0).abs() < 1e-5);
         assert_eq!(p.horizontal_reserve(), HORIZONTAL_RESERVE_CAP, "the declared share leaves room");
+        // A formation margin above the vertical cap's wins.
+        p.set(Param::CapMargin, 0.3).unwrap();
+        assert!((p.reserve_pull_n() - 1.3 * 3.06 * vt_cfo::GRAVITY_MPS2 / 3.0).abs() < 1e-5);
+        p.set(Param::CapMargin, 0.05).unwrap();
+        // The 93 %-loaded light team of generated seed 5195 (6 UAVs, 6.51 kg): the cap keeps 15 %
+        // over the share, sqrt(1 - ((14.42 + 1.15 x 10.64) / 30)^2) = 0.456 of the thrust for the
+        // horizontal (0.486 with the 5 % alone).
+        p.set(Param::LoadKg, 6.51).unwrap();
+        p.set(Param::NUavs, 6.0).unwrap();
+        let share = 6.51 * vt_cfo::GRAVITY_MPS2 / 6.0;
+        let need = (1.47 * vt_cfo::GRAVITY_MPS2 + 1.15 * share) / 30.0;
+        assert!((p.horizontal_reserve() - vt_fpu::sqrt(1.0 - need * need)).abs() < 1e-6, "{}", p.horizontal_reserve());
+        assert!(p.horizontal_reserve() < HORIZONTAL_RESERVE_CAP);
+        p.set(Param::NUavs, 3.0).unwrap();
         p.set(Param::LoadKg, 6.0).unwrap();
         assert_eq!(p.horizontal_reserve(), 0.0, "30 N cannot lift 1.47 kg + 21 N: no reserve");
         p.set(Param::LoadKg, 0.0).unwrap();
