@@ -48,8 +48,8 @@ pub const PAPER_TEAM_SIZE: usize = 10;
 /// rigid body's actuation lag a team of 20-25 crosses the stability limit of that delayed loop
 /// and surges fore and aft through the speed limit (a limit cycle; docs/robustness.md): the
 /// scaled gain holds the stiffest mode at the paper team's. Prop. 1 holds for any positive
-/// gain, so the dissipativity argument is unchanged. A non-finite or non-positive `k2` is
-/// returned as given (validation rejects it).
+/// gain, so the dissipativity argument is unchanged. `k2` is taken as validated
+/// ([`crate::DissipativeParams::validate`] rejects a non-finite or non-positive gain).
 #[inline]
 pub fn team_spring_gain(k2: f32, n: usize) -> f32 {
     if n > PAPER_TEAM_SIZE {

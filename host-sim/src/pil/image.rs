@@ -118,4 +118,3 @@ mod tests {
         assert!(elf_size(&e).is_err());
     }
 }
-
