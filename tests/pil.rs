@@ -183,7 +183,8 @@ fn pil_ground_start_lifts_off_and_sets_down_bit_exact() {
 fn static_ram_and_flight_stack_within_budget(r: &pil::PilReport, qemu_elf: &Path) {
     use host_sim::pil::image::{elf_size, stack_high_water_bytes, RAM_BUDGET_BYTES};
     let stack = stack_high_water_bytes(&r.defmt_log_uav0).expect("UAV 0 logs its stack high-water mark");
-    let stm32 = pil::build_firmware_bin("stm32f405", "vt-firmware-stm32f405").expect("the STM32 image builds");
+    static STM32: OnceLock<PathBuf> = OnceLock::new();
+    let stm32 = STM32.get_or_init(|| pil::build_firmware_bin("stm32f405", "vt-firmware-stm32f405").expect("the STM32 image builds"));
     for (board, elf) in [("qemu", qemu_elf), ("stm32f405", stm32.as_path())] {
         let size = elf_size(&std::fs::read(elf).expect("the ELF is readable")).expect("a 32-bit ELF");
         let total = size.static_ram_bytes + stack;

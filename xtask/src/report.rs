@@ -53,8 +53,6 @@ const RIGID_UAV_S_10_MIN: f64 = 5_000.0;
 const MCU_REPLAN_MAX: f64 = 16_800_000.0;
 /// Issue 28: one scan into the onboard map within 1 ms at 168 MHz.
 const MCU_MAP_UPDATE_MAX: f64 = 168_000.0;
-const FLASH_MAX_BYTES: f64 = 128.0 * 1024.0;
-const RAM_MAX_BYTES: f64 = 32.0 * 1024.0;
 /// Team sizes the MCU figures are measured for (the firmware's capacity is 32).
 const MCU_SIZES: [usize; 3] = [3, 10, 30];
 
@@ -318,9 +316,9 @@ fn budgets(doc: &Map<String, Value>) -> Vec<Value> {
     ];
     for board in BOARDS {
         let flash = at(doc, "firmware_flash_bytes", board);
-        b.push(budget(&format!("firmware flash ({board})"), flash, FLASH_MAX_BYTES, true, "bytes"));
+        b.push(budget(&format!("firmware flash ({board})"), flash, firmware::FLASH_BUDGET_BYTES as f64, true, "bytes"));
         let ram = at(doc, "firmware_static_ram_bytes", board).zip(at(doc, "firmware_stack_peak_bytes", board)).map(|(r, s)| r + s);
-        b.push(budget(&format!("firmware static RAM + stack peak ({board})"), ram, RAM_MAX_BYTES, true, "bytes"));
+        b.push(budget(&format!("firmware static RAM + stack peak ({board})"), ram, firmware::RAM_BUDGET_BYTES as f64, true, "bytes"));
     }
     b
 }
