@@ -168,3 +168,25 @@ fn large_and_heavily_loaded_generated_teams_arrive_with_the_load_at_altitude() {
     }
 }
 
+
+/// Issue 29, the end is a stop: generated seed 5324 at 3x (6 paper UAVs, straight tube, 9 m/s
+/// tailwind with 3 m/s gusts, accepted) arrived, and a gust then carried its load 0.25 m out past
+/// the tube's end while it hovered there. The phases now watch the load after arrival too
+/// (`HoldWatch::cannot_hold_end`): carried more than `SET_DOWN_PAST_END_M` past the end, the team
+/// sets it down there, inside.
+#[test]
+fn a_team_carried_past_the_tubes_end_after_arrival_sets_the_load_down_inside() {
+    let mut c = load("generated.toml");
+    let k = c.levels.iter().position(|l| l.0 == Some(3.0)).expect("the campaign has a 3x level");
+    c.levels = vec![c.levels.swap_remove(k)];
+    c.tables = vec![c.tables.swap_remove(k)];
+    let rows = campaign::fly(&c, 1, 5324, 1, false).expect("runs start");
+    let s = &rows.first().expect("one run").summary;
+    println!("seed 5324 at 3x: {} {:?}, load-boundary {:.3} m, UAV-boundary {:.3} m, phases {:?}", s.outcome, s.failures, s.min_load_boundary_m, s.min_uav_boundary_m, s.phases);
+    assert_eq!(s.outcome, "flown");
+    assert!(s.success, "{:?}", s.failures);
+    let arrival = s.completion_time_s.expect("arrived");
+    let descent = s.phases.iter().find(|p| p.name == "descent").expect("set down");
+    assert!(descent.start_s > arrival, "set down after arrival ({arrival} s), at {} s", descent.start_s);
+    assert!(s.min_load_boundary_m > 0.0 && s.min_uav_boundary_m > 0.0);
+}

@@ -34,6 +34,11 @@ pub const SET_DOWN_LOAD_EDGE_M: f32 = 0.5;
 pub const SET_DOWN_EDGE_CONFIRM_S: f32 = 0.4;
 /// ... or at once when the load comes this close, m (a load driven at the wall does not wait).
 pub const SET_DOWN_LOAD_EDGE_HARD_M: f32 = 0.25;
+/// After arrival the tube's end is a stop (issue 29): the team cannot hold it when the load has
+/// been carried this far past the end terminal along the end's tangent, m. The end stop's
+/// barrier pushes a node back only near the end disk's rim; a load this far past has been carried
+/// by a wind the stop does not hold.
+pub const SET_DOWN_PAST_END_M: f32 = 1.0;
 
 /// Horizontal speed limit of the formation while a delivered load descends and the cables
 /// slacken, m/s (phases `Descent` and `Slack` after arrival; not a set-down, which must keep the
@@ -93,12 +98,27 @@ impl HoldWatch {
     /// [`SET_DOWN_LOAD_EDGE_HARD_M`]. NaN figures never trigger.
     pub fn cannot_hold(&mut self, s_m: f32, load_boundary_m: f32, dt_s: f32) -> bool {
         self.s_max_m = self.s_max_m.max(s_m);
+        self.s_max_m - s_m > SET_DOWN_BLOWN_BACK_M || self.at_edge(load_boundary_m, dt_s)
+    }
+
+    /// One look at the load after arrival, `dt_s` (s) after the last: how far it is past the end
+    /// terminal along the end's tangent `past_end_m` (negative before it) and its distance to
+    /// the boundary (the end disk's rim past the end), m. True when the team cannot hold the end:
+    /// carried past it by more than [`SET_DOWN_PAST_END_M`], or at the edge as in
+    /// [`Self::cannot_hold`]. NaN figures never trigger.
+    pub fn cannot_hold_end(&mut self, past_end_m: f32, load_boundary_m: f32, dt_s: f32) -> bool {
+        past_end_m > SET_DOWN_PAST_END_M || self.at_edge(load_boundary_m, dt_s)
+    }
+
+    /// The edge triggers: once armed, in the edge band for the confirmation time net, or nearer
+    /// than the hard edge.
+    fn at_edge(&mut self, load_boundary_m: f32, dt_s: f32) -> bool {
         self.edge_armed |= load_boundary_m >= SET_DOWN_EDGE_ARM_M;
         let in_band = self.edge_armed && load_boundary_m < SET_DOWN_LOAD_EDGE_M;
         // Within rounding of the confirmation time (a sum of watch periods).
         let confirmed = self.near_edge.step(in_band, dt_s) >= SET_DOWN_EDGE_CONFIRM_S - 1e-4;
         let hard = self.edge_armed && load_boundary_m < SET_DOWN_LOAD_EDGE_HARD_M;
-        self.s_max_m - s_m > SET_DOWN_BLOWN_BACK_M || hard || confirmed
+        hard || confirmed
     }
 }
 

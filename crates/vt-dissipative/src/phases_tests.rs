@@ -227,6 +227,31 @@ fn the_watch_arms_the_edge_once_the_load_was_well_inside() {
     assert!(!HoldWatch::new().cannot_hold(f32::NAN, f32::NAN, dt));
 }
 
+/// After arrival the end is a stop (issue 29): carried past it by more than
+/// `SET_DOWN_PAST_END_M`, or at the end disk's rim, the team cannot hold it.
+#[test]
+fn the_watch_after_arrival_stops_a_load_carried_past_the_end() {
+    let dt = 0.2;
+    let mut w = HoldWatch::new();
+    assert!(!w.cannot_hold(40.0, 3.0, dt), "armed well inside");
+    // Short of the end, at it and up to the limit past it: holding.
+    for past in [-1.0, 0.0, 0.5, SET_DOWN_PAST_END_M] {
+        assert!(!w.cannot_hold_end(past, 3.0, dt), "{past} m past the end");
+    }
+    assert!(w.cannot_hold_end(SET_DOWN_PAST_END_M + 0.01, 3.0, dt), "carried past the end");
+    // The rim of the end disk counts as the tube's boundary does.
+    let mut w = HoldWatch::new();
+    assert!(!w.cannot_hold(40.0, 3.0, dt));
+    assert!(w.cannot_hold_end(0.0, SET_DOWN_LOAD_EDGE_HARD_M - 0.01, dt), "at the rim");
+    // Carried back by a wind against the passing direction counts only before arrival (the
+    // load is then no longer within the end's tolerance): the end look measures along the
+    // end's tangent instead.
+    let mut w = HoldWatch::new();
+    assert!(!w.cannot_hold(40.0, 3.0, dt));
+    assert!(!w.cannot_hold_end(-3.0, 3.0, dt));
+    assert!(!HoldWatch::new().cannot_hold_end(f32::NAN, f32::NAN, dt));
+}
+
 #[test]
 fn a_delivery_descends_at_the_descent_speed_limit_and_a_set_down_keeps_its_authority() {
     for phase in Phase::ALL {

@@ -56,7 +56,16 @@ impl Flight {
                 }
                 // The team cannot hold the tube (wind beyond its capacity): set the load down
                 // here, inside the tube (issue 29; vt_dissipative::phases::HoldWatch).
-                if !arrived && !self.on_declined_tube && self.hold_watch.cannot_hold(sec.s_m, sec.boundary_distance_m(load_m.xy()), dt_s) {
+                // After arrival the end is a stop: a load carried past it sets down too.
+                let d_m = sec.boundary_distance_m(load_m.xy());
+                let lost = if self.on_declined_tube {
+                    false
+                } else if arrived {
+                    self.hold_watch.cannot_hold_end((load_m.xy() - sec.point_m).dot(&sec.tangent), d_m, dt_s)
+                } else {
+                    self.hold_watch.cannot_hold(sec.s_m, d_m, dt_s)
+                };
+                if lost {
                     profile.set_down_now();
                 }
             }
