@@ -27,7 +27,7 @@ fn experiment() -> LoadedScenario {
     scenario::load(Some(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml"))).unwrap()
 }
 
-/// The `vt-companion` that `cargo test --workspace` built beside this test (target/release).
+/// The `vt-companion` that `cargo test --workspace` built beside this test (`target/<profile>/`).
 fn companion() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let beside = exe.parent().and_then(Path::parent).map(|d| d.join("vt-companion")).filter(|p| p.is_file());

@@ -36,8 +36,9 @@ use udp::UdpPort;
 /// How long the simulator waits for a companion's reply in lockstep.
 pub const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(30);
 
-/// The `vt-companion` binary: `$VT_COMPANION_BIN`, else beside this executable (the same
-/// `target/` profile directory, or one level up from `deps/` for tests), else built with cargo.
+/// The `vt-companion` binary: `$VT_COMPANION_BIN`, else built with cargo in the profile and
+/// target directory of this executable (`target/<profile>/`, or one level up from `deps/` for
+/// tests: `cargo test --profile ci` gets a `ci` companion), else whatever lies beside it.
 ///
 /// # Errors
 /// Not found and the build failed.
@@ -48,23 +49,41 @@ pub fn companion_binary() -> Result<PathBuf, PilError> {
     let exe = std::env::current_exe().map_err(|e| PilError(e.to_string()))?;
     let dirs: Vec<PathBuf> = exe.parent().into_iter().flat_map(|d| [d.to_path_buf(), d.join("..")]).collect();
     let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .args(["build", "--release", "-q", "-p", "vt-companion-linux"])
-        .current_dir(&workspace)
-        .status();
-    if !matches!(status, Ok(s) if s.success()) {
+    let (profile, profile_dir) = own_profile(&exe).unwrap_or_else(|| ("release".into(), workspace.join("target/release")));
+    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cmd.args(["build", "--profile", &profile, "-q", "-p", "vt-companion-linux"]).current_dir(&workspace);
+    if let Some(target_dir) = profile_dir.parent() {
+        cmd.arg("--target-dir").arg(target_dir);
+    }
+    if !matches!(cmd.status(), Ok(s) if s.success()) {
         // No cargo (an installed host-sim): whatever is beside it.
         if let Some(p) = dirs.iter().map(|d| d.join("vt-companion")).find(|p| p.is_file()) {
             return Ok(p);
         }
         return Err(PilError("vt-companion not found and `cargo build -p vt-companion-linux` failed".into()));
     }
-    let built = workspace.join("target/release/vt-companion");
+    let built = profile_dir.join("vt-companion");
     if built.is_file() {
         Ok(built)
     } else {
         Err(PilError(format!("{} missing after the build", built.display())))
     }
+}
+
+/// The cargo profile this executable was built in, and its directory: `exe` lies in
+/// `<target>/<dir>/` or `<target>/<dir>/deps/`, with `<target>` holding cargo's `CACHEDIR.TAG`;
+/// the `dev` profile's directory is `debug`. `None` outside a host build's target directory.
+fn own_profile(exe: &Path) -> Option<(String, PathBuf)> {
+    let mut dir = exe.parent()?;
+    if dir.file_name()? == "deps" {
+        dir = dir.parent()?;
+    }
+    if !dir.parent()?.join("CACHEDIR.TAG").is_file() {
+        return None;
+    }
+    let name = dir.file_name()?.to_str()?;
+    let profile = if name == "debug" { "dev" } else { name };
+    Some((profile.to_string(), dir.to_path_buf()))
 }
 
 /// A `vt-companion` process.
