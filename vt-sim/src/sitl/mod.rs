@@ -313,3 +313,25 @@ pub fn write_report(dir: &Path, r: &SitlReport) -> Result<PathBuf, String> {
     std::fs::File::create(&path).and_then(|mut f| f.write_all(text.as_bytes())).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(path)
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::own_profile;
+
+    #[test]
+    fn the_companion_is_built_in_the_asking_executables_profile() {
+        let target = std::env::temp_dir().join(format!("vt-own-profile-{}", std::process::id()));
+        for d in ["ci/deps", "debug/deps", "release"] {
+            std::fs::create_dir_all(target.join(d)).unwrap();
+        }
+        // Not a cargo target directory yet (no CACHEDIR.TAG): nothing is assumed.
+        assert_eq!(own_profile(&target.join("ci/deps/sitl-0123")), None);
+        std::fs::write(target.join("CACHEDIR.TAG"), "Signature: 8a477f597d28d172789f06886806bc55").unwrap();
+        // A test binary in deps/, a binary beside its profile's artefacts; `dev` lives in `debug`.
+        assert_eq!(own_profile(&target.join("ci/deps/sitl-0123")), Some(("ci".into(), target.join("ci"))));
+        assert_eq!(own_profile(&target.join("debug/deps/sitl-0123")), Some(("dev".into(), target.join("debug"))));
+        assert_eq!(own_profile(&target.join("release/host-sim")), Some(("release".into(), target.join("release"))));
+        std::fs::remove_dir_all(&target).unwrap();
+    }
+}
