@@ -1,6 +1,6 @@
 //! Processor-in-the-loop acceptance tests (issue 4): the `qemu` firmware flies the 3-UAV
 //! experiment in QEMU bit for bit like its host twin, and survives stale data and garbage on
-//! its UART.
+//! its link.
 //!
 //! Needs `qemu-system-arm` (`apt-get install -y qemu-system-arm`) and the
 //! `thumbv7em-none-eabihf` target. The firmware is built once per test binary (release, in
@@ -574,7 +574,7 @@ fn garbage(enc: &mut pil::Encoder) -> Vec<u8> {
 }
 
 #[test]
-fn garbage_on_the_uart_is_counted_and_survived_like_the_twin() {
+fn garbage_on_the_link_is_counted_and_survived_like_the_twin() {
     let Some(elf) = firmware() else { return };
     let ls = experiment();
     let (cfg, setup) = uav0_config(&ls, true);
@@ -591,6 +591,14 @@ fn garbage_on_the_uart_is_counted_and_survived_like_the_twin() {
             let g = garbage(&mut pil::Encoder::default());
             q.send(&g).unwrap();
             twin.send(&g).unwrap();
+            // And to the firmware's Ethernet receiver, two frames that are not the link's: an
+            // IPv4 EtherType, and a payload length beyond the frame. Each is dropped whole.
+            let frame = pil::ethernet::encode(&[0xFD; 40]);
+            let mut ipv4 = frame.clone();
+            ipv4[4 + 12..4 + 14].copy_from_slice(&0x0800u16.to_be_bytes());
+            let mut long = frame;
+            long[4 + 14..4 + 16].copy_from_slice(&100u16.to_be_bytes());
+            q.send_records(&[ipv4, long].concat()).unwrap();
         }
         let hl = k % 10 == 0;
         let a = tick(&mut q, &mut eq, &setup, t, hl, true);
@@ -603,7 +611,8 @@ fn garbage_on_the_uart_is_counted_and_survived_like_the_twin() {
         }
         t += 2;
     }
-    let [comm, unknown, bad_values, _overruns, discarded] = status.expect("a SYS_STATUS after the garbage");
+    let [comm, unknown, bad_values, overruns, discarded] = status.expect("a SYS_STATUS after the garbage");
+    assert_eq!(overruns, 2, "the two foreign Ethernet frames dropped and counted");
     assert!(comm >= 1, "checksum errors counted ({comm})");
     assert!(unknown >= 1, "unknown ids counted ({unknown})");
     assert!(bad_values >= 1, "the NaN state counted ({bad_values})");

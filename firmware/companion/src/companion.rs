@@ -257,9 +257,12 @@ impl<'t> Companion<'t> {
         }
     }
 
-    /// Adds receive overruns counted by the board's UART driver.
+    /// Adds receive overruns counted by the board's link driver (reported in `SYS_STATUS`
+    /// `errors_count3`). They go into the framer's counters, which every received chunk copies
+    /// into the reported ones: added to the copy, they were lost at the next chunk.
     pub fn add_overruns(&mut self, n: u32) {
-        self.core.link.overruns = self.core.link.overruns.wrapping_add(n);
+        self.framer.add_overruns(n);
+        self.core.link = *self.framer.counters();
     }
 
     /// One high-level period (Ticker mode; does nothing in lockstep). Also sends telemetry.

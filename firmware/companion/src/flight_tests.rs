@@ -282,6 +282,21 @@ mod wire {
         c.on_bytes(&b, io);
     }
 
+    /// The board's link driver counts what it loses below the framer (a UART overrun, a
+    /// dropped Ethernet frame); `SYS_STATUS` reports them, across later chunks of bytes.
+    #[test]
+    fn overruns_from_the_link_driver_survive_later_chunks() {
+        let mut storage = Box::new(CompanionTube::placeholder());
+        let mut c = Companion::new(&mut storage);
+        let mut io = TestIo(Vec::new());
+        c.add_overruns(2);
+        c.on_bytes(&frame(1, AUTOPILOT_COMPONENT_ID, &SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: 1 }), &mut io);
+        c.add_overruns(1);
+        c.on_bytes(&[0x00, 0x01], &mut io);
+        let link = c.link_counters();
+        assert_eq!((link.overruns, link.bytes_discarded), (3, 2));
+    }
+
     #[test]
     fn relayed_hold_heartbeat_and_stalled_own_feed_through_the_wire() {
         let mut storage = Box::new(CompanionTube::placeholder());

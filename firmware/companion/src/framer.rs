@@ -102,6 +102,12 @@ impl Framer {
         &self.counters
     }
 
+    /// Adds `n` receive overruns counted below the framer (the board's link driver: bytes or
+    /// frames lost before they reached it).
+    pub fn add_overruns(&mut self, n: u32) {
+        self.counters.overruns = self.counters.overruns.wrapping_add(n);
+    }
+
     /// Appends one received byte. Call [`Framer::next_frame`] until it returns `None` after
     /// each byte (or each chunk of at most one frame's worth).
     pub fn push(&mut self, byte: u8) {

@@ -5,6 +5,8 @@
 //! [`stack_used_bytes`].
 
 #[cfg(feature = "qemu")]
+mod lan9118;
+#[cfg(feature = "qemu")]
 mod qemu;
 #[cfg(feature = "qemu")]
 pub use qemu::*;

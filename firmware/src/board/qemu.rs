@@ -1,7 +1,8 @@
 //! QEMU `mps2-an386` (Arm MPS2 with the AN386 image: Cortex-M4F at 25 MHz).
 //!
-//! - Link: CMSDK APB UART0 at `0x4000_4000` (QEMU `-serial`), receive interrupt IRQ 0 into a
-//!   byte pipe; transmit by polling (QEMU's UART sends at once).
+//! - Link: the board's LAN9118 Ethernet controller ([`lan9118`]; QEMU `-netdev`), MAVLink in
+//!   frames of the link's EtherType; receive interrupt (line 13) into a byte pipe, transmit
+//!   into the controller's FIFO.
 //! - Time: a SysTick `embassy-time` driver, 1 kHz ticks from the 25 MHz core clock.
 //! - Cycles: SysTick ticks at 25 MHz. Under `-icount shift=0` one instruction is one virtual
 //!   nanosecond, so one tick is 40 instructions ([`boot_report`] calibrates it with a loop of
@@ -12,8 +13,9 @@
 //!   with a failure code when the low-level loop has not fed it for [`WATCHDOG_TIMEOUT_MS`].
 //!
 //! # Unsafe
-//! This module is the firmware's only `unsafe` code (allowed here, denied elsewhere): volatile
-//! access to the UART registers (fixed MMIO addresses of the board), unmasking an NVIC line,
+//! This module and [`lan9118`] hold the firmware's only `unsafe` code (allowed there, denied
+//! elsewhere): volatile access to the Ethernet controller's registers (fixed MMIO addresses of
+//! the board, in [`lan9118`]), unmasking an NVIC line,
 //! the `InterruptNumber` implementation (the numbers are the board's), the interrupt vector
 //! table (a `#[no_mangle]` `#[link_section]` static the linker script expects), the executor's
 //! pender (`#[export_name]`), and the calibration loop (inline asm).
@@ -30,7 +32,7 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::pipe::Pipe;
 use embassy_time_queue_utils::Queue;
 
-use super::{stack_used_bytes, Board};
+use super::{lan9118, stack_used_bytes, Board};
 use defmt_semihosting as _; // the global defmt logger
 
 /// Set by the executor's pender: a task was woken.
@@ -88,31 +90,11 @@ const CALIBRATION_ITERATIONS: u32 = 1_000_000;
 /// Instructions per calibration iteration (`subs` + `bne`).
 const CALIBRATION_INSTRUCTIONS_PER_ITERATION: u32 = 2;
 
-/// UART0 base address (QEMU `hw/arm/mps2.c`).
-const UART0_BASE: usize = 0x4000_4000;
-/// Data register.
-const UART_DATA: usize = 0x00;
-/// State register: bit 0 TX full, bit 1 RX full.
-const UART_STATE: usize = 0x04;
-/// Control register.
-const UART_CTRL: usize = 0x08;
-/// Interrupt status / clear register.
-const UART_INTCLEAR: usize = 0x0C;
-/// Baud divider (>= 16; QEMU ignores the rate).
-const UART_BAUDDIV: usize = 0x10;
-const STATE_TXFULL: u32 = 1 << 0;
-const STATE_RXFULL: u32 = 1 << 1;
-const STATE_RXOVERRUN: u32 = 1 << 3;
-const CTRL_TX_EN: u32 = 1 << 0;
-const CTRL_RX_EN: u32 = 1 << 1;
-const CTRL_RX_INT_EN: u32 = 1 << 3;
-const INT_RX: u32 = 1 << 1;
-/// 25 MHz / 217 = 115200 Bd (nominal only under QEMU).
-const BAUDDIV_115200: u32 = 217;
-
-/// Received bytes (filled by the UART0 RX interrupt).
-static RX_PIPE: Pipe<CriticalSectionRawMutex, 1024> = Pipe::new();
-/// Receive overruns reported by the UART.
+/// Received link bytes (filled by the Ethernet interrupt, a frame at a time).
+static RX_PIPE: Pipe<CriticalSectionRawMutex, RX_PIPE_BYTES> = Pipe::new();
+/// Receive pipe size, bytes: room for two frames.
+const RX_PIPE_BYTES: usize = 2 * lan9118::MAX_PAYLOAD;
+/// Frames the link dropped (not the link's EtherType, or malformed), reported as overruns.
 static RX_OVERRUNS: AtomicU32 = AtomicU32::new(0);
 /// SysTick interrupts since boot (low 32 bits), for the cycle counter.
 static TICKS: AtomicU32 = AtomicU32::new(0);
@@ -120,23 +102,13 @@ static TICKS: AtomicU32 = AtomicU32::new(0);
 static WATCHDOG_AGE: AtomicU32 = AtomicU32::new(0);
 static WATCHDOG_ARMED: AtomicBool = AtomicBool::new(false);
 
-fn uart_read(offset: usize) -> u32 {
-    // SAFETY: UART0 is a fixed MMIO block of the mps2-an386 board; word access is valid.
-    unsafe { core::ptr::read_volatile((UART0_BASE + offset) as *const u32) }
-}
-
-fn uart_write(offset: usize, value: u32) {
-    // SAFETY: as above; writes to these registers have no memory-safety effects.
-    unsafe { core::ptr::write_volatile((UART0_BASE + offset) as *mut u32, value) }
-}
-
 /// The board's interrupt lines used here.
 #[derive(Clone, Copy)]
 enum Irq {
-    Uart0Rx = 0,
+    Ethernet = 13,
 }
 
-// SAFETY: the number is the line QEMU wires UART0's receive interrupt to (mps2.c).
+// SAFETY: the number is the line QEMU wires the LAN9118's interrupt to (mps2.c, AN385/AN386).
 unsafe impl cortex_m::interrupt::InterruptNumber for Irq {
     fn number(self) -> u16 {
         self as u16
@@ -154,32 +126,38 @@ extern "C" {
     fn DefaultHandler();
 }
 
-/// Device interrupts (32 on mps2-an386): UART0 RX on line 0, the rest to the default handler.
+/// Device interrupts (32 on mps2-an386): the Ethernet controller on line 13, the rest to the
+/// default handler.
 #[link_section = ".vector_table.interrupts"]
 #[no_mangle]
 pub static __INTERRUPTS: [Vector; 32] = {
     let mut v = [const { Vector { handler: DefaultHandler } }; 32];
-    v[0] = Vector { handler: UART0RX };
+    v[13] = Vector { handler: ETHERNET };
     v
 };
 
-/// UART0 receive interrupt: moves bytes into [`RX_PIPE`]. When the pipe is full it masks the
-/// interrupt and leaves the byte in the UART (QEMU then holds back the stream): nothing is lost;
-/// [`LinkRx::read`] unmasks it after draining.
+/// Ethernet interrupt: moves each waiting frame's payload into [`RX_PIPE`]. When the pipe has
+/// no room for a whole frame it turns the interrupt off and leaves the frames in the
+/// controller's FIFO: nothing is lost; [`LinkRx::read`] turns it on again after draining.
 #[no_mangle]
-unsafe extern "C" fn UART0RX() {
-    uart_write(UART_INTCLEAR, INT_RX);
-    while uart_read(UART_STATE) & STATE_RXFULL != 0 {
-        if RX_PIPE.free_capacity() == 0 {
-            uart_write(UART_CTRL, uart_read(UART_CTRL) & !CTRL_RX_INT_EN);
+unsafe extern "C" fn ETHERNET() {
+    lan9118::acknowledge();
+    while lan9118::frames_waiting() > 0 {
+        if RX_PIPE.free_capacity() < lan9118::MAX_PAYLOAD {
+            lan9118::set_receive_interrupt(false);
             return;
         }
-        let byte = uart_read(UART_DATA) as u8;
-        let _ = RX_PIPE.try_write(&[byte]);
-    }
-    if uart_read(UART_STATE) & STATE_RXOVERRUN != 0 {
-        RX_OVERRUNS.fetch_add(1, Ordering::Relaxed);
-        uart_write(UART_STATE, STATE_RXOVERRUN); // write 1 to clear
+        // Room was checked for the largest payload. `try_write` stops at the ring's
+        // wrap-around: write until the bytes are in.
+        let ours = lan9118::receive(|bytes| {
+            let mut rest = bytes;
+            while let Ok(n @ 1..) = RX_PIPE.try_write(rest) {
+                rest = rest.get(n..).unwrap_or(&[]);
+            }
+        });
+        if !ours {
+            RX_OVERRUNS.fetch_add(1, Ordering::Relaxed);
+        }
     }
 }
 
@@ -190,10 +168,10 @@ impl LinkRx {
     /// Waits for at least one byte; returns how many were copied.
     pub async fn read(&mut self, buf: &mut [u8]) -> usize {
         let n = RX_PIPE.read(buf).await;
-        if uart_read(UART_CTRL) & CTRL_RX_INT_EN == 0 {
-            uart_write(UART_CTRL, uart_read(UART_CTRL) | CTRL_RX_INT_EN);
-            NVIC::pend(Irq::Uart0Rx); // drain what waited in the UART meanwhile
-                }
+        if !lan9118::receive_interrupt_on() {
+            lan9118::set_receive_interrupt(true);
+            NVIC::pend(Irq::Ethernet); // drain what waited in the controller meanwhile
+        }
         n
     }
 
@@ -207,15 +185,15 @@ impl LinkRx {
 pub struct LinkTx;
 
 impl LinkTx {
-    /// Writes every byte. QEMU's UART sends at once unless the host side of the socket is
-    /// full; then the task yields, so the control loops keep running (and the queue in front
-    /// drops whole frames instead).
+    /// Sends `bytes` in frames of at most [`lan9118::MAX_PAYLOAD`]. While the controller's
+    /// transmit FIFO is full the task yields, so the control loops keep running (and the
+    /// queue in front drops whole frames instead).
     pub async fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            while uart_read(UART_STATE) & STATE_TXFULL != 0 {
+        for chunk in bytes.chunks(lan9118::MAX_PAYLOAD) {
+            while !lan9118::can_send(chunk.len()) {
                 embassy_futures::yield_now().await;
             }
-            uart_write(UART_DATA, u32::from(b));
+            lan9118::send(chunk);
         }
     }
 }
@@ -325,7 +303,7 @@ pub fn boot_report() {
     defmt::info!("stack used at boot: {=u32} bytes", stack_used_bytes());
 }
 
-/// Sets up SysTick and UART0.
+/// Sets up SysTick and the Ethernet link.
 pub fn init() -> Board {
     if let Some(mut p) = cortex_m::Peripherals::take() {
         let syst = &mut p.SYST;
@@ -335,11 +313,16 @@ pub fn init() -> Board {
         syst.enable_interrupt();
         syst.enable_counter();
     }
-    uart_write(UART_BAUDDIV, BAUDDIV_115200);
-    uart_write(UART_CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
+    if lan9118::init() {
+        // Link up: an empty frame tells the host that frames are received from now on (QEMU's
+        // controller drops what arrives while its receiver is off).
+        lan9118::send(&[]);
+    } else {
+        defmt::error!("Ethernet controller not found: the link stays silent");
+    }
     // SAFETY: the handler and the pipe it fills are ready; unmasking cannot break a critical
     // section (none is held here).
-    unsafe { NVIC::unmask(Irq::Uart0Rx) };
+    unsafe { NVIC::unmask(Irq::Ethernet) };
     Board { rx: LinkRx, tx: LinkTx, watchdog: Watchdog }
 }
 

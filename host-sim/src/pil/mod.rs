@@ -1,6 +1,7 @@
 //! Processor-in-the-loop (PIL): the f64 plant on the host, each UAV's controller inside its own
 //! QEMU (`mps2-an386`) running the `qemu` firmware ELF, MAVLink 2 frames over each instance's
-//! emulated UART (a Unix socket per instance), in lockstep with simulated time
+//! emulated Ethernet controller ([`ethernet`]; a Unix socket per instance), in lockstep with
+//! simulated time
 //! ([`vt_sim::lockstep`], re-exported here: the protocol, the ports, the team).
 //!
 //! # SIL twin and bit-exactness
@@ -19,6 +20,7 @@
 
 pub mod bench;
 pub mod cli;
+pub mod ethernet;
 pub mod image;
 pub mod perception_bench;
 pub mod qemu;

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use super::ethernet::{self, Deframer};
 use vt_companion::{Framer, COMPANION_COMPONENT_ID};
 use vt_sim::lockstep::wire::decode;
 use vt_sim::lockstep::{err, Encoder, PilError, Port, Rx, GCS_COMPONENT_ID, GCS_SYSTEM_ID, REPLY_TIMEOUT};
@@ -33,6 +34,7 @@ pub struct QemuPort {
     child: Child,
     stream: UnixStream,
     framer: Framer,
+    deframer: Deframer,
     pending: VecDeque<Rx>,
     defmt: Arc<Mutex<Vec<u8>>>,
     reader: Option<std::thread::JoinHandle<()>>,
@@ -40,7 +42,8 @@ pub struct QemuPort {
 }
 
 impl QemuPort {
-    /// Starts QEMU on `elf` with UART0 connected to a fresh Unix socket.
+    /// Starts QEMU on `elf` with the board's Ethernet controller on a fresh Unix socket
+    /// (QEMU's `stream` netdev, [`ethernet`] framing).
     ///
     /// # Errors
     /// The emulator cannot start or does not connect.
@@ -53,22 +56,20 @@ impl QemuPort {
         let _ = std::fs::remove_file(&socket);
         let listener = UnixListener::bind(&socket).map_err(|e| PilError(format!("{}: {e}", socket.display())))?;
         let mut cmd = Command::new(&o.qemu);
-        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-display", "none", "-monitor", "none", "-nodefaults", "-nic", "none"])
-            .args(["-chardev", &format!("socket,id=link,path={}", socket.display()), "-serial", "chardev:link"])
+        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-display", "none", "-monitor", "none", "-nodefaults"])
+            .args(["-netdev", &format!("stream,id=link,server=off,addr.type=unix,addr.path={}", socket.display()), "-net", "nic,netdev=link"])
             .args(["-semihosting-config", "enable=on,target=native"]);
         if o.icount {
             cmd.args(["-icount", "shift=0"]);
         }
         cmd.arg("-kernel").arg(elf).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
         let mut child = cmd.spawn().map_err(|e| PilError(format!("cannot start {}: {e}", o.qemu)))?;
-        // Forward the emulator's messages, less the one about the board's unused Ethernet.
+        // Forward the emulator's messages.
         if let Some(err_pipe) = child.stderr.take() {
             std::thread::spawn(move || {
                 use std::io::BufRead;
                 for line in std::io::BufReader::new(err_pipe).lines().map_while(Result::ok) {
-                    if !line.contains("has no peer") {
-                        eprintln!("{line}");
-                    }
+                    eprintln!("{line}");
                 }
             });
         }
@@ -92,6 +93,20 @@ impl QemuPort {
         };
         stream.set_nonblocking(false).map_err(|e| PilError(e.to_string()))?;
         stream.set_read_timeout(Some(REPLY_TIMEOUT)).map_err(|e| PilError(e.to_string()))?;
+        // The firmware's first frame says its receiver is on; frames sent before would be
+        // dropped by the emulated controller.
+        let mut deframer = Deframer::default();
+        let mut buf = [0u8; 256];
+        while deframer.frames == 0 {
+            match (&stream).read(&mut buf) {
+                Ok(n) if n > 0 => deframer.push(buf.get(..n).unwrap_or(&[]), |_| {}),
+                Ok(_) => return err("the emulator closed the link before it came up"),
+                Err(e) => {
+                    let _ = child.kill();
+                    return err(format!("the firmware's link did not come up: {e}"));
+                }
+            }
+        }
         let defmt = Arc::new(Mutex::new(Vec::new()));
         let reader = child.stdout.take().map(|mut out| {
             let sink = Arc::clone(&defmt);
@@ -107,7 +122,17 @@ impl QemuPort {
                 }
             })
         });
-        Ok(Self { child, stream, framer: Framer::new(), pending: VecDeque::new(), defmt, reader, socket })
+        Ok(Self { child, stream, framer: Framer::new(), deframer, pending: VecDeque::new(), defmt, reader, socket })
+    }
+
+    /// Writes `records` to the emulator's network socket as they are: whole stream records
+    /// ([`ethernet::encode`]'s format), which need not be the link's frames (tests of the
+    /// firmware's receiver).
+    ///
+    /// # Errors
+    /// The socket write fails.
+    pub fn send_records(&mut self, records: &[u8]) -> Result<(), PilError> {
+        self.stream.write_all(records).map_err(|e| PilError(format!("link write: {e}")))
     }
 
     /// Link counters of the host's receiver (frames from the firmware).
@@ -184,7 +209,10 @@ impl Drop for QemuPort {
 
 impl Port for QemuPort {
     fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
-        self.stream.write_all(bytes).map_err(|e| PilError(format!("link write: {e}")))
+        if bytes.is_empty() {
+            return Ok(());
+        }
+        self.stream.write_all(&ethernet::encode(bytes)).map_err(|e| PilError(format!("link write: {e}")))
     }
 
     fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
@@ -192,7 +220,7 @@ impl Port for QemuPort {
     }
 
     fn recv(&mut self) -> Result<Rx, PilError> {
-        let mut buf = [0u8; 1024];
+        let mut buf = [0u8; 4096];
         loop {
             if let Some(rx) = self.pending.pop_front() {
                 return Ok(rx);
@@ -201,14 +229,17 @@ impl Port for QemuPort {
             if n == 0 {
                 return err("link closed by the emulator");
             }
-            for &b in buf.get(..n).unwrap_or(&[]) {
-                self.framer.push(b);
-                while let Some(f) = self.framer.next_frame() {
-                    if let Some(rx) = decode(f.message_id, f.payload) {
-                        self.pending.push_back(rx);
+            let (framer, pending) = (&mut self.framer, &mut self.pending);
+            self.deframer.push(buf.get(..n).unwrap_or(&[]), |payload| {
+                for &b in payload {
+                    framer.push(b);
+                    while let Some(f) = framer.next_frame() {
+                        if let Some(rx) = decode(f.message_id, f.payload) {
+                            pending.push_back(rx);
+                        }
                     }
                 }
-            }
+            });
         }
     }
 }
