@@ -5,7 +5,7 @@
 //! **Why Ethernet and not the UART.** QEMU's CMSDK UART holds one received byte, so every byte
 //! costs the emulator a main-loop pass and a wake-up of the vCPU thread (~40 µs of host time),
 //! and every transmitted byte a `send` system call. A packet carries a whole lockstep tick
-//! (about a hundred bytes) for the price of one (docs/firmware.md, "PIL link").
+//! (about a hundred bytes) for the price of one (docs/firmware.md, "The PIL link").
 //!
 //! **Framing (decision).** One Ethernet II frame carries a slice of the MAVLink byte stream:
 //! destination broadcast, source [`SOURCE_MAC`], EtherType [`ETHERTYPE`] (IEEE 802 "local

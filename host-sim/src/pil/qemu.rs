@@ -93,20 +93,6 @@ impl QemuPort {
         };
         stream.set_nonblocking(false).map_err(|e| PilError(e.to_string()))?;
         stream.set_read_timeout(Some(REPLY_TIMEOUT)).map_err(|e| PilError(e.to_string()))?;
-        // The firmware's first frame says its receiver is on; frames sent before would be
-        // dropped by the emulated controller.
-        let mut deframer = Deframer::default();
-        let mut buf = [0u8; 256];
-        while deframer.frames == 0 {
-            match (&stream).read(&mut buf) {
-                Ok(n) if n > 0 => deframer.push(buf.get(..n).unwrap_or(&[]), |_| {}),
-                Ok(_) => return err("the emulator closed the link before it came up"),
-                Err(e) => {
-                    let _ = child.kill();
-                    return err(format!("the firmware's link did not come up: {e}"));
-                }
-            }
-        }
         let defmt = Arc::new(Mutex::new(Vec::new()));
         let reader = child.stdout.take().map(|mut out| {
             let sink = Arc::clone(&defmt);
@@ -122,7 +108,40 @@ impl QemuPort {
                 }
             })
         });
-        Ok(Self { child, stream, framer: Framer::new(), deframer, pending: VecDeque::new(), defmt, reader, socket })
+        // The firmware's first frame says its receiver is on: frames sent before would be
+        // dropped by the emulated controller. (Waited for with the log reader running, so a
+        // firmware blocked on a full stdout cannot stall it.) Whatever came with it is kept.
+        let mut deframer = Deframer::default();
+        let mut early = Vec::new();
+        let mut buf = [0u8; 256];
+        while deframer.frames == 0 {
+            match (&stream).read(&mut buf) {
+                Ok(n) if n > 0 => deframer.push(buf.get(..n).unwrap_or(&[]), |p| early.extend_from_slice(p)),
+                other => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return err(match other {
+                        Ok(_) => "the emulator closed the link before it came up".to_string(),
+                        Err(e) => format!("the firmware's link did not come up: {e}"),
+                    });
+                }
+            }
+        }
+        let mut port = Self { child, stream, framer: Framer::new(), deframer, pending: VecDeque::new(), defmt, reader, socket };
+        port.take_payload(&early);
+        Ok(port)
+    }
+
+    /// Feeds link payload bytes to the framer and queues what they decode to.
+    fn take_payload(&mut self, payload: &[u8]) {
+        for &b in payload {
+            self.framer.push(b);
+            while let Some(f) = self.framer.next_frame() {
+                if let Some(rx) = decode(f.message_id, f.payload) {
+                    self.pending.push_back(rx);
+                }
+            }
+        }
     }
 
     /// Writes `records` to the emulator's network socket as they are: whole stream records
@@ -229,17 +248,9 @@ impl Port for QemuPort {
             if n == 0 {
                 return err("link closed by the emulator");
             }
-            let (framer, pending) = (&mut self.framer, &mut self.pending);
-            self.deframer.push(buf.get(..n).unwrap_or(&[]), |payload| {
-                for &b in payload {
-                    framer.push(b);
-                    while let Some(f) = framer.next_frame() {
-                        if let Some(rx) = decode(f.message_id, f.payload) {
-                            pending.push_back(rx);
-                        }
-                    }
-                }
-            });
+            let mut payload = Vec::new();
+            self.deframer.push(buf.get(..n).unwrap_or(&[]), |p| payload.extend_from_slice(p));
+            self.take_payload(&payload);
         }
     }
 }
