@@ -226,6 +226,24 @@ fn pil_paper_10uav_is_bit_exact() {
     assert!(r.commands_compared > 10 * 550 * 30, "{} commands", r.commands_compared);
 }
 
+/// The world's models apply to PIL as they do to SIL: the experiment under the nominal
+/// campaign's disturbances (scenarios/campaigns/nominal.toml: 5 cm / 5 cm/s noise, 20 ms
+/// latency and 20 ms jitter, 10 % link drops, 3 m/s wind with 1 m/s gusts), the whole flight,
+/// bit for bit, and successful. The disturbances acted: the calm flight's summary differs.
+#[test]
+fn pil_under_the_nominal_disturbances_is_bit_exact() {
+    let Some(elf) = firmware() else { return };
+    let mut ls = experiment();
+    let d = &mut ls.scenario.disturbances;
+    (d.position_noise_m, d.velocity_noise_mps, d.latency_s, d.link_jitter_s) = (0.05, 0.05, 0.02, 0.02);
+    (d.wind_mean_mps, d.gust_std_mps, d.gust_tau_s) = ([3.0, 0.0, 0.0], 1.0, 2.0);
+    ls.scenario.link.drop_probability = 0.10;
+    let r = pil_same_as_sil(&ls, elf, "nominal-disturbances", None);
+    assert!(r.summary.success && r.summary.reached_end, "{:?}", r.summary.failures);
+    let calm = host_sim::sim::run(&experiment(), &host_sim::sim::RunOptions::default()).unwrap();
+    assert_ne!(comparable(&r.summary), comparable(&calm.summary), "the disturbances changed nothing");
+}
+
 /// `ls` flown in PIL (one QEMU per UAV running `elf`) beside the SIL twin and the SIL crates:
 /// every command bit for bit, the three summaries equal, a clean link, every emulator shut
 /// down, and the flight's stack with each board's static RAM within the RAM budget.
