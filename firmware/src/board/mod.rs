@@ -2,7 +2,7 @@
 //!
 //! `NAME`, `init() -> Board`, `Executor`, `LinkRx::{read, take_overruns}`, `LinkTx::write`,
 //! `Watchdog::feed`, `cycles()`, `boot_report()`, `shutdown()`, `reboot()`; and here, shared:
-//! [`stack_used_bytes`].
+//! [`stack_used_bytes`], [`StackWatch`].
 
 #[cfg(feature = "qemu")]
 mod lan9118;
@@ -35,20 +35,71 @@ extern "C" {
     static _stack_end: u32;
 }
 
-/// Deepest stack use since reset, bytes: the painted region's first scrubbed word from below.
+/// The stack region `[bottom, top)`, addresses.
+fn stack_region() -> (usize, usize) {
+    (core::ptr::addr_of!(_stack_end) as usize, core::ptr::addr_of!(_stack_start) as usize)
+}
+
+/// The stack word at `p` (an address inside [`stack_region`], word-aligned).
 #[allow(unsafe_code)]
+fn stack_word(p: usize) -> u32 {
+    // SAFETY: callers pass addresses in [bottom, top), the stack region of cortex-m-rt's linker
+    // script, inside RAM and word-aligned (the script asserts it); a racy read only makes the
+    // figure late.
+    unsafe { core::ptr::read_volatile(p as *const u32) }
+}
+
+/// Deepest stack use since reset, bytes: the painted region's first scrubbed word from below.
+/// Walks the whole unused stack (about 24 k words on the 128 KiB layout, some 100 k
+/// instructions): for boot and shutdown; in flight [`StackWatch`] does it a slice at a time.
 pub fn stack_used_bytes() -> u32 {
-    let top = core::ptr::addr_of!(_stack_start) as usize;
-    let bottom = core::ptr::addr_of!(_stack_end) as usize;
+    let (bottom, top) = stack_region();
     let mut p = bottom;
-    while p < top {
-        // SAFETY: [bottom, top) is the stack region of cortex-m-rt's linker script, inside RAM
-        // and word-aligned (the script asserts it); a racy read only makes the figure late.
-        let w = unsafe { core::ptr::read_volatile(p as *const u32) };
-        if w != STACK_PAINT {
-            break;
-        }
+    while p < top && stack_word(p) == STACK_PAINT {
         p += 4;
     }
     (top - p) as u32
+}
+
+/// The stack's high-water mark found a slice at a time, so that no call walks the whole
+/// unused stack (bounded work beside the control loops; docs/firmware.md).
+///
+/// Each pass walks up from the bottom of the stack to the known mark; the first scrubbed word
+/// it meets is the deepest use so far (the paint is never restored, so the mark only rises).
+/// A pass takes `unused / words` calls; use that deepens the stack meanwhile below the
+/// cursor is found by the next pass.
+pub struct StackWatch {
+    /// Next address to look at (0: a pass starts at the bottom).
+    cursor: usize,
+    /// The high-water mark found so far, bytes.
+    mark: u32,
+}
+
+impl StackWatch {
+    /// Nothing looked at yet.
+    pub const fn new() -> Self {
+        Self { cursor: 0, mark: 0 }
+    }
+
+    /// Looks at up to `words` stack words from where the last call stopped; returns the
+    /// high-water mark, bytes (0 until a pass has found used stack).
+    pub fn look(&mut self, words: usize) -> u32 {
+        let (bottom, top) = stack_region();
+        let known = top.saturating_sub(self.mark as usize);
+        let mut p = if self.cursor < bottom || self.cursor >= known { bottom } else { self.cursor };
+        for _ in 0..words {
+            if p >= known {
+                self.cursor = 0; // nothing deeper than the mark: start again at the bottom
+                return self.mark;
+            }
+            if stack_word(p) != STACK_PAINT {
+                self.mark = (top - p) as u32;
+                self.cursor = 0;
+                return self.mark;
+            }
+            p += 4;
+        }
+        self.cursor = p;
+        self.mark
+    }
 }

@@ -16,6 +16,10 @@ use vt_companion::{Framer, COMPANION_COMPONENT_ID};
 use vt_sim::lockstep::wire::decode;
 use vt_sim::lockstep::{err, Encoder, PilError, Port, Rx, GCS_COMPONENT_ID, GCS_SYSTEM_ID, REPLY_TIMEOUT};
 
+/// Environment variable: a file prefix; emulators started with `-icount` then write QEMU's
+/// instruction trace to `PREFIX.<name>` (`scripts/mcu-profile.py` reads it).
+pub const TRACE_ENV: &str = "VT_QEMU_TRACE";
+
 /// How to start QEMU.
 #[derive(Debug, Clone)]
 pub struct QemuOptions {
@@ -61,6 +65,13 @@ impl QemuPort {
             .args(["-semihosting-config", "enable=on,target=native"]);
         if o.icount {
             cmd.args(["-icount", "shift=0"]);
+            // An instruction trace for scripts/mcu-profile.py (docs/benchmarks.md, "Profiling
+            // the MCU code"): every executed block, hundreds of MB a second of flight.
+            if let Some(prefix) = std::env::var_os(TRACE_ENV) {
+                let mut log = prefix;
+                log.push(format!(".{}", o.name));
+                cmd.args(["-d", "in_asm,exec,nochain", "-D"]).arg(log);
+            }
         }
         cmd.arg("-kernel").arg(elf).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
         let mut child = cmd.spawn().map_err(|e| PilError(format!("cannot start {}: {e}", o.qemu)))?;
