@@ -35,7 +35,8 @@ def entry_address(elf, symbol):
     hits = [h for h in hits if h[1] in "tT"]
     if len(hits) != 1:
         names = ", ".join(h[2] for h in hits[:5]) or "none"
-        sys.exit(f"mcu-profile: --window {symbol!r} matches {len(hits)} functions in {elf} ({names})")
+        print(f"mcu-profile: --window {symbol!r} matches {len(hits)} functions in {elf} ({names})", file=sys.stderr)
+        sys.exit(2)
     return int(hits[0][0], 16) & ~1, hits[0][2]
 
 
@@ -83,6 +84,12 @@ def main():
     ap.add_argument("--top", type=int, default=25, help="functions to list (25)")
     ap.add_argument("--lines", type=int, default=0, metavar="N", help="map the N hottest blocks to source lines")
     a = ap.parse_args()
+    for path in (a.trace, a.elf):
+        try:
+            open(path, "rb").close()
+        except OSError as e:
+            print(f"mcu-profile: {path}: {e.strerror}", file=sys.stderr)
+            sys.exit(2)
     window = entry_address(a.elf, a.window) if a.window else None
     per_fn, per_tb, windows = profile(a.trace, window)
     total = sum(per_fn.values())
