@@ -199,13 +199,15 @@ impl ThrustLimits {
             Vector3::new(0.0, 0.0, hover_n)
         };
         // Vertical priority below the horizontal reserve's cap (max/min rather than f32::clamp:
-        // never panics).
-        let tz = t.z.max(self.thrust_min_n).min(self.vertical_max_n);
+        // never panics). `vt_fpu::min`/`max` (a compare and a select; `f32::min`/`max` are calls
+        // to `fminf`/`fmaxf` on the Cortex-M4F): `t` is finite here, and a NaN limit is ignored
+        // as by `f32::max`/`min`.
+        let tz = vt_fpu::min(vt_fpu::max(t.z, self.thrust_min_n), self.vertical_max_n);
         // Horizontal budget: tilt cone and magnitude sphere.
-        let h_sphere = vt_fpu::sqrt(((self.thrust_max_n - tz) * (self.thrust_max_n + tz)).max(0.0));
-        let h_max = (tz * self.tilt_max_tan).min(h_sphere);
+        let h_sphere = vt_fpu::sqrt(vt_fpu::max((self.thrust_max_n - tz) * (self.thrust_max_n + tz), 0.0));
+        let h_max = vt_fpu::min(tz * self.tilt_max_tan, h_sphere);
         // |(T_x, T_y)| without overflow: scale by the larger component first.
-        let s = t.x.abs().max(t.y.abs());
+        let s = vt_fpu::max(t.x.abs(), t.y.abs());
         if s == 0.0 {
             return Vector3::new(0.0, 0.0, tz);
         }
@@ -308,7 +310,7 @@ pub fn thrust_to_attitude(
 
     // thrust_norm_n > 0 here (possibly +inf for huge finite input): the ratio is never NaN.
     let collective = if thrust_max_n.is_finite() && thrust_max_n > 0.0 {
-        (thrust_norm_n / thrust_max_n).min(1.0)
+        vt_fpu::min(thrust_norm_n / thrust_max_n, 1.0)
     } else {
         0.0
     };

@@ -599,7 +599,9 @@ fn integrate_axis(integral_mps2: f32, increment_mps2: f32, excess_n: f32, limit_
     } else {
         integral_mps2 + increment_mps2
     };
-    next.max(-limit_mps2).min(limit_mps2)
+    // `next` is finite (a non-finite increment is skipped); a NaN limit is ignored, as by
+    // `f32::max`/`min`, which cost a call to `fmaxf`/`fminf` each on the Cortex-M4F.
+    vt_fpu::min(vt_fpu::max(next, -limit_mps2), limit_mps2)
 }
 
 /// The exact first-order gain `1 - exp(-dt / tau)` for the step `dt_s` (s) and time constant
