@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use super::ethernet::{self, Deframer};
 use vt_companion::{Framer, COMPANION_COMPONENT_ID};
-use vt_sim::lockstep::wire::decode;
+use vt_sim::lockstep::wire::decode_into;
 use vt_sim::lockstep::{err, Encoder, PilError, Port, Rx, GCS_COMPONENT_ID, GCS_SYSTEM_ID, REPLY_TIMEOUT};
 
 /// Environment variable: a file prefix; emulators started with `-icount` then write QEMU's
@@ -138,21 +138,9 @@ impl QemuPort {
                 }
             }
         }
-        let mut port = Self { child, stream, framer: Framer::new(), deframer, pending: VecDeque::new(), defmt, reader, socket };
-        port.take_payload(&early);
-        Ok(port)
-    }
-
-    /// Feeds link payload bytes to the framer and queues what they decode to.
-    fn take_payload(&mut self, payload: &[u8]) {
-        for &b in payload {
-            self.framer.push(b);
-            while let Some(f) = self.framer.next_frame() {
-                if let Some(rx) = decode(f.message_id, f.payload) {
-                    self.pending.push_back(rx);
-                }
-            }
-        }
+        let (mut framer, mut pending) = (Framer::new(), VecDeque::new());
+        decode_into(&mut framer, &early, &mut pending);
+        Ok(Self { child, stream, framer, deframer, pending, defmt, reader, socket })
     }
 
     /// Writes `records` to the emulator's network socket as they are: whole stream records
@@ -242,7 +230,7 @@ impl Port for QemuPort {
         if bytes.is_empty() {
             return Ok(());
         }
-        self.stream.write_all(&ethernet::encode(bytes)).map_err(|e| PilError(format!("link write: {e}")))
+        self.send_records(&ethernet::encode(bytes))
     }
 
     fn finish(self: Box<Self>) -> Result<(Option<i32>, Vec<u8>), PilError> {
@@ -261,7 +249,7 @@ impl Port for QemuPort {
             }
             let mut payload = Vec::new();
             self.deframer.push(buf.get(..n).unwrap_or(&[]), |p| payload.extend_from_slice(p));
-            self.take_payload(&payload);
+            decode_into(&mut self.framer, &payload, &mut self.pending);
         }
     }
 }

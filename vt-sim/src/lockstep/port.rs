@@ -90,14 +90,7 @@ impl Port for SilPort {
             return Err(PilError("host twin: dropped".into()));
         };
         let _request = companion.on_bytes(bytes, &mut TwinIo { out: &mut out });
-        for b in out {
-            self.framer.push(b);
-            while let Some(f) = self.framer.next_frame() {
-                if let Some(rx) = decode(f.message_id, f.payload) {
-                    self.pending.push_back(rx);
-                }
-            }
-        }
+        decode_into(&mut self.framer, &out, &mut self.pending);
         Ok(())
     }
 

@@ -85,6 +85,19 @@ pub enum Rx {
     Other(u32),
 }
 
+/// Pushes received link bytes through `framer` and queues every frame [`decode`] knows, in
+/// order (the receive path every port shares: the twin, UDP, QEMU).
+pub fn decode_into(framer: &mut vt_companion::Framer, bytes: &[u8], pending: &mut std::collections::VecDeque<Rx>) {
+    for &b in bytes {
+        framer.push(b);
+        while let Some(f) = framer.next_frame() {
+            if let Some(rx) = decode(f.message_id, f.payload) {
+                pending.push_back(rx);
+            }
+        }
+    }
+}
+
 /// The companion message `id` with `payload`, decoded (`None`: malformed).
 pub fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
     let v2 = MavlinkVersion::V2;

@@ -71,14 +71,7 @@ impl UdpPort {
                 if self.peer.is_none() {
                     self.peer = Some(from);
                 }
-                for &b in buf.get(..n).unwrap_or(&[]) {
-                    self.framer.push(b);
-                    while let Some(f) = self.framer.next_frame() {
-                        if let Some(rx) = crate::lockstep::wire::decode(f.message_id, f.payload) {
-                            self.pending.push_back(rx);
-                        }
-                    }
-                }
+                crate::lockstep::wire::decode_into(&mut self.framer, buf.get(..n).unwrap_or(&[]), &mut self.pending);
                 Ok(self.pending.pop_front())
             }
             Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::ConnectionRefused) => Ok(None),
