@@ -10,6 +10,8 @@
 use crate::models::UavModel;
 use crate::scenario::{Scenario, StaleNeighbour};
 use crate::sim::{ControllerKind, SimError};
+use vt_companion::perception::{Perception, PerceptionConfig};
+use vt_companion::replanning::Replanning;
 use vt_companion::{Companion, CompanionTube, Item, Param, Params, AUTO, MAX_UAVS};
 use vt_dissipative::TrayParams;
 
@@ -231,11 +233,6 @@ static TUBE_POOL: std::sync::Mutex<Vec<&'static mut CompanionTube>> = std::sync:
 pub struct HostCompanion {
     /// Always `Some` until dropped.
     companion: Option<Box<Companion<'static>>>,
-    /// Issue 28: where a re-planned tube is built before the companion switches to it (taken
-    /// from the pool at the first offer).
-    spare: Option<&'static mut CompanionTube>,
-    /// The spare holds a tube the companion declined, to retry.
-    declined: bool,
 }
 
 impl Default for HostCompanion {
@@ -247,36 +244,7 @@ impl Default for HostCompanion {
 impl HostCompanion {
     /// A fresh companion: default parameters, no tube.
     pub fn new() -> Self {
-        Self { companion: Some(Box::new(Companion::new(pooled_tube()))), spare: None, declined: false }
-    }
-
-    /// Issue 28: offers the companion a re-planned tube (waypoints on the mission protocol's
-    /// grid, as an upload carries them): built in the spare storage, switched to when
-    /// `vt_companion::perception::accept` allows.
-    ///
-    /// # Errors
-    /// The tube does not build (`None`), or why the companion kept its tube.
-    pub fn offer_tube(&mut self, waypoints: &[vt_tube::Waypoint]) -> Result<(), Option<vt_companion::perception::Keep>> {
-        let spare = self.spare.get_or_insert_with(pooled_tube);
-        self.declined = false;
-        spare.rebuild(waypoints).map_err(|_| None)?;
-        let c = self.companion.as_deref_mut().ok_or(None)?;
-        let r = c.switch_tube(spare).map_err(Some);
-        self.declined = r.is_err();
-        r
-    }
-
-    /// Offers the last declined tube again; true when the companion switched to it.
-    pub fn retry_offer(&mut self) -> bool {
-        if !self.declined {
-            return false;
-        }
-        let (Some(spare), Some(c)) = (self.spare.as_mut(), self.companion.as_deref_mut()) else {
-            return false;
-        };
-        let ok = c.switch_tube(spare).is_ok();
-        self.declined = !ok;
-        ok
+        Self { companion: Some(Box::new(Companion::new(pooled_tube()))) }
     }
 
     /// The companion (`None` only while being dropped).
@@ -292,9 +260,47 @@ impl HostCompanion {
 
 impl Drop for HostCompanion {
     fn drop(&mut self) {
-        let tube = self.companion.take().map(|c| c.into_tube());
-        if let Ok(mut pool) = TUBE_POOL.lock() {
-            pool.extend(tube.into_iter().chain(self.spare.take()));
+        if let Some(c) = self.companion.take() {
+            give_back_tube(c.into_tube());
+        }
+    }
+}
+
+/// Issue 28: a companion's re-planning (`vt_companion::replanning`) on the host, its map and
+/// tubes from the pools (given back when dropped), as the firmware's perception task keeps
+/// them in `static`s.
+pub struct HostReplanning {
+    /// Always `Some` until dropped.
+    inner: Option<Replanning<'static, 'static>>,
+}
+
+impl HostReplanning {
+    /// An empty map of `cfg`'s world.
+    ///
+    /// # Errors
+    /// The world does not fit the onboard map.
+    pub fn new(cfg: PerceptionConfig) -> Result<Self, vt_map::MapError> {
+        let map = pooled_perception();
+        if let Err(e) = map.configure(cfg) {
+            give_back_perception(map);
+            return Err(e);
+        }
+        Ok(Self { inner: Some(Replanning::new(map, pooled_tube(), pooled_tube())) })
+    }
+
+    /// The re-planning (`None` only while being dropped).
+    pub fn get_mut(&mut self) -> Option<&mut Replanning<'static, 'static>> {
+        self.inner.as_mut()
+    }
+}
+
+impl Drop for HostReplanning {
+    fn drop(&mut self) {
+        if let Some(r) = self.inner.take() {
+            let (map, spare, check) = r.into_parts();
+            give_back_perception(map);
+            give_back_tube(spare);
+            give_back_tube(check);
         }
     }
 }
@@ -303,6 +309,26 @@ impl Drop for HostCompanion {
 fn pooled_tube() -> &'static mut CompanionTube {
     let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
     pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())))
+}
+
+fn give_back_tube(t: &'static mut CompanionTube) {
+    if let Ok(mut pool) = TUBE_POOL.lock() {
+        pool.push(t);
+    }
+}
+
+/// Onboard maps of dropped re-plannings, reused (about 270 KiB each, leaked once).
+static PERCEPTION_POOL: std::sync::Mutex<Vec<&'static mut Perception>> = std::sync::Mutex::new(Vec::new());
+
+fn pooled_perception() -> &'static mut Perception {
+    let pooled = PERCEPTION_POOL.lock().ok().and_then(|mut pool| pool.pop());
+    pooled.unwrap_or_else(|| Box::leak(Box::new(Perception::placeholder())))
+}
+
+fn give_back_perception(p: &'static mut Perception) {
+    if let Ok(mut pool) = PERCEPTION_POOL.lock() {
+        pool.push(p);
+    }
 }
 
 #[cfg(test)]

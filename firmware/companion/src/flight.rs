@@ -617,6 +617,11 @@ impl Flight {
         self.no_route = if on { self.no_route | NO_ROUTE_TEAM } else { self.no_route & !NO_ROUTE_TEAM };
     }
 
+    /// Issue 28: the team holds for want of a route ([`Flight::set_no_route`]).
+    pub fn team_no_route(&self) -> bool {
+        self.no_route & NO_ROUTE_TEAM != 0
+    }
+
     /// Issue 28: this UAV's own tube is blocked close ahead and it has no tube it may switch to
     /// (`perception::Perception::must_stop`; on: hold in place with
     /// [`HoldReasons::NO_ROUTE`], as the team's no-route hold; off: it switched, or the block

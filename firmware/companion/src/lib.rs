@@ -19,6 +19,8 @@
 //! - [`mission`]: [`MissionUpload`], the tube's waypoints over the MAVLink mission protocol.
 //! - [`flight`]: [`Flight`], the armed controllers: high-level step, low-level step, failsafe.
 //! - [`perception`]: [`perception::Perception`], the onboard map and in-flight re-planning (issue 28).
+//! - [`replanning`]: [`replanning::Replanning`], the decisions of in-flight re-planning around
+//!   the map: scans folded, stops, the designated planner, offers, the no-route hold.
 //! - [`scans`]: range scans as `OBSTACLE_DISTANCE` and back (issue 28).
 //! - [`refusal`]: why a mission start was refused, as telemetry (code and `STATUSTEXT` lines).
 //! - [`companion`]: [`Companion`], message dispatch, lockstep ticks, telemetry.
@@ -36,6 +38,7 @@ pub mod mission;
 pub mod params;
 pub mod perception;
 pub mod refusal;
+pub mod replanning;
 pub mod scans;
 
 pub use companion::{Companion, Io, Mode, Request, Source};

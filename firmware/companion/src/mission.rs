@@ -21,6 +21,20 @@ use crate::MAX_WAYPOINTS;
 /// Local-frame coordinate scale of `MISSION_ITEM_INT` (units per metre).
 pub const LOCAL_SCALE_PER_M: f32 = 1.0e4;
 
+/// `m` (m) in the mission protocol's units of 0.1 mm (`MISSION_ITEM_INT.x`, `.y`): the
+/// nearest count (rounded in `f64`, as a ground station does), `None` for a non-finite `m` or
+/// one beyond the `i32` range.
+pub fn wire_units(m: f32) -> Option<i32> {
+    let x = libm::round(f64::from(m) * 1e4);
+    (x.is_finite() && libm::fabs(x) <= f64::from(i32::MAX)).then_some(x as i32)
+}
+
+/// `m` (m) on the mission protocol's 0.1 mm grid, as a receiver rebuilds it from
+/// [`wire_units`] (`x as f32 / 1e4`); unchanged when it has no count.
+pub fn on_wire_grid_m(m: f32) -> f32 {
+    wire_units(m).map_or(m, |x| x as f32 / LOCAL_SCALE_PER_M)
+}
+
 /// What to answer after an upload message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

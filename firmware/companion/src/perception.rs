@@ -416,4 +416,4 @@ pub fn accept_joining(new: &CompanionTube, old: Option<&CompanionTube>, own_m: &
 
 #[cfg(test)]
 #[path = "perception_tests.rs"]
-mod tests;
+pub(crate) mod tests;

@@ -7,11 +7,11 @@ use vt_tube::Waypoint;
 
 type V2 = vt_plan::Vec2;
 
-fn straight(y: f32, half_width_m: f32) -> CompanionTube {
+pub(crate) fn straight(y: f32, half_width_m: f32) -> CompanionTube {
     CompanionTube::from_waypoints(&[Waypoint::new(3.0, y, half_width_m, half_width_m), Waypoint::new(47.0, y, half_width_m, half_width_m)]).unwrap()
 }
 
-fn config() -> PerceptionConfig {
+pub(crate) fn config() -> PerceptionConfig {
     PerceptionConfig {
         bounds_m: [0.0, 50.0, 0.0, 20.0],
         cell_m: 0.25,
@@ -23,7 +23,7 @@ fn config() -> PerceptionConfig {
 
 /// A 72-sector, 15 m scan from `o` of the circles `(centre, radius)`: each sector the closest
 /// of 11 rays across it (0.5 deg apart), cast analytically, as `OBSTACLE_DISTANCE` carries it.
-fn scan(o: V2, circles: &[(V2, f32)]) -> Scan {
+pub(crate) fn scan(o: V2, circles: &[(V2, f32)]) -> Scan {
     let mut s = Scan::new(o, 0.0, 5f32.to_radians(), 15.0);
     for k in 0..72 {
         let hit = (0..11).map(|u| sector_ray(o, circles, (k as f32 * 5.0 - 2.5 + u as f32 * 0.5).to_radians())).fold(f32::INFINITY, f32::min);

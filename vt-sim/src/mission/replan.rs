@@ -9,11 +9,11 @@
 //! decides for itself whether it switches.
 
 use super::Tick;
-use crate::companion::{on_wire_grid_m, HostCompanion};
+use crate::companion::{HostCompanion, HostReplanning};
 use crate::plan::params_of;
 use crate::scenario::{LoadedScenario, MapKnowledge, SimTube};
-use vt_companion::perception::{designated_planner, hand_over_now, holds_team, Perception, PerceptionConfig, HOLD_AHEAD_M};
-use vt_plan::PlanError;
+use vt_companion::perception::PerceptionConfig;
+use vt_companion::replanning::{Planned, TeamView};
 use vt_tube::Waypoint;
 
 /// From the scan that starts a re-plan to its tube at the team, ms: the flight MCU's budget
@@ -55,15 +55,15 @@ pub struct ReplanStats {
     pub map_ram_bytes: usize,
 }
 
-/// The team's perception (one map per companion) and the tube in transit.
+/// The team's perception: every companion's re-planning (its map, `vt_companion::replanning`)
+/// and the team link's tube in transit. Every decision is the companion crate's; this is the
+/// link: scans relayed, offers delivered [`PLAN_LATENCY_MS`] later, the no-route flag.
 pub struct TeamPerception {
-    maps: Vec<Box<Perception>>,
+    replanning: Vec<HostReplanning>,
     /// A planned tube on its way to the team: (delivery time, waypoints on the wire grid).
     pending: Option<(u32, Vec<Waypoint>)>,
-    /// The tube the planner's companion switched to last, with a version the world follows.
+    /// The tube the team switched to last, with a version the world follows.
     published: Option<(u32, SimTube)>,
-    /// The planner's copy of a planned tube, to check that it holds the team.
-    check: Box<vt_companion::CompanionTube>,
     stats: ReplanStats,
 }
 
@@ -76,49 +76,38 @@ impl TeamPerception {
         let Some(cfg) = perception_config(ls) else {
             return Ok(None);
         };
-        let maps = (0..n)
-            .map(|_| Perception::new(cfg).map(Box::new))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| crate::sim::SimError(format!("onboard map: {e}")))?;
+        let replanning = (0..n).map(|_| HostReplanning::new(cfg)).collect::<Result<Vec<_>, _>>().map_err(|e| crate::sim::SimError(format!("onboard map: {e}")))?;
         let stats = ReplanStats { map_ram_bytes: vt_map::OccupancyGrid::<{ vt_companion::perception::MAP_CELLS }>::ram_bytes(), ..ReplanStats::default() };
-        Ok(Some(Self { maps, pending: None, published: None, check: Box::new(vt_companion::CompanionTube::placeholder()), stats }))
+        Ok(Some(Self { replanning, pending: None, published: None, stats }))
     }
 
-    /// One high-level period: fuse the scans (own, and the team's that reached each UAV),
-    /// hand a tube whose time has come to every companion, and let the designated planner
-    /// re-plan when due. `immediate`: the tube goes out at once (before the start).
+    /// One high-level period (`vt_companion::replanning`'s order): every companion folds the
+    /// scans that reached it (its own, and the team's its link delivered) and watches its
+    /// tube; a tube whose time has come reaches every companion; the designated planner
+    /// re-plans when due. `immediate`: the tube goes out at once (before the start).
     pub fn step(&mut self, tick: &Tick<'_>, uavs: &mut [HostCompanion], immediate: bool) {
         if !tick.high_level {
             return;
         }
         let n = uavs.len();
-        for (i, (map, uav)) in self.maps.iter_mut().zip(uavs.iter()).enumerate() {
-            let tube = uav.get().and_then(|c| c.tube());
-            let load_s = tube.map_or(0.0, |t| load_s(t, tick));
+        let load = tick.load.pos_m;
+        for (i, (r, uav)) in self.replanning.iter_mut().zip(uavs.iter_mut()).enumerate() {
+            let (Some(r), Some(c)) = (r.get_mut(), uav.get_mut()) else {
+                continue;
+            };
             let view = tick.views.get(i);
             for (j, scan) in tick.scans.iter().enumerate() {
                 let reached = j == i || view.and_then(|v| v.get(j)).is_some_and(Option::is_some);
                 if let (Some(scan), true) = (scan, reached) {
-                    map.integrate(scan, tube, load_s);
+                    r.fold(c, scan, &load);
                 }
             }
         }
-        // A companion that declined the last tube takes it as soon as the rule allows (it keeps
-        // the tube until another replaces it).
-        for (uav, map) in uavs.iter_mut().zip(self.maps.iter_mut()) {
-            if uav.retry_offer() {
-                map.handed_over();
-                self.stats.switches += 1;
-            }
-        }
-        // A companion whose own tube is blocked close ahead of it, with no tube it may take,
-        // stops (its own position as it measures it).
-        for ((uav, map), own) in uavs.iter_mut().zip(self.maps.iter()).zip(tick.own) {
-            let stop = uav.get().is_some_and(|c| {
-                c.tube().and_then(|t| t.locate(own.pos_m.xy(), 0)).is_some_and(|sec| map.must_stop(sec.s_m, c.stop_distance_m()))
-            });
-            if let Some(c) = uav.get_mut() {
-                c.set_blocked(stop);
+        for ((r, uav), own) in self.replanning.iter_mut().zip(uavs.iter_mut()).zip(tick.own) {
+            if let (Some(r), Some(c)) = (r.get_mut(), uav.get_mut()) {
+                if r.watch(c, &own.pos_m) {
+                    self.stats.switches += 1;
+                }
             }
         }
         if let Some((at, _)) = &self.pending {
@@ -130,36 +119,17 @@ impl TeamPerception {
         }
         for i in 0..n {
             let healthy = |j: usize| j == i || tick.views.get(i).and_then(|v| v.get(j)).is_some_and(Option::is_some);
-            if designated_planner(n, healthy) != Some(i) {
-                continue;
-            }
-            let (Some(map), Some(c)) = (self.maps.get_mut(i), uavs.get(i).and_then(HostCompanion::get)) else {
+            let team = tick.views.get(i).into_iter().flatten().flatten().map(|p| p.xy());
+            let (Some(r), Some(c)) = (self.replanning.get_mut(i).and_then(HostReplanning::get_mut), uavs.get(i).and_then(HostCompanion::get)) else {
                 continue;
             };
-            let Some(tube) = c.tube() else {
-                continue;
-            };
-            if !map.replan_due(tick.time_ms) {
-                continue;
-            }
-            self.stats.replans += 1;
-            let r = map.replan(tube, &tick.load.pos_m, tick.time_ms);
-            match r {
-                Ok(t) => {
-                    self.stats.planned += 1;
-                    let worth = map.worth_switching(tube, &t, &tick.load.pos_m);
-                    let w: Vec<Waypoint> = t
-                        .waypoints
-                        .iter()
-                        .map(|w| Waypoint::new(wire(w.pos_m.x), wire(w.pos_m.y), w.w_left_m, w.w_right_m))
-                        .collect();
-                    // Whether the planned tube holds the team as the planner sees it.
-                    let team = tick.views.get(i).map(|v| v.iter().flatten().map(|p| p.xy())).into_iter().flatten();
-                    let holds = worth && self.check.rebuild(&w).is_ok() && holds_team(&self.check, team, c.params().r_safe_m());
-                    if !hand_over_now(worth, holds) {
-                        continue;
-                    }
-                    if self.stats.no_route {
+            let planned = r.plan(c, TeamView { id: i, n, healthy, positions_m: team }, &load, tick.time_ms);
+            self.stats.replans += u32::from(planned.replanned());
+            self.stats.planned += u32::from(planned.planned());
+            match planned {
+                Planned::Offer { waypoints, route_again } => {
+                    let w = waypoints.to_vec();
+                    if route_again {
                         self.stats.no_route = false;
                         uavs.iter_mut().filter_map(HostCompanion::get_mut).for_each(|c| {
                             c.set_no_route(false);
@@ -171,32 +141,30 @@ impl TeamPerception {
                         self.pending = Some((tick.time_ms.saturating_add(PLAN_LATENCY_MS), w));
                     }
                 }
-                Err(PlanError::TooNarrow { .. } | PlanError::InsideObstacle { .. }) if map.blocked_ahead_m(load_s(tube, tick)) < HOLD_AHEAD_M => {
-                    // No route on the map as seen, and the tube is blocked close ahead: the
-                    // team holds in place (vt_companion::perception's module docs).
+                Planned::NoRoute => {
                     self.stats.no_route = true;
                     uavs.iter_mut().filter_map(HostCompanion::get_mut).for_each(|c| {
                         c.set_no_route(true);
                     });
                 }
-                Err(_) => {}
+                Planned::Idle | Planned::Kept | Planned::Failed => {}
             }
         }
     }
 
-    /// Offers `w` to every companion; the world measures against the planner's new tube.
+    /// Delivers the offer `w` to every companion; the world measures against it once one
+    /// switched.
     fn hand_over(&mut self, w: &[Waypoint], uavs: &mut [HostCompanion]) {
         let mut any = false;
-        for (uav, map) in uavs.iter_mut().zip(self.maps.iter_mut()) {
-            match uav.offer_tube(w) {
-                Ok(()) => {
-                    // What blocks a tube is measured along the new one from now on; a companion
-                    // that kept its tube keeps what blocks it.
-                    map.handed_over();
-                    self.stats.switches += 1;
-                    any = true;
-                }
-                Err(_) => self.stats.kept += 1,
+        for (r, uav) in self.replanning.iter_mut().zip(uavs.iter_mut()) {
+            let (Some(r), Some(c)) = (r.get_mut(), uav.get_mut()) else {
+                continue;
+            };
+            if r.take_offer(c, w).is_ok() {
+                self.stats.switches += 1;
+                any = true;
+            } else {
+                self.stats.kept += 1;
             }
         }
         if any {
@@ -218,12 +186,3 @@ impl TeamPerception {
     }
 }
 
-/// The load's arc length along `tube` at `tick`, m (0 when it cannot be placed).
-fn load_s(tube: &vt_companion::CompanionTube, tick: &Tick<'_>) -> f32 {
-    tube.locate(tick.load.pos_m.xy(), 0).map_or(0.0, |sec| sec.s_m)
-}
-
-/// A coordinate on the mission protocol's 0.1 mm grid, as the companions rebuild it.
-fn wire(v: f32) -> f32 {
-    on_wire_grid_m(f64::from(v)) as f32
-}

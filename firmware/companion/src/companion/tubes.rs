@@ -16,6 +16,12 @@ impl<'t> Companion<'t> {
         self.core.flight.as_mut().map(|fl| fl.set_no_route(on)).is_some()
     }
 
+    /// Issue 28: the team holds for want of a route ([`Companion::set_no_route`]). False when
+    /// no mission runs.
+    pub fn team_no_route(&self) -> bool {
+        self.core.flight.as_ref().is_some_and(crate::Flight::team_no_route)
+    }
+
     /// Issue 28: how far ahead of this UAV an obstacle in its tube makes it stop, m
     /// ([`crate::perception::stop_distance_m`] of `VT_BODY_R` and `VT_V_MAX`).
     pub fn stop_distance_m(&self) -> f32 {

@@ -1,0 +1,204 @@
+//! Issue 28, aboard: the decisions of in-flight re-planning around one companion's map
+//! ([`Perception`]): which scans it folds, when it stops before what it has seen, whether it
+//! is the team's planner, when it re-plans, what it offers the team, whether it takes an offer,
+//! and when the team holds for want of a route (docs/design.md, "Tubes generated in flight").
+//!
+//! The caller is the perception task: the firmware's, or the simulator standing in for it. It
+//! brings the scans and the team link's offers, and carries [`Planned::Offer`] and the
+//! no-route flag to the team. Every decision is taken here, from what this companion knows.
+//!
+//! One high-level period, in this order (the simulator's SIL team and the firmware's task
+//! alike):
+//! 1. [`Replanning::fold`] every scan that reached this UAV (its own, and those the team link
+//!    relayed, each at its sender's position).
+//! 2. [`Replanning::watch`]: retry a declined offer, and stop before a seen obstacle close
+//!    ahead ([`Perception::must_stop`]).
+//! 3. [`Replanning::take_offer`] for an offer the link delivered.
+//! 4. [`Replanning::plan`]: the designated planner re-plans when due.
+
+use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, HOLD_AHEAD_M};
+use crate::{Companion, CompanionTube, Vec3, MAX_WAYPOINTS};
+use vt_map::Scan;
+use vt_plan::PlanError;
+use vt_tube::Waypoint;
+
+/// What one companion's re-planning keeps between periods: its map, where offers are built,
+/// and the planner's check of its own plans. The storage is borrowed, as the companion's tube
+/// is (about 270 KiB of map and planner work space, two tubes of about 9 KiB).
+pub struct Replanning<'t, 'p> {
+    map: &'p mut Perception,
+    /// Where an offered tube is built before the switch; holds a declined one to retry.
+    spare: &'t mut CompanionTube,
+    /// The spare holds a tube this companion declined.
+    declined: bool,
+    /// The planner builds its plan here to check that it holds the team.
+    check: &'p mut CompanionTube,
+    /// The waypoints of the last plan, on the mission protocol's grid.
+    offer: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
+    /// This companion, as the planner, told the team there is no route.
+    declared_no_route: bool,
+}
+
+/// What a companion knows of its team when it may plan.
+#[derive(Debug, Clone, Copy)]
+pub struct TeamView<H, T> {
+    /// This companion's index in the team.
+    pub id: usize,
+    /// Team size.
+    pub n: usize,
+    /// `healthy(j)`: member `j`'s data is fresh (this companion always is).
+    pub healthy: H,
+    /// The members' last horizontal positions, m (this companion's own included).
+    pub positions_m: T,
+}
+
+/// What [`Replanning::plan`] did this period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Planned<'a> {
+    /// Not the planner, or no re-plan due.
+    Idle,
+    /// Re-planned; the plan is not handed over (not worth a switch, or it leaves a member
+    /// outside).
+    Kept,
+    /// Re-planned: offer these waypoints (mission protocol grid) to every member, this one
+    /// included. `route_again`: the team holds for want of a route and now has one: lift the
+    /// no-route hold.
+    Offer {
+        /// The tube's waypoints.
+        waypoints: &'a [Waypoint],
+        /// Lift the team's no-route hold.
+        route_again: bool,
+    },
+    /// No route on the map as seen, and the tube is blocked close ahead: the team holds in place
+    /// (`HoldReasons::NO_ROUTE`).
+    NoRoute,
+    /// Re-planned without a route, the block (if any) still far ahead: fly on, plan again on
+    /// schedule.
+    Failed,
+}
+
+impl Planned<'_> {
+    /// A re-plan ran this period.
+    pub fn replanned(&self) -> bool {
+        !matches!(self, Planned::Idle)
+    }
+
+    /// The re-plan gave a tube.
+    pub fn planned(&self) -> bool {
+        matches!(self, Planned::Kept | Planned::Offer { .. })
+    }
+}
+
+impl<'t, 'p> Replanning<'t, 'p> {
+    /// Re-planning around `map`, offers built in `spare`, plans checked in `check`.
+    pub fn new(map: &'p mut Perception, spare: &'t mut CompanionTube, check: &'p mut CompanionTube) -> Self {
+        Self { map, spare, declined: false, check, offer: heapless::Vec::new(), declared_no_route: false }
+    }
+
+    /// The map.
+    pub fn map(&self) -> &Perception {
+        self.map
+    }
+
+    /// Gives the storage back: the map, the spare tube, the check tube.
+    pub fn into_parts(self) -> (&'p mut Perception, &'t mut CompanionTube, &'p mut CompanionTube) {
+        (self.map, self.spare, self.check)
+    }
+
+    /// Folds one scan (own, or relayed from a member, its origin that member's position) into
+    /// the map, with the companion's tube and the load at `load_m` for the trigger
+    /// ([`Perception::integrate`]).
+    pub fn fold(&mut self, c: &Companion<'t>, scan: &Scan, load_m: &Vec3) {
+        let tube = c.tube();
+        let load_s = tube.map_or(0.0, |t| load_s(t, load_m));
+        self.map.integrate(scan, tube, load_s);
+    }
+
+    /// Retries a declined offer (true when the companion switched to it now), and stops the
+    /// companion, at `own_m`, while its own tube is blocked closer ahead than it can stop
+    /// ([`Perception::must_stop`], [`Companion::set_blocked`]).
+    pub fn watch(&mut self, c: &mut Companion<'t>, own_m: &Vec3) -> bool {
+        let mut switched = false;
+        if self.declined {
+            switched = c.switch_tube(&mut self.spare).is_ok();
+            self.declined = !switched;
+            if switched {
+                self.map.handed_over();
+            }
+        }
+        let stop = c.tube().and_then(|t| t.locate(own_m.xy(), 0)).is_some_and(|sec| self.map.must_stop(sec.s_m, c.stop_distance_m()));
+        c.set_blocked(stop);
+        switched
+    }
+
+    /// An offer the team link delivered: built in the spare storage, switched to when
+    /// [`crate::perception::accept`] allows; what blocks a tube is then measured along the new
+    /// one.
+    ///
+    /// # Errors
+    /// The tube does not build (`None`), or why the companion kept its tube (it retries at
+    /// every [`Self::watch`]).
+    pub fn take_offer(&mut self, c: &mut Companion<'t>, waypoints: &[Waypoint]) -> Result<(), Option<Keep>> {
+        self.declined = false;
+        self.spare.rebuild(waypoints).map_err(|_| None)?;
+        let r = c.switch_tube(&mut self.spare).map_err(Some);
+        self.declined = r.is_err();
+        if r.is_ok() {
+            self.map.handed_over();
+        }
+        r
+    }
+
+    /// The planner's period: companion `team.id` of `team.n` re-plans when it is the lowest
+    /// healthy id ([`designated_planner`]) and a re-plan is due at `now_ms`, from the load at
+    /// `load_m`. A plan is offered when it is worth a switch and holds every member position
+    /// of `team` by the flown `r_safe`; with no route and the tube blocked within
+    /// [`HOLD_AHEAD_M`] of the load, the team holds.
+    pub fn plan<H, T>(&mut self, c: &Companion<'t>, team: TeamView<H, T>, load_m: &Vec3, now_ms: u32) -> Planned<'_>
+    where
+        H: Fn(usize) -> bool,
+        T: Iterator<Item = vt_tube::Vec2>,
+    {
+        if designated_planner(team.n, team.healthy) != Some(team.id) {
+            return Planned::Idle;
+        }
+        let Some(tube) = c.tube() else {
+            return Planned::Idle;
+        };
+        if !self.map.replan_due(now_ms) {
+            return Planned::Idle;
+        }
+        match self.map.replan(tube, load_m, now_ms) {
+            Ok(t) => {
+                let worth = self.map.worth_switching(tube, &t, load_m);
+                self.offer.clear();
+                for w in &t.waypoints {
+                    let on_grid = Waypoint::new(crate::mission::on_wire_grid_m(w.pos_m.x), crate::mission::on_wire_grid_m(w.pos_m.y), w.w_left_m, w.w_right_m);
+                    // Both hold MAX_WAYPOINTS.
+                    let _ = self.offer.push(on_grid);
+                }
+                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, c.params().r_safe_m());
+                if !hand_over_now(worth, holds) {
+                    return Planned::Kept;
+                }
+                let route_again = self.declared_no_route || c.team_no_route();
+                self.declared_no_route = false;
+                Planned::Offer { waypoints: &self.offer, route_again }
+            }
+            Err(PlanError::TooNarrow { .. } | PlanError::InsideObstacle { .. }) if self.map.blocked_ahead_m(load_s(tube, load_m)) < HOLD_AHEAD_M => {
+                self.declared_no_route = true;
+                Planned::NoRoute
+            }
+            Err(_) => Planned::Failed,
+        }
+    }
+}
+
+/// The load's arc length along `tube`, m (0 when it cannot be placed).
+fn load_s(tube: &CompanionTube, load_m: &Vec3) -> f32 {
+    tube.locate(load_m.xy(), 0).map_or(0.0, |sec| sec.s_m)
+}
+
+#[cfg(test)]
+#[path = "replanning_tests.rs"]
+mod tests;

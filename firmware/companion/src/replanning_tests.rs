@@ -1,0 +1,127 @@
+//! Tests of the re-planning decisions around a companion: the planner's election, an offer
+//! round what the map saw, a declined offer retried, and the no-route hold lifted by a route.
+
+use super::*;
+use crate::companion::Io;
+use crate::mission::{on_wire_grid_m, Item};
+use crate::perception::tests::{config, scan};
+use crate::perception::PerceptionConfig;
+use crate::Source;
+
+type V2 = vt_plan::Vec2;
+
+struct NoLink;
+impl Io for NoLink {
+    fn now_ms(&self) -> u32 {
+        0
+    }
+    fn cycles(&self) -> u32 {
+        0
+    }
+    fn send(&mut self, _frame: &[u8]) {}
+    fn wants_frames(&self) -> bool {
+        false
+    }
+}
+
+/// What companion `id` of `n` knows of its team: `healthy`, and its own UAV at `own` (the
+/// members' positions the plan must hold).
+fn view<H: Fn(usize) -> bool>(id: usize, n: usize, healthy: H, own: Vec3) -> TeamView<H, core::array::IntoIter<V2, 1>> {
+    TeamView { id, n, healthy, positions_m: [own.xy()].into_iter() }
+}
+
+fn leaked_tube() -> &'static mut CompanionTube {
+    Box::leak(Box::new(CompanionTube::placeholder()))
+}
+
+/// A companion flying the straight tube of `perception_tests` (y = 10 m, 3 m each side, x from
+/// 3 to 47 m), its UAV at `own`, the load at `load`.
+fn companion(own: Vec3, load: Vec3) -> Companion<'static> {
+    let mut c = Companion::new(leaked_tube());
+    let item = |seq, east: f32, north: f32| Item::tube_waypoint(seq, (north * 1e4) as i32, (east * 1e4) as i32, 3.0, 3.0);
+    c.upload_tube(&[item(0, 3.0, 10.0), item(1, 47.0, 10.0)], &mut NoLink).unwrap();
+    c.position(Source::Load, load, Vec3::zeros(), 0, &mut NoLink);
+    c.position(Source::Own, own, Vec3::zeros(), 0, &mut NoLink);
+    c
+}
+
+fn replanning(cfg: PerceptionConfig) -> Replanning<'static, 'static> {
+    Replanning::new(Box::leak(Box::new(Perception::new(cfg).unwrap())), leaked_tube(), leaked_tube())
+}
+
+#[test]
+fn only_the_lowest_healthy_id_plans_and_its_offer_goes_round_what_it_saw() {
+    let (own, load) = (Vec3::new(14.0, 10.0, 7.0), Vec3::new(14.0, 10.0, 3.0));
+    let mut c = companion(own, load);
+    let mut r = replanning(config());
+    let rock = (V2::new(20.0, 10.5), 1.5);
+    // The sequence of perception_tests' trigger test: seen from 12 m twice, then from 6 m.
+    for o in [V2::new(8.0, 10.0), V2::new(8.0, 10.0), V2::new(14.0, 10.0), V2::new(14.0, 10.0)] {
+        r.fold(&c, &scan(o, &[rock]), &load);
+    }
+    assert!(r.map().blocked(), "the rock lies in the tube ahead of the load");
+    assert_eq!(r.plan(&c, view(1, 3, |_| true, own), &load, 0), Planned::Idle, "member 1 is not the planner");
+    assert_eq!(r.map().replans(), 0);
+    assert!(r.plan(&c, view(1, 3, |j| j != 0, own), &load, 0).replanned(), "member 0 silent: member 1 plans");
+    // The schedule restarted with that plan; member 0 plans at the next due time.
+    assert_eq!(r.plan(&c, view(0, 3, |_| true, own), &load, 500), Planned::Idle, "not due");
+    let offer: Vec<Waypoint> = match r.plan(&c, view(0, 3, |_| true, own), &load, 1000) {
+        Planned::Offer { waypoints, route_again } => {
+            assert!(!route_again, "the team never held for want of a route");
+            waypoints.to_vec()
+        }
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(r.map().replans(), 2);
+    for w in &offer {
+        assert_eq!(on_wire_grid_m(w.pos_m.x), w.pos_m.x, "on the mission protocol's grid");
+        assert_eq!(on_wire_grid_m(w.pos_m.y), w.pos_m.y);
+    }
+    // A UAV north of the rock lies outside the new tube (it bends south round the rock):
+    // without a dissipative flight to join it widened, it keeps its tube.
+    let north = Vec3::new(20.0, 12.5, 7.0);
+    c.position(Source::Own, north, Vec3::zeros(), 20, &mut NoLink);
+    let old_len = c.tube().unwrap().length_m();
+    assert_eq!(r.take_offer(&mut c, &offer), Err(Some(Keep::OwnOutside)));
+    assert_eq!(c.tube().unwrap().length_m(), old_len, "kept");
+    assert!(!r.watch(&mut c, &north), "still declined from where it is");
+    // Back above the load it may switch: the next watch retries the offer and takes it.
+    c.position(Source::Own, own, Vec3::zeros(), 40, &mut NoLink);
+    assert!(r.watch(&mut c, &own), "the retry switches");
+    let new = c.tube().unwrap();
+    assert!(new.length_m() != old_len && (new.samples()[0].pos_m - offer[0].pos_m).norm() < 1e-3, "flying the offer");
+    assert!(!r.watch(&mut c, &own), "nothing left to retry");
+}
+
+#[test]
+fn with_no_route_close_ahead_the_team_holds_and_a_later_route_lifts_the_hold() {
+    let (own, load) = (Vec3::new(18.0, 10.0, 7.0), Vec3::new(18.0, 10.0, 3.0));
+    let c = companion(own, load);
+    let mut r = replanning(config());
+    // perception_tests' wall of circles across the world at x = 25, 7 m ahead of the load.
+    let wall: Vec<(V2, f32)> = (0..23).map(|k| (V2::new(25.0, k as f32 * 0.9), 0.6)).collect();
+    for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
+        r.fold(&c, &scan(V2::new(18.0, y), &wall), &load);
+    }
+    assert_eq!(r.plan(&c, view(0, 1, |_| true, own), &load, 0), Planned::NoRoute);
+    // The wall goes (seen empty again and again): the next plan finds the straight way, and the
+    // offer lifts the hold the planner declared.
+    for _ in 0..12 {
+        for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
+            r.fold(&c, &scan(V2::new(18.0, y), &[]), &load);
+        }
+    }
+    match r.plan(&c, view(0, 1, |_| true, own), &load, 1000) {
+        Planned::Offer { route_again, .. } => assert!(route_again),
+        other => panic!("{other:?}"),
+    }
+    // The same wall 21 m ahead of the load: no route on the map as seen, but the block is far
+    // enough to fly on and look again (HOLD_AHEAD_M): no hold.
+    let mut far = replanning(config());
+    let wall_far: Vec<(V2, f32)> = (0..23).map(|k| (V2::new(40.0, k as f32 * 0.9), 0.6)).collect();
+    for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
+        far.fold(&c, &scan(V2::new(33.0, y), &wall_far), &load);
+    }
+    assert!(far.map().blocked_ahead_m(15.0) > HOLD_AHEAD_M);
+    assert_eq!(far.plan(&c, view(0, 1, |_| true, own), &load, 0), Planned::Failed);
+}
