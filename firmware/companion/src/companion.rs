@@ -26,9 +26,14 @@ use crate::Vec3;
 use crate::params::{self, Param, ParamError, Params};
 use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 
+#[cfg(feature = "perception")]
+mod aboard;
 mod inputs;
 mod telemetry;
 mod tubes;
+
+#[cfg(feature = "perception")]
+pub use aboard::{ReplanReport, NO_ROUTE_TEXT};
 
 /// Largest accepted position magnitude per axis, m (anything beyond is a corrupt value).
 pub const POSITION_LIMIT_M: f32 = 1.0e5;
@@ -183,6 +188,9 @@ struct Core<'t> {
     beacon: u32,
     /// The last low-level setpoint.
     setpoint: Option<Setpoint>,
+    /// Issue 28: in-flight re-planning, when attached.
+    #[cfg(feature = "perception")]
+    aboard: Option<aboard::Aboard<'t>>,
 }
 
 impl<'t> Companion<'t> {
@@ -215,6 +223,8 @@ impl<'t> Companion<'t> {
                 refusal: 0,
                 beacon: 0,
                 setpoint: None,
+                #[cfg(feature = "perception")]
+                aboard: None,
             },
         }
     }
@@ -271,6 +281,10 @@ impl<'t> Companion<'t> {
             return;
         }
         self.core.clock_ms = io.now_ms();
+        #[cfg(feature = "perception")]
+        if let Some(own) = self.core.sources.own {
+            self.core.perception_step(&own.value.pos_m, io);
+        }
         self.core.high_level(io);
     }
 
@@ -511,6 +525,10 @@ impl Core<'_> {
             }
             MISSION_COUNT_DATA::ID => {
                 let d = decode!(MISSION_COUNT_DATA);
+                #[cfg(feature = "perception")]
+                if self.is_offer(f) {
+                    return self.offer_count(f, &d);
+                }
                 if !self.for_us(d.target_system, d.target_component) {
                     return self.ignored();
                 }
@@ -531,6 +549,10 @@ impl Core<'_> {
                     param1: d.param1,
                     param2: d.param2,
                 };
+                #[cfg(feature = "perception")]
+                if self.is_offer(f) {
+                    return self.offer_item(f, &item);
+                }
                 let reply = if self.flight.is_some() { UploadReply::Refuse(MissionResult::Denied) } else { self.mission.item(&item) };
                 if matches!(reply, UploadReply::Refuse(_)) {
                     self.bad_value();
@@ -562,6 +584,11 @@ impl Core<'_> {
             HEARTBEAT_DATA::ID => {
                 let d = decode!(HEARTBEAT_DATA);
                 self.on_heartbeat(f, &d);
+            }
+            #[cfg(feature = "perception")]
+            mavlink::dialects::common::OBSTACLE_DISTANCE_DATA::ID => {
+                let d = decode!(mavlink::dialects::common::OBSTACLE_DISTANCE_DATA);
+                self.on_obstacle_distance(f, &d);
             }
             _ => self.ignored(),
         }

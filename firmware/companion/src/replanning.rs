@@ -17,10 +17,30 @@
 //! 4. [`Replanning::plan`]: the designated planner re-plans when due.
 
 use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, HOLD_AHEAD_M};
-use crate::{Companion, CompanionTube, Vec3, MAX_WAYPOINTS};
+use crate::{CompanionTube, Vec3, MAX_WAYPOINTS};
 use vt_map::Scan;
 use vt_plan::PlanError;
 use vt_tube::Waypoint;
+
+/// What re-planning needs of the companion it serves ([`crate::Companion`] implements it).
+pub trait Crew<'t> {
+    /// The tube flown (`None`: none yet).
+    fn tube(&self) -> Option<&CompanionTube>;
+    /// Switches to the tube in `candidate` when [`crate::perception::accept`] allows it; on
+    /// success `candidate` holds the old tube's storage.
+    ///
+    /// # Errors
+    /// Why the old tube is kept.
+    fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), Keep>;
+    /// How far ahead an obstacle in the tube makes this UAV stop, m.
+    fn stop_distance_m(&self) -> f32;
+    /// Holds this UAV in place while its own tube is blocked close ahead.
+    fn set_blocked(&mut self, on: bool);
+    /// The tube barrier's safety radius flown, m.
+    fn r_safe_m(&self) -> f32;
+    /// The team holds for want of a route.
+    fn team_no_route(&self) -> bool;
+}
 
 /// What one companion's re-planning keeps between periods: its map, where offers are built,
 /// and the planner's check of its own plans. The storage is borrowed, as the companion's tube
@@ -100,6 +120,11 @@ impl<'t, 'p> Replanning<'t, 'p> {
         self.map
     }
 
+    /// The waypoints of the last plan, on the mission protocol's grid (empty before one).
+    pub fn offer(&self) -> &[Waypoint] {
+        &self.offer
+    }
+
     /// Gives the storage back: the map, the spare tube, the check tube.
     pub fn into_parts(self) -> (&'p mut Perception, &'t mut CompanionTube, &'p mut CompanionTube) {
         (self.map, self.spare, self.check)
@@ -108,7 +133,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// Folds one scan (own, or relayed from a member, its origin that member's position) into
     /// the map, with the companion's tube and the load at `load_m` for the trigger
     /// ([`Perception::integrate`]).
-    pub fn fold(&mut self, c: &Companion<'t>, scan: &Scan, load_m: &Vec3) {
+    pub fn fold(&mut self, c: &impl Crew<'t>, scan: &Scan, load_m: &Vec3) {
         let tube = c.tube();
         let load_s = tube.map_or(0.0, |t| load_s(t, load_m));
         self.map.integrate(scan, tube, load_s);
@@ -116,8 +141,8 @@ impl<'t, 'p> Replanning<'t, 'p> {
 
     /// Retries a declined offer (true when the companion switched to it now), and stops the
     /// companion, at `own_m`, while its own tube is blocked closer ahead than it can stop
-    /// ([`Perception::must_stop`], [`Companion::set_blocked`]).
-    pub fn watch(&mut self, c: &mut Companion<'t>, own_m: &Vec3) -> bool {
+    /// ([`Perception::must_stop`], [`Crew::set_blocked`]).
+    pub fn watch(&mut self, c: &mut impl Crew<'t>, own_m: &Vec3) -> bool {
         let mut switched = false;
         if self.declined {
             switched = c.switch_tube(&mut self.spare).is_ok();
@@ -138,7 +163,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// # Errors
     /// The tube does not build (`None`), or why the companion kept its tube (it retries at
     /// every [`Self::watch`]).
-    pub fn take_offer(&mut self, c: &mut Companion<'t>, waypoints: &[Waypoint]) -> Result<(), Option<Keep>> {
+    pub fn take_offer(&mut self, c: &mut impl Crew<'t>, waypoints: &[Waypoint]) -> Result<(), Option<Keep>> {
         self.declined = false;
         self.spare.rebuild(waypoints).map_err(|_| None)?;
         let r = c.switch_tube(&mut self.spare).map_err(Some);
@@ -154,7 +179,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// `load_m`. A plan is offered when it is worth a switch and holds every member position
     /// of `team` by the flown `r_safe`; with no route and the tube blocked within
     /// [`HOLD_AHEAD_M`] of the load, the team holds.
-    pub fn plan<H, T>(&mut self, c: &Companion<'t>, team: TeamView<H, T>, load_m: &Vec3, now_ms: u32) -> Planned<'_>
+    pub fn plan<H, T>(&mut self, c: &impl Crew<'t>, team: TeamView<H, T>, load_m: &Vec3, now_ms: u32) -> Planned<'_>
     where
         H: Fn(usize) -> bool,
         T: Iterator<Item = vt_tube::Vec2>,
@@ -177,7 +202,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
                     // Both hold MAX_WAYPOINTS.
                     let _ = self.offer.push(on_grid);
                 }
-                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, c.params().r_safe_m());
+                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, c.r_safe_m());
                 if !hand_over_now(worth, holds) {
                     return Planned::Kept;
                 }

@@ -6,7 +6,7 @@ use crate::companion::Io;
 use crate::mission::{on_wire_grid_m, Item};
 use crate::perception::tests::{config, scan};
 use crate::perception::PerceptionConfig;
-use crate::Source;
+use crate::{Companion, Source};
 
 type V2 = vt_plan::Vec2;
 

@@ -69,10 +69,15 @@ impl Core<'_> {
                     }
                     if lockstep {
                         self.clock_ms = stamp_ms;
+                        // Before the mission: the team's first tube is planned and taken.
+                        #[cfg(feature = "perception")]
+                        self.preflight_period(&pos, io);
                     }
                 }
             }
             Source::Load => {
+                #[cfg(feature = "perception")]
+                self.note_team_data();
                 self.sources.load = Some(state);
                 if surveying {
                     self.sources.survey.push_load(&pos);
@@ -83,6 +88,8 @@ impl Core<'_> {
                 match self.sources.neighbours.get_mut(j) {
                     Some(slot) if j < n => {
                         *slot = Some(Stamped { value: pos, stamp_ms });
+                        #[cfg(feature = "perception")]
+                        self.note_team_data();
                         if surveying {
                             self.sources.survey.push_member(j, &pos);
                         }
@@ -134,6 +141,10 @@ impl Core<'_> {
             self.clock_ms = time_boot_ms;
             if self.flight.is_some() {
                 if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+                    #[cfg(feature = "perception")]
+                    if let Some(own) = self.sources.own {
+                        self.perception_step(&own.value.pos_m, io);
+                    }
                     self.high_level(io);
                 }
                 self.low_level(io);
@@ -147,6 +158,10 @@ impl Core<'_> {
     /// runs with its velocity.
     pub(super) fn lockstep_tick(&mut self, own: Stamped<State>, io: &mut impl Io) {
         if self.flight.as_ref().is_some_and(Flight::high_level_due) {
+            // Issue 28: the perception step sees this period's own position (its stop and the
+            // team it must hold), the high level the one it was sampled with.
+            #[cfg(feature = "perception")]
+            self.perception_step(&own.value.pos_m, io);
             self.high_level(io);
         }
         self.sources.own = Some(own);

@@ -1,7 +1,8 @@
 //! Issue 28: the tube a companion flies when its team re-plans in flight: what it flies now,
 //! the switch to a re-planned tube under `perception::accept`, and the no-route hold.
 
-use super::Companion;
+use super::{Companion, Core};
+use crate::replanning::Crew;
 use crate::{CompanionTube, Param};
 
 impl<'t> Companion<'t> {
@@ -25,8 +26,7 @@ impl<'t> Companion<'t> {
     /// Issue 28: how far ahead of this UAV an obstacle in its tube makes it stop, m
     /// ([`crate::perception::stop_distance_m`] of `VT_BODY_R` and `VT_V_MAX`).
     pub fn stop_distance_m(&self) -> f32 {
-        let p = &self.core.params;
-        crate::perception::stop_distance_m(p.get(crate::params::Param::BodyR), p.get(crate::params::Param::VMax))
+        self.core.stop_distance_m()
     }
 
     /// Issue 28: this UAV's own tube is blocked close ahead and it has no tube it may take
@@ -44,32 +44,86 @@ impl<'t> Companion<'t> {
     /// # Errors
     /// Why the old tube is kept (no own or load position yet counts as outside).
     pub fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
+        self.core.switch_tube(candidate)
+    }
+}
+
+impl<'t> Core<'t> {
+    /// [`Companion::switch_tube`].
+    pub(super) fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
         use crate::perception::{accept_joining, Keep};
-        let core = &mut self.core;
-        let own = core.sources.own.map(|s| s.value.pos_m).ok_or(Keep::OwnOutside)?;
-        let load = core.sources.load.map(|s| s.value.pos_m).ok_or(Keep::LoadOutside)?;
-        let r_safe = core.params.r_safe_m();
-        let band_mid = 0.5 * (r_safe + core.params.get(Param::RActive));
-        let verdict = accept_joining(candidate, core.tube_ok.then_some(&*core.tube), &own, &load, r_safe, band_mid);
+        let own = self.sources.own.map(|s| s.value.pos_m).ok_or(Keep::OwnOutside)?;
+        let load = self.sources.load.map(|s| s.value.pos_m).ok_or(Keep::LoadOutside)?;
+        let r_safe = self.params.r_safe_m();
+        let band_mid = 0.5 * (r_safe + self.params.get(Param::RActive));
+        let verdict = accept_joining(candidate, self.tube_ok.then_some(&*self.tube), &own, &load, r_safe, band_mid);
         // A UAV outside the new tube joins it widened when its controller can (the dissipative
         // one); otherwise it keeps its old tube.
         let joined = match verdict {
             Ok(false) => false,
-            Ok(true) if core.flight.as_mut().is_some_and(|fl| fl.tube_joined()) => true,
+            Ok(true) if self.flight.as_mut().is_some_and(|fl| fl.tube_joined()) => true,
             other => {
-                if let Some(fl) = core.flight.as_mut() {
+                if let Some(fl) = self.flight.as_mut() {
                     fl.tube_declined();
                 }
                 return Err(other.err().unwrap_or(Keep::OwnOutside));
             }
         };
-        core::mem::swap(&mut core.tube, candidate);
-        core.tube_ok = true;
+        core::mem::swap(&mut self.tube, candidate);
+        self.tube_ok = true;
         if !joined {
-            if let Some(fl) = core.flight.as_mut() {
+            if let Some(fl) = self.flight.as_mut() {
                 fl.tube_switched();
             }
         }
         Ok(())
+    }
+
+    fn stop_distance_m(&self) -> f32 {
+        crate::perception::stop_distance_m(self.params.get(Param::BodyR), self.params.get(Param::VMax))
+    }
+}
+
+impl<'t> Crew<'t> for Core<'t> {
+    fn tube(&self) -> Option<&CompanionTube> {
+        Core::tube(self)
+    }
+    fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
+        Core::switch_tube(self, candidate)
+    }
+    fn stop_distance_m(&self) -> f32 {
+        Core::stop_distance_m(self)
+    }
+    fn set_blocked(&mut self, on: bool) {
+        if let Some(fl) = self.flight.as_mut() {
+            fl.set_blocked(on);
+        }
+    }
+    fn r_safe_m(&self) -> f32 {
+        self.params.r_safe_m()
+    }
+    fn team_no_route(&self) -> bool {
+        self.flight.as_ref().is_some_and(crate::Flight::team_no_route)
+    }
+}
+
+impl<'t> Crew<'t> for Companion<'t> {
+    fn tube(&self) -> Option<&CompanionTube> {
+        self.core.tube()
+    }
+    fn switch_tube(&mut self, candidate: &mut &'t mut CompanionTube) -> Result<(), crate::perception::Keep> {
+        self.core.switch_tube(candidate)
+    }
+    fn stop_distance_m(&self) -> f32 {
+        self.core.stop_distance_m()
+    }
+    fn set_blocked(&mut self, on: bool) {
+        Crew::set_blocked(&mut self.core, on);
+    }
+    fn r_safe_m(&self) -> f32 {
+        self.core.params.r_safe_m()
+    }
+    fn team_no_route(&self) -> bool {
+        Crew::team_no_route(&self.core)
     }
 }

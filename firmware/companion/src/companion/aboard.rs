@@ -1,0 +1,300 @@
+//! Issue 28 aboard (feature `perception`): the companion's side of in-flight re-planning
+//! around its [`Replanning`] (docs/design.md, "Tubes generated in flight"; docs/protocol.md,
+//! "Tubes re-planned in flight").
+//!
+//! - **Scans.** `OBSTACLE_DISTANCE` from the own system is this UAV's LiDAR, placed at the own
+//!   position the companion holds; from a member's system (the team network relays it), that
+//!   member's LiDAR, placed at the member's last position. Each is folded into the map on
+//!   receipt.
+//! - **Offers.** The planner pushes its tube to the team: `MISSION_COUNT` then every
+//!   `MISSION_ITEM_INT`, broadcast (target system 0), from its companion (component 191),
+//!   without the ground station's requests. A broadcast reaches its sender too, as a UDP
+//!   broadcast does, so the planner takes its own offer as the others do. A complete offer
+//!   waits for the next perception step; each member answers `MISSION_ACK` (accepted, or
+//!   denied: it keeps its tube, and retries).
+//! - **The perception step** runs before each high-level step (and, before the mission, at each
+//!   own state): the watch, an offer, the planner's re-plan ([`Replanning`]'s order).
+//! - **No route.** The planner holds with `HoldReasons::NO_ROUTE` and says so in a
+//!   `STATUSTEXT`; the team follows through the team failsafe (its heartbeat in `Hold`).
+
+use mavlink::dialects::common::{
+    MavFrame, MavMissionResult, MavSeverity, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    OBSTACLE_DISTANCE_DATA, STATUSTEXT_DATA,
+};
+
+use super::{Companion, Core, Io, Source};
+use crate::framer::Frame;
+use crate::mission::{wire_units, Item, MissionUpload, UploadReply};
+use crate::params::Param;
+use crate::replanning::{Planned, Replanning, TeamView};
+use crate::{Vec3, COMPANION_COMPONENT_ID, MAX_UAVS};
+use vt_map::Scan;
+use vt_tube::Waypoint;
+
+/// `STATUSTEXT` of a planner that found no route (the team holds).
+pub const NO_ROUTE_TEXT: &str = "no route to the goal on the map as seen: holding";
+
+/// The companion's re-planning and its link state.
+pub(super) struct Aboard<'t> {
+    replanning: Replanning<'t, 't>,
+    /// An offer being received.
+    incoming: MissionUpload,
+    /// The system id the incoming offer comes from.
+    incoming_from: u8,
+    /// A complete offer waits for the next perception step.
+    offer_ready: bool,
+    /// What happened since the owner last looked ([`Companion::take_replan_report`]).
+    report: ReplanReport,
+    /// Team data (the load's or a member's state) arrived in the current period.
+    team_data: bool,
+}
+
+/// What a companion's re-planning did since it was last asked, and an offer to relay.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReplanReport {
+    /// Re-plans started.
+    pub replans: u32,
+    /// Re-plans that gave a tube.
+    pub planned: u32,
+    /// Switches to an offered tube (a retry included).
+    pub switches: u32,
+    /// Offers declined (the tube kept).
+    pub kept: u32,
+    /// The last re-plan's tube went out as an offer ([`Companion::offer_sent`] holds it).
+    pub offered: bool,
+    /// `Some(true)`: this planner found no route and holds; `Some(false)`: a route again.
+    pub no_route: Option<bool>,
+}
+
+impl<'t> Companion<'t> {
+    /// Issue 28: flies with in-flight re-planning around `r` (its map and tubes); the previous
+    /// one, if any, is given back.
+    pub fn attach_replanning(&mut self, r: Replanning<'t, 't>) -> Option<Replanning<'t, 't>> {
+        let old = self.core.aboard.take().map(|a| a.replanning);
+        self.core.aboard = Some(Aboard { replanning: r, incoming: MissionUpload::new(), incoming_from: 0, offer_ready: false, report: ReplanReport::default(), team_data: false });
+        old
+    }
+
+    /// Gives the re-planning's storage back.
+    pub fn detach_replanning(&mut self) -> Option<Replanning<'t, 't>> {
+        self.core.aboard.take().map(|a| a.replanning)
+    }
+
+    /// The re-planning, if attached.
+    pub fn replanning(&self) -> Option<&Replanning<'t, 't>> {
+        self.core.aboard.as_ref().map(|a| &a.replanning)
+    }
+
+    /// A range scan from `from`'s LiDAR (own, or a member's relayed by the team network): folded
+    /// at that UAV's last position as this companion knows it (dropped when it knows none).
+    /// What an `OBSTACLE_DISTANCE` frame does once its ids are mapped.
+    pub fn scan(&mut self, from: Source, scan: &Scan) {
+        self.core.fold_scan(from, scan);
+    }
+
+    /// A member's tube offer (the team network's push, already decoded): taken, or declined,
+    /// at the next perception step. What a complete `MISSION_COUNT` + `MISSION_ITEM_INT` push
+    /// does.
+    pub fn offer(&mut self, waypoints: &[Waypoint]) {
+        if let Some(a) = self.core.aboard.as_mut() {
+            a.incoming.clear();
+            let _ = a.incoming.begin(u16::try_from(waypoints.len()).unwrap_or(u16::MAX));
+            for (k, w) in waypoints.iter().enumerate() {
+                let (Some(x), Some(y)) = (wire_units(w.pos_m.y), wire_units(w.pos_m.x)) else {
+                    a.incoming.clear();
+                    return;
+                };
+                let _ = a.incoming.item(&Item::tube_waypoint(k as u16, x, y, w.w_left_m, w.w_right_m));
+            }
+            a.offer_ready = a.incoming.waypoints().len() == waypoints.len() && !waypoints.is_empty();
+        }
+    }
+
+    /// The tube of the last offer this companion sent as the planner (its waypoints).
+    pub fn offer_sent(&self) -> Option<&[Waypoint]> {
+        self.core.aboard.as_ref().map(|a| a.replanning.offer()).filter(|w| !w.is_empty())
+    }
+
+    /// What the re-planning did since the last call (the simulator's figures; an offer to
+    /// relay when it has no frames).
+    pub fn take_replan_report(&mut self) -> ReplanReport {
+        self.core.aboard.as_mut().map(|a| core::mem::take(&mut a.report)).unwrap_or_default()
+    }
+}
+
+impl<'t> Core<'t> {
+    /// The load's or a member's state arrived in this period.
+    pub(super) fn note_team_data(&mut self) {
+        if let Some(a) = self.aboard.as_mut() {
+            a.team_data = true;
+        }
+    }
+
+    /// Before the mission, in lockstep: the own state `own_m` closes a period; the perception
+    /// step runs when the period brought team data (a high-level period: between them the
+    /// members' positions are stale by `FS_NBR_TMO`, and every member would take itself for the
+    /// planner).
+    pub(super) fn preflight_period(&mut self, own_m: &Vec3, io: &mut impl Io) {
+        let due = self.aboard.as_mut().is_some_and(|a| core::mem::take(&mut a.team_data));
+        if due {
+            self.perception_step(own_m, io);
+        }
+    }
+
+    /// Folds `scan` at `from`'s last position (module docs).
+    pub(super) fn fold_scan(&mut self, from: Source, scan: &Scan) {
+        let origin = match from {
+            Source::Own => self.sources.own.map(|s| s.value.pos_m),
+            Source::Member(j) => self.sources.neighbours.get(j).copied().flatten().map(|s| s.value),
+            Source::Load => None,
+        };
+        let Some(origin) = origin else {
+            return;
+        };
+        let Some(mut a) = self.aboard.take() else {
+            return;
+        };
+        let load = self.sources.load.map_or(Vec3::zeros(), |s| s.value.pos_m);
+        let mut placed = scan.clone();
+        placed.origin_m = origin.xy();
+        a.replanning.fold(self, &placed, &load);
+        self.aboard = Some(a);
+    }
+
+    /// `OBSTACLE_DISTANCE`: the own LiDAR's, or a member's relayed.
+    pub(super) fn on_obstacle_distance(&mut self, f: &Frame<'_>, d: &OBSTACLE_DISTANCE_DATA) {
+        let Some(from) = self.team_source(f.system_id) else {
+            return self.ignored();
+        };
+        let origin = Vec3::zeros(); // replaced by the sender's position in `fold_scan`
+        match crate::scans::decode(d, &origin) {
+            Some(scan) => self.fold_scan(from, &scan),
+            None => self.bad_value(),
+        }
+    }
+
+    /// The own system, or team member `j`'s (`VT_SYSID_BASE + j`).
+    fn team_source(&self, system_id: u8) -> Option<Source> {
+        if system_id == self.own_system_id() {
+            return Some(Source::Own);
+        }
+        let j = u32::from(system_id).wrapping_sub(self.params.get_u32(Param::SysidBase)) as usize;
+        (j < self.params.get_u32(Param::NUavs) as usize).then_some(Source::Member(j))
+    }
+
+    /// Whether a mission frame is a team member's offer push (its companion, any team system,
+    /// this one included), not a ground station's upload.
+    pub(super) fn is_offer(&self, f: &Frame<'_>) -> bool {
+        self.aboard.is_some() && f.component_id == COMPANION_COMPONENT_ID && self.team_source(f.system_id).is_some()
+    }
+
+    /// An offer's `MISSION_COUNT`.
+    pub(super) fn offer_count(&mut self, f: &Frame<'_>, d: &MISSION_COUNT_DATA) {
+        if let Some(a) = self.aboard.as_mut() {
+            a.incoming_from = f.system_id;
+            a.offer_ready = false;
+            if !matches!(a.incoming.begin(d.count), UploadReply::Request(_)) {
+                self.bad_value();
+            }
+        }
+    }
+
+    /// An offer's `MISSION_ITEM_INT` (from the sender of its `MISSION_COUNT`).
+    pub(super) fn offer_item(&mut self, f: &Frame<'_>, it: &Item) {
+        let Some(a) = self.aboard.as_mut() else {
+            return;
+        };
+        if f.system_id != a.incoming_from {
+            return self.ignored();
+        }
+        match a.incoming.item(it) {
+            UploadReply::Complete => a.offer_ready = true,
+            UploadReply::Request(_) => {}
+            UploadReply::Nothing => self.ignored(),
+            UploadReply::Refuse(_) => self.bad_value(),
+        }
+    }
+
+    /// The perception step before a high-level step (module docs), with the own position
+    /// `own_m` of this period.
+    pub(super) fn perception_step(&mut self, own_m: &Vec3, io: &mut impl Io) {
+        let Some(mut a) = self.aboard.take() else {
+            return;
+        };
+        if a.replanning.watch(self, own_m) {
+            a.report.switches += 1;
+        }
+        if a.offer_ready {
+            a.offer_ready = false;
+            let taken = a.replanning.take_offer(self, a.incoming.waypoints());
+            match taken {
+                Ok(()) => a.report.switches += 1,
+                Err(_) => a.report.kept += 1,
+            }
+            let mavtype = if taken.is_ok() { MavMissionResult::MAV_MISSION_ACCEPTED } else { MavMissionResult::MAV_MISSION_DENIED };
+            self.send(io, &MISSION_ACK_DATA { target_system: a.incoming_from, target_component: COMPANION_COMPONENT_ID, mavtype });
+        }
+        let now = self.clock_ms;
+        let (id, n) = (self.params.get_u32(Param::Id) as usize, (self.params.get_u32(Param::NUavs) as usize).min(MAX_UAVS));
+        let timeout = self.params.timeout_ms(Param::FsNbrTmo);
+        let neighbours = &self.sources.neighbours;
+        let fresh = |j: usize| neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now, timeout));
+        let healthy = |j: usize| j == id || fresh(j).is_some();
+        let positions_m = (0..n).filter_map(|j| if j == id { Some(*own_m) } else { fresh(j) }).map(|p| p.xy());
+        let load = self.sources.load.map_or(Vec3::zeros(), |s| s.value.pos_m);
+        let planned = a.replanning.plan(&*self, TeamView { id, n, healthy, positions_m }, &load, now);
+        a.report.replans += u32::from(planned.replanned());
+        a.report.planned += u32::from(planned.planned());
+        match planned {
+            Planned::Offer { waypoints, route_again } => {
+                a.report.offered = true;
+                if route_again {
+                    a.report.no_route = Some(false);
+                    if let Some(fl) = self.flight.as_mut() {
+                        fl.set_no_route(false);
+                    }
+                }
+                self.send_offer(waypoints, io);
+            }
+            Planned::NoRoute => {
+                a.report.no_route = Some(true);
+                if let Some(fl) = self.flight.as_mut() {
+                    fl.set_no_route(true);
+                }
+                let mut line = crate::refusal::Line::new();
+                line.push(NO_ROUTE_TEXT);
+                self.send(io, &STATUSTEXT_DATA { severity: MavSeverity::MAV_SEVERITY_WARNING, text: line.bytes().into() });
+            }
+            Planned::Idle | Planned::Kept | Planned::Failed => {}
+        }
+        self.aboard = Some(a);
+    }
+
+    /// The planner's push of `waypoints` to the team (module docs).
+    fn send_offer(&mut self, waypoints: &[Waypoint], io: &mut impl Io) {
+        let count = u16::try_from(waypoints.len()).unwrap_or(u16::MAX);
+        self.send(io, &MISSION_COUNT_DATA { count, target_system: 0, target_component: 0 });
+        for (seq, w) in (0..count).zip(waypoints) {
+            let (Some(x), Some(y)) = (wire_units(w.pos_m.y), wire_units(w.pos_m.x)) else {
+                return;
+            };
+            let item = MISSION_ITEM_INT_DATA {
+                param1: w.w_left_m,
+                param2: w.w_right_m,
+                x,
+                y,
+                seq,
+                command: mavlink::dialects::common::MavCmd::MAV_CMD_NAV_WAYPOINT,
+                target_system: 0,
+                target_component: 0,
+                frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                ..MISSION_ITEM_INT_DATA::DEFAULT
+            };
+            self.send(io, &item);
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "aboard_tests.rs"]
+mod tests;
