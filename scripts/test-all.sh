@@ -64,7 +64,8 @@ cargo clippy --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipati
 
 echo "== firmware companion unit tests (host build of the firmware's logic)"
 host_triple=$(rustc -vV | sed -n 's/^host: //p')
-(cd firmware && cargo test --profile ci -p vt-companion --features std,perception --target "$host_triple")
+(cd firmware && cargo clippy -p vt-companion --features std,perception --target "$host_triple" --all-targets -- -D warnings \
+  && cargo test --profile ci -p vt-companion --features std,perception --target "$host_triple")
 
 echo "== tests (unit, property, doc, closed-loop acceptance, link fuzz, PIL in QEMU, replay in Chromium, MCAP)"
 VT_REQUIRE_QEMU=1 VT_REQUIRE_CHROMIUM=1 VT_REQUIRE_ROTORPY=1 cargo test --workspace --profile ci

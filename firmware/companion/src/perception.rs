@@ -110,6 +110,8 @@ pub struct Perception {
     next_plan_ms: u32,
     last_plan_ms: Option<u32>,
     replans: u32,
+    /// How far behind the load the last re-plan started, m.
+    backoff_m: f32,
 }
 
 impl Perception {
@@ -151,6 +153,7 @@ impl Perception {
             next_plan_ms: 0,
             last_plan_ms: None,
             replans: 0,
+            backoff_m: BACKOFF_M,
         }
     }
 
@@ -252,11 +255,21 @@ impl Perception {
     /// # Errors
     /// The planner's: no route (the team holds), a start inside an obstacle.
     pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32) -> Result<PlannedTube, PlanError> {
+        self.replan_from(tube, load_m, BACKOFF_M, now_ms)
+    }
+
+    /// [`Self::replan`] from `backoff_m` behind the load along `tube` (0: from the load's
+    /// section).
+    ///
+    /// # Errors
+    /// As [`Self::replan`].
+    pub fn replan_from(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32) -> Result<PlannedTube, PlanError> {
         self.blocked = false;
+        self.backoff_m = backoff_m;
         self.last_plan_ms = Some(now_ms);
         self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
         self.replans = self.replans.saturating_add(1);
-        let start = start_point(tube, load_m);
+        let start = start_point_at(tube, load_m, backoff_m);
         let (w, h) = self.map.write_planner_cells(PLAN_COARSEN, &mut self.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
         let cells = self.plan_cells.get_mut(..w * h).ok_or(PlanError::BadParams { field: "plan cells" })?;
         vt_plan::distance_transform(cells, w, h, &mut self.line, &mut self.envelope, &mut self.breaks)?;
@@ -280,7 +293,7 @@ impl Perception {
         let len: f32 = planned.waypoints.windows(2).map(|w| match w {
             [a, b] => (b.pos_m - a.pos_m).norm(),
             _ => 0.0,
-        }).sum::<f32>() - BACKOFF_M;
+        }).sum::<f32>() - self.backoff_m;
         self.blocked_s_m.is_finite() || len < (1.0 - SHORTER_TO_SWITCH) * remaining
     }
 
@@ -337,8 +350,13 @@ pub const SPREAD_RANGE_M: f32 = 6.0;
 /// Where a re-planned tube starts: the current tube's generator [`BACKOFF_M`] behind the
 /// load's section (its start when the load is nearer to it).
 pub fn start_point(tube: &CompanionTube, load_m: &Vec3) -> vt_plan::Vec2 {
+    start_point_at(tube, load_m, BACKOFF_M)
+}
+
+/// [`start_point`] `backoff_m` behind the load's section.
+pub fn start_point_at(tube: &CompanionTube, load_m: &Vec3, backoff_m: f32) -> vt_plan::Vec2 {
     let s = tube.locate(load_m.xy(), 0).map_or(0.0, |sec| sec.s_m);
-    let k = libm::floorf((s - BACKOFF_M).max(0.0) / tube.ds_m().max(f32::MIN_POSITIVE)) as usize;
+    let k = libm::floorf((s - backoff_m).max(0.0) / tube.ds_m().max(f32::MIN_POSITIVE)) as usize;
     let samples = tube.samples();
     samples.get(k.min(samples.len().saturating_sub(1))).map_or(load_m.xy(), |p| p.pos_m)
 }

@@ -16,7 +16,7 @@
 //! 3. [`Replanning::take_offer`] for an offer the link delivered.
 //! 4. [`Replanning::plan`]: the designated planner re-plans when due.
 
-use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, HOLD_AHEAD_M};
+use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, BACKOFF_M, HOLD_AHEAD_M};
 use crate::{CompanionTube, Vec3, MAX_WAYPOINTS};
 use vt_map::Scan;
 use vt_plan::PlanError;
@@ -57,6 +57,9 @@ pub struct Replanning<'t, 'p> {
     offer: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
     /// This companion, as the planner, told the team there is no route.
     declared_no_route: bool,
+    /// The next re-plan starts at the load's section, not [`crate::perception::BACKOFF_M`]
+    /// behind it: the last one was needed but left a member outside.
+    from_load: bool,
 }
 
 /// What a companion knows of its team when it may plan.
@@ -112,7 +115,7 @@ impl Planned<'_> {
 impl<'t, 'p> Replanning<'t, 'p> {
     /// Re-planning around `map`, offers built in `spare`, plans checked in `check`.
     pub fn new(map: &'p mut Perception, spare: &'t mut CompanionTube, check: &'p mut CompanionTube) -> Self {
-        Self { map, spare, declined: false, check, offer: heapless::Vec::new(), declared_no_route: false }
+        Self { map, spare, declined: false, check, offer: heapless::Vec::new(), declared_no_route: false, from_load: false }
     }
 
     /// The map.
@@ -193,7 +196,8 @@ impl<'t, 'p> Replanning<'t, 'p> {
         if !self.map.replan_due(now_ms) {
             return Planned::Idle;
         }
-        match self.map.replan(tube, load_m, now_ms) {
+        let backoff = if core::mem::take(&mut self.from_load) { 0.0 } else { BACKOFF_M };
+        match self.map.replan_from(tube, load_m, backoff, now_ms) {
             Ok(t) => {
                 let worth = self.map.worth_switching(tube, &t, load_m);
                 self.offer.clear();
@@ -204,6 +208,10 @@ impl<'t, 'p> Replanning<'t, 'p> {
                 }
                 let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, c.r_safe_m());
                 if !hand_over_now(worth, holds) {
+                    // Needed but a member is outside it: the team stands ahead of the back-off
+                    // point where the new route leaves the old one. The next plan starts at the
+                    // load, whose start disc holds the formation around it.
+                    self.from_load = worth && backoff > 0.0;
                     return Planned::Kept;
                 }
                 let route_again = self.declared_no_route || c.team_no_route();

@@ -125,3 +125,27 @@ fn with_no_route_close_ahead_the_team_holds_and_a_later_route_lifts_the_hold() {
     assert!(far.map().blocked_ahead_m(15.0) > HOLD_AHEAD_M);
     assert_eq!(far.plan(&c, view(0, 1, |_| true, own), &load, 0), Planned::Failed);
 }
+
+#[test]
+fn a_needed_plan_that_leaves_a_member_outside_is_followed_by_one_from_the_load() {
+    let (own, load) = (Vec3::new(14.0, 10.0, 7.0), Vec3::new(14.0, 10.0, 3.0));
+    let c = companion(own, load);
+    let mut r = replanning(config());
+    let rock = (V2::new(20.0, 10.5), 1.5);
+    for o in [V2::new(8.0, 10.0), V2::new(8.0, 10.0), V2::new(14.0, 10.0), V2::new(14.0, 10.0)] {
+        r.fold(&c, &scan(o, &[rock]), &load);
+    }
+    // A member 1 m beyond the tube's north edge: the plan, needed (the rock), is kept.
+    let outside = TeamView { id: 0, n: 2, healthy: |_: usize| true, positions_m: [own.xy(), V2::new(14.0, 14.0)].into_iter() };
+    assert_eq!(r.plan(&c, outside, &load, 0), Planned::Kept);
+    assert!((r.offer()[0].pos_m - V2::new(10.0, 10.0)).norm() < 0.3, "the first plan starts 4 m behind the load: {:?}", r.offer()[0].pos_m);
+    // The next starts at the load's section; the one after that behind it again.
+    let first = |r: &mut Replanning<'static, 'static>, t| match r.plan(&c, view(0, 1, |_| true, own), &load, t) {
+        Planned::Offer { waypoints, .. } => waypoints[0].pos_m,
+        other => panic!("{other:?}"),
+    };
+    let p = first(&mut r, 1000);
+    assert!((p - V2::new(14.0, 10.0)).norm() < 0.3, "from the load: {p:?}");
+    let p = first(&mut r, 2000);
+    assert!((p - V2::new(10.0, 10.0)).norm() < 0.3, "back to the back-off point: {p:?}");
+}
