@@ -84,8 +84,9 @@ fn the_mavlink_backends_refuse_an_unknown_map_by_name() {
 /// is blocked close ahead stops: `Perception::must_stop`), no run leaves the team's tube (5-6
 /// of 40 did while tubes that left a member outside were handed over), and the solvable
 /// fields succeed with
-/// their floors at least as often as they do today (measured 16 of 25, 0.64, on 2026-11-26;
-/// docs/robustness.md, "Perception campaign").
+/// their floors at least as often as they do today, less one field (measured 18 of 25, 0.72, on
+/// 2026-11-28, after the re-plan from the load; 16 of 25 before; docs/robustness.md,
+/// "Perception campaign").
 #[test]
 fn unknown_forests_are_flown_where_a_route_exists_and_never_where_none_does() {
     use host_sim::campaign::{self, forest::Verdict};
@@ -116,6 +117,6 @@ fn unknown_forests_are_flown_where_a_route_exists_and_never_where_none_does() {
     assert_eq!(st.contacts, 0, "a body, the load or a cable touched a trunk (closest {} m)", st.min_obstacle_clearance_m);
     // No tube that leaves a member outside is handed over (`perception::hand_over_now`).
     assert_eq!(st.out_of_tube, 0, "runs where a UAV centre or the load crossed the team's tube");
-    assert!(st.solvable_success_rate >= 0.6, "solvable fields: {} of {}", st.solvable_successes, st.solvable);
+    assert!(st.solvable_success_rate >= 0.68, "solvable fields: {} of {}", st.solvable_successes, st.solvable);
     let _ = std::fs::remove_dir_all(&dir);
 }
