@@ -723,4 +723,4 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
 
 #[cfg(test)]
 #[path = "flight_tests.rs"]
-mod tests;
+pub(crate) mod tests;

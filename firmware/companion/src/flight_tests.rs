@@ -222,7 +222,7 @@ fn stale_own_state_holds_with_zero_command_and_the_velocity_loops_failsafe() {
     assert_eq!(modes, [TeamMode::TeamHold; 4].into_iter().chain([TeamMode::Transport; 2]).collect::<Vec<_>>());
 }
 
-mod wire {
+pub(crate) mod wire {
     //! The same logic through the companion's MAVLink interface: a relayed `HEARTBEAT` in
     //! hold from a team member's companion, and the lockstep clock without own state.
     use crate::companion::{Companion, Io, Mode};
@@ -231,7 +231,8 @@ mod wire {
     use mavlink::dialects::common::*;
     use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 
-    struct TestIo(Vec<u8>);
+    /// A link that keeps what the companion sends.
+    pub(crate) struct TestIo(pub(crate) Vec<u8>);
     impl Io for TestIo {
         fn now_ms(&self) -> u32 {
             0
@@ -244,13 +245,15 @@ mod wire {
         }
     }
 
-    fn frame<D: MessageData>(sys: u8, comp: u8, d: &D) -> Vec<u8> {
+    /// `d` as one MAVLink 2 frame from (`sys`, `comp`).
+    pub(crate) fn frame<D: MessageData>(sys: u8, comp: u8, d: &D) -> Vec<u8> {
         let mut raw = MAVLinkV2MessageRaw::new();
         raw.serialize_message_data(MavHeader { system_id: u32::from(sys), component_id: comp, sequence: 0 }, d);
         raw.raw_bytes().to_vec()
     }
 
-    fn lpn(t: u32, p: &crate::Vec3) -> LOCAL_POSITION_NED_DATA {
+    /// `LOCAL_POSITION_NED` at `t` of the ENU position `p`, at rest.
+    pub(crate) fn lpn(t: u32, p: &crate::Vec3) -> LOCAL_POSITION_NED_DATA {
         let [x, y, z] = ned_from_enu(p);
         LOCAL_POSITION_NED_DATA { time_boot_ms: t, x, y, z, vx: 0.0, vy: 0.0, vz: 0.0 }
     }

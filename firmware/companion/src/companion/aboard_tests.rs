@@ -1,8 +1,8 @@
 //! The companion's re-planning through its MAVLink interface: range scans placed at their
 //! senders, a member's offer pushed and acknowledged, and the planner's own offer on the wire.
 
-use crate::companion::{Companion, Io};
-use crate::frames::ned_from_enu;
+use crate::companion::Companion;
+use crate::flight::tests::wire::{frame, lpn, TestIo};
 use crate::mission::Item;
 use crate::params::Param;
 use crate::perception::tests::{config, scan};
@@ -11,25 +11,12 @@ use crate::replanning::Replanning;
 use crate::scans::encode;
 use crate::{CompanionTube, Vec3, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 use mavlink::dialects::common::*;
-use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message, MessageData};
+use mavlink::{MavlinkVersion, Message};
 
 type V2 = vt_plan::Vec2;
 
-struct TestIo(Vec<u8>);
-impl Io for TestIo {
-    fn now_ms(&self) -> u32 {
-        0
-    }
-    fn cycles(&self) -> u32 {
-        0
-    }
-    fn send(&mut self, frame: &[u8]) {
-        self.0.extend_from_slice(frame);
-    }
-}
-
 impl TestIo {
-    /// The messages sent since the last call, with their target system where they have one.
+    /// The messages sent since the last call, decoded.
     fn take(&mut self) -> Vec<MavMessage> {
         let mut out = Vec::new();
         let mut framer = crate::framer::Framer::new();
@@ -41,17 +28,6 @@ impl TestIo {
         }
         out
     }
-}
-
-fn frame<D: MessageData>(sys: u8, comp: u8, d: &D) -> Vec<u8> {
-    let mut raw = MAVLinkV2MessageRaw::new();
-    raw.serialize_message_data(MavHeader { system_id: u32::from(sys), component_id: comp, sequence: 0 }, d);
-    raw.raw_bytes().to_vec()
-}
-
-fn lpn(t: u32, p: &Vec3) -> LOCAL_POSITION_NED_DATA {
-    let [x, y, z] = ned_from_enu(p);
-    LOCAL_POSITION_NED_DATA { time_boot_ms: t, x, y, z, vx: 0.0, vy: 0.0, vz: 0.0 }
 }
 
 fn leaked_tube() -> &'static mut CompanionTube {
