@@ -34,6 +34,9 @@ pub const PLAN_CELLS: usize = MAP_CELLS / (PLAN_COARSEN * PLAN_COARSEN) + 512;
 pub const PLAN_LINE: usize = 512;
 /// Lattice nodes of the planner's search (a coarser lattice is used when the map needs more).
 pub const LATTICE_NODES: usize = 4_096;
+/// From a re-plan to its tube at the team, ms: the flight MCU's budget for a full re-plan
+/// (16.8 M instructions, 100 ms at 168 MHz; issue 28), in which the team flies on.
+pub const HAND_OVER_MS: u32 = 100;
 /// The new tube starts this far behind the load along the current tube, m.
 pub const BACKOFF_M: f32 = 4.0;
 /// A scheduled re-plan replaces a tube that nothing blocks only when it is at least this much

@@ -40,8 +40,19 @@ pub trait Crew<'t> {
     fn r_safe_m(&self) -> f32;
     /// The team holds for want of a route.
     fn team_no_route(&self) -> bool;
+    /// The velocity limit `v_m`, m/s.
+    fn v_max_mps(&self) -> f32;
 }
 
+/// How far inside a planned tube every member must be for the plan to go over, m: the barrier's
+/// safety radius `r_safe_m`, plus what a member flying at `v_max_mps` towards the new boundary
+/// covers before the tube reaches it ([`crate::perception::HAND_OVER_MS`]). Non-finite or
+/// negative speeds count as 0. (Its stopping distance as well was too much: docs/design.md,
+/// "The hand-over's margin".)
+pub fn hold_margin_m(r_safe_m: f32, v_max_mps: f32) -> f32 {
+    let v = if v_max_mps.is_finite() && v_max_mps > 0.0 { v_max_mps } else { 0.0 };
+    r_safe_m + v * (crate::perception::HAND_OVER_MS as f32 * 1e-3)
+}
 /// What one companion's re-planning keeps between periods: its map, where offers are built,
 /// and the planner's check of its own plans. The storage is borrowed, as the companion's tube
 /// is (about 270 KiB of map and planner work space, two tubes of about 9 KiB).
@@ -206,7 +217,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
                     // Both hold MAX_WAYPOINTS.
                     let _ = self.offer.push(on_grid);
                 }
-                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, c.r_safe_m());
+                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, hold_margin_m(c.r_safe_m(), c.v_max_mps()));
                 if !hand_over_now(worth, holds) {
                     // Needed but a member is outside it: the team stands ahead of the back-off
                     // point where the new route leaves the old one. The next plan starts at the

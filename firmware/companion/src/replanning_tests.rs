@@ -149,3 +149,13 @@ fn a_needed_plan_that_leaves_a_member_outside_is_followed_by_one_from_the_load()
     let p = first(&mut r, 2000);
     assert!((p - V2::new(10.0, 10.0)).norm() < 0.3, "back to the back-off point: {p:?}");
 }
+
+#[test]
+fn the_hand_over_margin_adds_the_flight_until_the_tube_arrives() {
+    // r_safe 0.5 m, v_m 1 m/s, 100 ms from the re-plan to the team: 0.6 m.
+    assert!((hold_margin_m(0.5, 1.0) - 0.6).abs() < 1e-6);
+    assert!((hold_margin_m(0.5, 3.0) - 0.8).abs() < 1e-6);
+    for bad in [f32::NAN, f32::INFINITY, -1.0] {
+        assert_eq!(hold_margin_m(0.5, bad), 0.5, "speed {bad}");
+    }
+}

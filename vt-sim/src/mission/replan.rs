@@ -17,8 +17,8 @@ use vt_companion::replanning::{Planned, TeamView};
 use vt_tube::Waypoint;
 
 /// From the scan that starts a re-plan to its tube at the team, ms: the flight MCU's budget
-/// for a full re-plan (100 ms at 168 MHz, issue 28).
-pub const PLAN_LATENCY_MS: u32 = 100;
+/// for a full re-plan (100 ms at 168 MHz, issue 28), which the planner allows for.
+pub const PLAN_LATENCY_MS: u32 = vt_companion::perception::HAND_OVER_MS;
 
 /// The onboard map configuration a scenario gives every companion (`None`: the map is known,
 /// nothing is re-planned).

@@ -105,6 +105,9 @@ impl<'t> Crew<'t> for Core<'t> {
     fn team_no_route(&self) -> bool {
         self.flight.as_ref().is_some_and(crate::Flight::team_no_route)
     }
+    fn v_max_mps(&self) -> f32 {
+        self.params.get(Param::VMax)
+    }
 }
 
 impl<'t> Crew<'t> for Companion<'t> {
@@ -125,5 +128,8 @@ impl<'t> Crew<'t> for Companion<'t> {
     }
     fn team_no_route(&self) -> bool {
         Crew::team_no_route(&self.core)
+    }
+    fn v_max_mps(&self) -> f32 {
+        self.core.params.get(Param::VMax)
     }
 }
