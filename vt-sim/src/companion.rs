@@ -267,8 +267,8 @@ impl Drop for HostCompanion {
 }
 
 /// Issue 28: a companion's re-planning (`vt_companion::replanning`) on the host, its map and
-/// tubes from the pools (given back when dropped), as the firmware's perception task keeps
-/// them in `static`s.
+/// tubes from the pools (given back when dropped), where a firmware keeps them in `static`s
+/// (as the perception bench does).
 pub struct HostReplanning {
     /// Always `Some` until dropped.
     inner: Option<Replanning<'static, 'static>>,

@@ -53,6 +53,7 @@ pub fn hold_margin_m(r_safe_m: f32, v_max_mps: f32) -> f32 {
     let v = if v_max_mps.is_finite() && v_max_mps > 0.0 { v_max_mps } else { 0.0 };
     r_safe_m + v * (crate::perception::HAND_OVER_MS as f32 * 1e-3)
 }
+
 /// What one companion's re-planning keeps between periods: its map, where offers are built,
 /// and the planner's check of its own plans. The storage is borrowed, as the companion's tube
 /// is (about 270 KiB of map and planner work space, two tubes of about 9 KiB).
