@@ -10,7 +10,7 @@
 //! dropped; nothing on the wire reaches the controllers unchecked.
 
 use mavlink::dialects::common::{
-    AttitudeTargetTypemask, MavCmd, MavFrame, MavMissionResult, MavResult, PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
+    AttitudeTargetTypemask, MavFrame, MavMissionResult, PositionTargetTypemask, COMMAND_LONG_DATA,
     DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, PARAM_REQUEST_LIST_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
     POSITION_TARGET_LOCAL_NED_DATA, SET_ATTITUDE_TARGET_DATA, SYSTEM_TIME_DATA,
@@ -28,6 +28,7 @@ use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 
 #[cfg(feature = "perception")]
 mod aboard;
+mod commands;
 mod inputs;
 mod telemetry;
 mod tubes;
@@ -753,73 +754,5 @@ impl Core<'_> {
         }
         self.update_mode();
         self.tube_ok
-    }
-
-    /// `MAV_CMD_MISSION_START`: arms the flight from the sources at the current time, or
-    /// reports the refusal (`STATUSTEXT`, heartbeat).
-    #[inline(never)] // its frame (Flight::start: ~6 KiB) must not merge into the receive task's (docs/firmware.md)
-    fn start(&mut self, io: &mut impl Io) -> Result<(), StartError> {
-        let now = if self.params.get_u32(Param::Lockstep) == 1 { self.sources.own.map_or(self.clock_ms, |s| s.stamp_ms) } else { io.now_ms() };
-        self.clock_ms = now;
-        match Flight::start(&self.params, self.tube(), &self.sources, now) {
-            Ok(fl) => {
-                self.phase_sent = fl.phase() as u8;
-                self.flight = Some(fl);
-                self.refusal = 0;
-                self.hl_steps = 0;
-                self.team_mode_sent = TeamMode::Transport;
-                log!(info, "mission started: UAV {} of {}", self.params.get_u32(Param::Id), self.params.get_u32(Param::NUavs));
-                Ok(())
-            }
-            Err(e) => {
-                log!(warn, "mission start refused: {}", e);
-                self.refused(&e, io);
-                Err(e)
-            }
-        }
-    }
-
-    fn on_command(&mut self, d: &COMMAND_LONG_DATA, io: &mut impl Io) {
-        let result = match d.command {
-            MavCmd::MAV_CMD_MISSION_START if self.flight.is_some() => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-            MavCmd::MAV_CMD_MISSION_START => match self.start(io) {
-                Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
-                Err(StartError::StaleData) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-                Err(StartError::Infeasible(_) | StartError::Wind(_)) => MavResult::MAV_RESULT_DENIED,
-                Err(_) => MavResult::MAV_RESULT_FAILED,
-            },
-            // Operator hold and resume (docs/protocol.md): param1 0 pause, 1 continue.
-            MavCmd::MAV_CMD_DO_PAUSE_CONTINUE => match (self.flight.as_mut(), d.param1) {
-                (Some(fl), p) if p == 0.0 || p == 1.0 => {
-                    fl.set_operator_hold(p == 0.0);
-                    MavResult::MAV_RESULT_ACCEPTED
-                }
-                (Some(_), _) => MavResult::MAV_RESULT_DENIED,
-                (None, _) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-            },
-            // Abort (docs/protocol.md): the companion stops commanding; the autopilot's own
-            // setpoint-loss action takes over (docs/deploy.md). The team is told to hold first.
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM if d.param1 == 0.0 => match self.flight.as_mut() {
-                Some(fl) => {
-                    fl.set_operator_hold(true);
-                    self.mode = Mode::Hold;
-                    self.send_heartbeat_with(io, HoldReasons::OPERATOR);
-                    self.flight = None;
-                    MavResult::MAV_RESULT_ACCEPTED
-                }
-                None => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-            },
-            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if d.param1 == REBOOT => {
-                self.request = Some(Request::Reboot);
-                MavResult::MAV_RESULT_ACCEPTED
-            }
-            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if d.param1 == SHUTDOWN => {
-                self.request = Some(Request::Shutdown);
-                MavResult::MAV_RESULT_ACCEPTED
-            }
-            _ => MavResult::MAV_RESULT_UNSUPPORTED,
-        };
-        self.update_mode();
-        self.send(io, &COMMAND_ACK_DATA { command: d.command, result });
     }
 }
