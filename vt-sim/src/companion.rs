@@ -258,51 +258,43 @@ impl HostCompanion {
     }
 }
 
-impl Drop for HostCompanion {
-    fn drop(&mut self) {
-        if let Some(c) = self.companion.take() {
-            give_back_tube(c.into_tube());
-        }
-    }
-}
-
-/// Issue 28: a companion's re-planning (`vt_companion::replanning`) on the host, its map and
-/// tubes from the pools (given back when dropped), where a firmware keeps them in `static`s
-/// (as the perception bench does).
-pub struct HostReplanning {
-    /// Always `Some` until dropped.
-    inner: Option<Replanning<'static, 'static>>,
-}
-
-impl HostReplanning {
-    /// An empty map of `cfg`'s world.
+impl HostCompanion {
+    /// Issue 28: attaches in-flight re-planning on an empty map of `cfg`'s world, its map and
+    /// tubes from the pools (given back when dropped), as the firmware's perception build keeps
+    /// them in `static`s.
     ///
     /// # Errors
     /// The world does not fit the onboard map.
-    pub fn new(cfg: PerceptionConfig) -> Result<Self, vt_map::MapError> {
+    pub fn attach_replanning(&mut self, cfg: PerceptionConfig) -> Result<(), vt_map::MapError> {
         let map = pooled_perception();
         if let Err(e) = map.configure(cfg) {
             give_back_perception(map);
             return Err(e);
         }
-        Ok(Self { inner: Some(Replanning::new(map, pooled_tube(), pooled_tube())) })
-    }
-
-    /// The re-planning (`None` only while being dropped).
-    pub fn get_mut(&mut self) -> Option<&mut Replanning<'static, 'static>> {
-        self.inner.as_mut()
+        let r = Replanning::new(map, pooled_tube(), pooled_tube());
+        if let Some(old) = self.companion.as_deref_mut().and_then(|c| c.attach_replanning(r)) {
+            give_back_replanning(old);
+        }
+        Ok(())
     }
 }
 
-impl Drop for HostReplanning {
+impl Drop for HostCompanion {
     fn drop(&mut self) {
-        if let Some(r) = self.inner.take() {
-            let (map, spare, check) = r.into_parts();
-            give_back_perception(map);
-            give_back_tube(spare);
-            give_back_tube(check);
+        if let Some(mut c) = self.companion.take() {
+            if let Some(r) = c.detach_replanning() {
+                give_back_replanning(r);
+            }
+            give_back_tube(c.into_tube());
         }
     }
+}
+
+fn give_back_replanning(r: Replanning<'static, 'static>) {
+    let (map, spare, check) = r.into_parts();
+    give_back_perception(map);
+    give_back_tube(spare);
+    give_back_tube(check);
 }
 
 /// Tube storage from the pool, or a new one (leaked once: the pool bounds the memory).

@@ -9,15 +9,15 @@
 //! decides for itself whether it switches.
 
 use super::Tick;
-use crate::companion::{HostCompanion, HostReplanning};
+use crate::companion::HostCompanion;
 use crate::plan::params_of;
 use crate::scenario::{LoadedScenario, MapKnowledge, SimTube};
 use vt_companion::perception::PerceptionConfig;
-use vt_companion::replanning::{Planned, TeamView};
+use vt_companion::Source;
 use vt_tube::Waypoint;
 
 /// From the scan that starts a re-plan to its tube at the team, ms: the flight MCU's budget
-/// for a full re-plan (100 ms at 168 MHz, issue 28), which the planner allows for.
+/// for a full re-plan (100 ms at 168 MHz, issue 28).
 pub const PLAN_LATENCY_MS: u32 = vt_companion::perception::HAND_OVER_MS;
 
 /// The onboard map configuration a scenario gives every companion (`None`: the map is known,
@@ -55,123 +55,93 @@ pub struct ReplanStats {
     pub map_ram_bytes: usize,
 }
 
-/// The team's perception: every companion's re-planning (its map, `vt_companion::replanning`)
-/// and the team link's tube in transit. Every decision is the companion crate's; this is the
-/// link: scans relayed, offers delivered [`PLAN_LATENCY_MS`] later, the no-route flag.
+/// The team network's side of issue 28 in SIL: each companion re-plans aboard
+/// (`vt_companion::Companion::attach_replanning`; every decision is the companion crate's);
+/// this relays what the firmware's link carries: the scans (`OBSTACLE_DISTANCE`) and the
+/// planner's offers, delivered [`PLAN_LATENCY_MS`] after the re-plan (at once before the start).
 pub struct TeamPerception {
-    replanning: Vec<HostReplanning>,
     /// A planned tube on its way to the team: (delivery time, waypoints on the wire grid).
     pending: Option<(u32, Vec<Waypoint>)>,
+    /// The offer delivered this period, until the companions have taken it or not.
+    delivered: Option<Vec<Waypoint>>,
     /// The tube the team switched to last, with a version the world follows.
     published: Option<(u32, SimTube)>,
     stats: ReplanStats,
 }
 
 impl TeamPerception {
-    /// Empty maps for `n` companions (`None` when `ls` does not re-plan).
+    /// Attaches re-planning to each of `uavs` (`None` when `ls` does not re-plan).
     ///
     /// # Errors
     /// The world does not fit the onboard map (validation refuses it first).
-    pub fn new(ls: &LoadedScenario, n: usize) -> Result<Option<Self>, crate::sim::SimError> {
+    pub fn attach(ls: &LoadedScenario, uavs: &mut [HostCompanion]) -> Result<Option<Self>, crate::sim::SimError> {
         let Some(cfg) = perception_config(ls) else {
             return Ok(None);
         };
-        let replanning = (0..n).map(|_| HostReplanning::new(cfg)).collect::<Result<Vec<_>, _>>().map_err(|e| crate::sim::SimError(format!("onboard map: {e}")))?;
+        for uav in uavs.iter_mut() {
+            uav.attach_replanning(cfg).map_err(|e| crate::sim::SimError(format!("onboard map: {e}")))?;
+        }
         let stats = ReplanStats { map_ram_bytes: vt_map::OccupancyGrid::<{ vt_companion::perception::MAP_CELLS }>::ram_bytes(), ..ReplanStats::default() };
-        Ok(Some(Self { replanning, pending: None, published: None, stats }))
+        Ok(Some(Self { pending: None, delivered: None, published: None, stats }))
     }
 
-    /// One high-level period (`vt_companion::replanning`'s order): every companion folds the
-    /// scans that reached it (its own, and the team's its link delivered) and watches its
-    /// tube; a tube whose time has come reaches every companion; the designated planner
-    /// re-plans when due. `immediate`: the tube goes out at once (before the start).
-    pub fn step(&mut self, tick: &Tick<'_>, uavs: &mut [HostCompanion], immediate: bool) {
+    /// The start of a period: the offer whose time has come is delivered in it.
+    pub fn open(&mut self, tick: &Tick<'_>) {
+        if tick.high_level && self.pending.as_ref().is_some_and(|(at, _)| tick.time_ms >= *at) {
+            self.delivered = self.pending.take().map(|(_, w)| w);
+        }
+    }
+
+    /// What reaches companion `i` this period, before its own state: the scans the team's
+    /// LiDARs took (its own, and those its link relayed: the members whose position reached it),
+    /// and the offer due.
+    pub fn deliver(&self, c: &mut vt_companion::Companion<'static>, i: usize, tick: &Tick<'_>) {
         if !tick.high_level {
             return;
         }
-        let n = uavs.len();
-        let load = tick.load.pos_m;
-        for (i, (r, uav)) in self.replanning.iter_mut().zip(uavs.iter_mut()).enumerate() {
-            let (Some(r), Some(c)) = (r.get_mut(), uav.get_mut()) else {
-                continue;
-            };
-            let view = tick.views.get(i);
-            for (j, scan) in tick.scans.iter().enumerate() {
-                let reached = j == i || view.and_then(|v| v.get(j)).is_some_and(Option::is_some);
-                if let (Some(scan), true) = (scan, reached) {
-                    r.fold(c, scan, &load);
-                }
+        let view = tick.views.get(i);
+        for (j, scan) in tick.scans.iter().enumerate() {
+            let reached = j == i || view.and_then(|v| v.get(j)).is_some_and(Option::is_some);
+            if let (Some(scan), true) = (scan, reached) {
+                c.scan(if j == i { Source::Own } else { Source::Member(j) }, scan);
             }
         }
-        for ((r, uav), own) in self.replanning.iter_mut().zip(uavs.iter_mut()).zip(tick.own) {
-            if let (Some(r), Some(c)) = (r.get_mut(), uav.get_mut()) {
-                if r.watch(c, &own.pos_m) {
-                    self.stats.switches += 1;
-                }
-            }
-        }
-        if let Some((at, _)) = &self.pending {
-            if immediate || tick.time_ms >= *at {
-                if let Some((_, w)) = self.pending.take() {
-                    self.hand_over(&w, uavs);
-                }
-            }
-        }
-        for i in 0..n {
-            let healthy = |j: usize| j == i || tick.views.get(i).and_then(|v| v.get(j)).is_some_and(Option::is_some);
-            let team = tick.views.get(i).into_iter().flatten().flatten().map(|p| p.xy());
-            let (Some(r), Some(c)) = (self.replanning.get_mut(i).and_then(HostReplanning::get_mut), uavs.get(i).and_then(HostCompanion::get)) else {
-                continue;
-            };
-            let planned = r.plan(c, TeamView { id: i, n, healthy, positions_m: team }, &load, tick.time_ms);
-            self.stats.replans += u32::from(planned.replanned());
-            self.stats.planned += u32::from(planned.planned());
-            match planned {
-                Planned::Offer { waypoints, route_again } => {
-                    let w = waypoints.to_vec();
-                    if route_again {
-                        self.stats.no_route = false;
-                        uavs.iter_mut().filter_map(HostCompanion::get_mut).for_each(|c| {
-                            c.set_no_route(false);
-                        });
-                    }
-                    if immediate {
-                        self.hand_over(&w, uavs);
-                    } else {
-                        self.pending = Some((tick.time_ms.saturating_add(PLAN_LATENCY_MS), w));
-                    }
-                }
-                Planned::NoRoute => {
-                    self.stats.no_route = true;
-                    uavs.iter_mut().filter_map(HostCompanion::get_mut).for_each(|c| {
-                        c.set_no_route(true);
-                    });
-                }
-                Planned::Idle | Planned::Kept | Planned::Failed => {}
-            }
+        if let Some(w) = &self.delivered {
+            c.offer(w);
         }
     }
 
-    /// Delivers the offer `w` to every companion; the world measures against it once one
-    /// switched.
-    fn hand_over(&mut self, w: &[Waypoint], uavs: &mut [HostCompanion]) {
-        let mut any = false;
-        for (r, uav) in self.replanning.iter_mut().zip(uavs.iter_mut()) {
-            let (Some(r), Some(c)) = (r.get_mut(), uav.get_mut()) else {
-                continue;
-            };
-            if r.take_offer(c, w).is_ok() {
-                self.stats.switches += 1;
-                any = true;
-            } else {
-                self.stats.kept += 1;
+    /// The end of a period: what the companions did (figures, the tube the world measures
+    /// against once one took an offer) and the planner's offer to relay. `immediate`: before
+    /// the start, an offer goes out with no latency.
+    pub fn close(&mut self, tick: &Tick<'_>, uavs: &mut [HostCompanion], immediate: bool) {
+        let mut switched = false;
+        let mut offer = None;
+        for c in uavs.iter_mut().filter_map(HostCompanion::get_mut) {
+            let r = c.take_replan_report();
+            self.stats.replans += r.replans;
+            self.stats.planned += r.planned;
+            self.stats.switches += r.switches;
+            self.stats.kept += r.kept;
+            switched |= r.switches > 0;
+            if let Some(no_route) = r.no_route {
+                self.stats.no_route = no_route;
+            }
+            if r.offered {
+                offer = c.offer_sent().map(<[Waypoint]>::to_vec);
             }
         }
-        if any {
-            if let Ok(t) = SimTube::from_waypoints(w) {
-                let version = self.published.as_ref().map_or(1, |(v, _)| v + 1);
-                self.published = Some((version, t));
+        if let Some(w) = self.delivered.take() {
+            if switched {
+                if let Ok(t) = SimTube::from_waypoints(&w) {
+                    let version = self.published.as_ref().map_or(1, |(v, _)| v + 1);
+                    self.published = Some((version, t));
+                }
             }
+        }
+        if let Some(w) = offer {
+            let latency = if immediate { 0 } else { PLAN_LATENCY_MS };
+            self.pending = Some((tick.time_ms.saturating_add(latency), w));
         }
     }
 
@@ -185,4 +155,3 @@ impl TeamPerception {
         &self.stats
     }
 }
-

@@ -217,7 +217,7 @@ impl CompanionTeam {
             c.upload_tube(&items, &mut Unlinked).map_err(|e| SimError(format!("UAV {i}: tube refused ({e:?})")))?;
             self.uavs.push(uav);
         }
-        self.perception = super::replan::TeamPerception::new(ls, n)?;
+        self.perception = super::replan::TeamPerception::attach(ls, &mut self.uavs)?;
         Ok(())
     }
 
@@ -225,7 +225,7 @@ impl CompanionTeam {
     /// neighbours' mode changes, `SYSTEM_TIME` when the own sample is older than now, the load's
     /// and the neighbours' states when the high level is due, then the own state, which closes
     /// the period (a second `SYSTEM_TIME` when the own feed stalls).
-    fn deliver(c: &mut vt_companion::Companion<'static>, i: usize, tick: &Tick<'_>) {
+    fn deliver(c: &mut vt_companion::Companion<'static>, i: usize, tick: &Tick<'_>, perception: Option<&super::replan::TeamPerception>) {
         let io = &mut Unlinked;
         let own = tick.own.get(i).copied().unwrap_or_default();
         let stalled = tick.own_stalled.get(i).copied().unwrap_or(false);
@@ -247,6 +247,10 @@ impl CompanionTeam {
                 }
             }
         }
+        // Issue 28: the scans and the offer due, as the team network relays them.
+        if let Some(p) = perception {
+            p.deliver(c, i, tick);
+        }
         if stalled {
             c.system_time(tick.time_ms, io);
         } else {
@@ -258,9 +262,12 @@ impl CompanionTeam {
         if tick.own.len() != self.uavs.len() {
             return Err(SimError(format!("tick for {} UAVs, team of {}", tick.own.len(), self.uavs.len())));
         }
+        if let Some(p) = self.perception.as_mut() {
+            p.open(tick);
+        }
         for (i, uav) in self.uavs.iter_mut().enumerate() {
             let c = uav.get_mut().ok_or_else(|| SimError("companion dropped".into()))?;
-            Self::deliver(c, i, tick);
+            Self::deliver(c, i, tick, self.perception.as_ref());
         }
         Ok(())
     }
@@ -275,7 +282,7 @@ impl Team for CompanionTeam {
         self.configure(ls, at.cable_rated_n)?;
         self.each(&at.tick)?;
         if let Some(p) = self.perception.as_mut() {
-            p.step(&at.tick, &mut self.uavs, true);
+            p.close(&at.tick, &mut self.uavs, true);
         }
         Ok(())
     }
@@ -283,6 +290,9 @@ impl Team for CompanionTeam {
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
         self.configure(ls, start.cable_rated_n)?;
         self.each(&start.tick)?;
+        if let Some(p) = self.perception.as_mut() {
+            p.close(&start.tick, &mut self.uavs, true);
+        }
         for (i, uav) in self.uavs.iter_mut().enumerate() {
             let c = uav.get_mut().ok_or_else(|| SimError("companion dropped".into()))?;
             if let Err(e) = c.start_mission(&mut Unlinked) {
@@ -299,12 +309,12 @@ impl Team for CompanionTeam {
         let ticks = |c: &vt_companion::Companion<'static>| c.flight().map(vt_companion::Flight::low_level_ticks);
         self.before.clear();
         self.before.extend(self.uavs.iter().filter_map(HostCompanion::get).map(ticks));
-        // The perception task runs before this period's high level (a tube handed over now is
-        // flown now).
-        if let Some(p) = self.perception.as_mut() {
-            p.step(tick, &mut self.uavs, false);
-        }
+        // Issue 28: each companion's perception step runs before its high level (a tube taken
+        // now is flown now); the team network relays what came out of it.
         self.each(tick)?;
+        if let Some(p) = self.perception.as_mut() {
+            p.close(tick, &mut self.uavs, false);
+        }
         let companions = self.uavs.iter().filter_map(HostCompanion::get);
         for (i, ((slot, c), before)) in out.iter_mut().zip(companions).zip(&self.before).enumerate() {
             // Exactly one low-level step ran for this tick, and it produced the setpoint.
