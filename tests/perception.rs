@@ -84,9 +84,9 @@ fn the_mavlink_backends_refuse_an_unknown_map_by_name() {
 /// is blocked close ahead stops: `Perception::must_stop`), no run leaves the team's tube (5-6
 /// of 40 did while tubes that left a member outside were handed over), and the solvable
 /// fields succeed with
-/// their floors at least as often as they do today, less one field (measured 18 of 25, 0.72, on
-/// 2026-11-28, after the re-plan from the load; 16 of 25 before; docs/robustness.md,
-/// "Perception campaign").
+/// their floors at least as often as they do on the direct path, less one field (measured 20 of
+/// 25, 0.80, through the companion's re-planning on 2026-11-28; 18 of 25 on the direct path; 16
+/// before the re-plan from the load; docs/robustness.md, "Perception campaign").
 #[test]
 fn unknown_forests_are_flown_where_a_route_exists_and_never_where_none_does() {
     use host_sim::campaign::{self, forest::Verdict};

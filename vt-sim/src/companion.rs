@@ -260,7 +260,7 @@ impl HostCompanion {
 
 impl HostCompanion {
     /// Issue 28: attaches in-flight re-planning on an empty map of `cfg`'s world, its map and
-    /// tubes from the pools (given back when dropped), as the firmware's perception build keeps
+    /// tubes from the pools (given back when dropped), where a firmware keeps
     /// them in `static`s.
     ///
     /// # Errors

@@ -1,12 +1,14 @@
-//! Issue 28 in the SIL team: every companion's onboard perception (`vt_companion::perception`)
-//! fed the scans its UAV takes and those the team link relays, the designated planner's
-//! re-plans, and their hand-over to the team. The decisions (who plans, when, which tube a
-//! companion accepts) are the companion crate's; this is the wiring the firmware's perception
-//! task and team link do aboard (docs/design.md, "Tubes generated in flight").
+//! Issue 28 in the SIL team: the team network around the companions' own re-planning
+//! (`vt_companion::replanning`, attached to each `Companion` and run by it, as on the wire:
+//! docs/protocol.md, "Tubes re-planned in flight"). Each companion gets the scans its UAV takes
+//! and those its link relays (`Companion::scan`, as an `OBSTACLE_DISTANCE` would), and the
+//! planner's offer (`Companion::offer`, as a pushed mission would); every decision (who plans,
+//! when, which tube a companion takes) is the companion's (docs/design.md, "Tubes generated in
+//! flight").
 //!
-//! Timing, as aboard: a re-plan's tube reaches the team [`PLAN_LATENCY_MS`] after the scan
-//! that triggered it (the MCU budget for a full re-plan, issue 28), and every companion then
-//! decides for itself whether it switches.
+//! Timing, as aboard: a re-plan's tube reaches the team [`PLAN_LATENCY_MS`] after the re-plan
+//! (the MCU budget for a full re-plan, issue 28), and every companion then decides for itself
+//! whether it switches.
 
 use super::Tick;
 use crate::companion::HostCompanion;
@@ -16,8 +18,8 @@ use vt_companion::perception::PerceptionConfig;
 use vt_companion::Source;
 use vt_tube::Waypoint;
 
-/// From the scan that starts a re-plan to its tube at the team, ms: the flight MCU's budget
-/// for a full re-plan (100 ms at 168 MHz, issue 28).
+/// From a re-plan to its tube at the team, ms: the flight MCU's budget for a full re-plan
+/// (100 ms at 168 MHz, issue 28), which the planner allows for (`replanning::hold_margin_m`).
 pub const PLAN_LATENCY_MS: u32 = vt_companion::perception::HAND_OVER_MS;
 
 /// The onboard map configuration a scenario gives every companion (`None`: the map is known,
