@@ -4,9 +4,10 @@
 //!   frames of the link's EtherType; receive interrupt (line 13) into a byte pipe, transmit
 //!   into the controller's FIFO.
 //! - Time: a SysTick `embassy-time` driver, 1 kHz ticks from the 25 MHz core clock.
-//! - Cycles: SysTick ticks at 25 MHz. Under `-icount shift=0` one instruction is one virtual
-//!   nanosecond, so one tick is 40 instructions ([`boot_report`] calibrates it with a loop of
-//!   known length). The DWT cycle counter reads 0 under QEMU.
+//! - Cycles: the CMSDK APB timer 1, free-running at the 25 MHz peripheral clock ([`cycles`]).
+//!   Under `-icount shift=0` one instruction is one virtual nanosecond, so a cycle is 40
+//!   instructions (checked at boot with a loop of known length). The DWT cycle counter reads 0
+//!   under QEMU.
 //! - Logs: defmt over semihosting (decoded on the host); panics and shutdown exit QEMU with
 //!   semihosting `SYS_EXIT`.
 //! - Watchdog: the board has none in QEMU; a software one in the SysTick handler exits QEMU
@@ -25,7 +26,7 @@ use core::cell::{Cell, RefCell};
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::{NVIC, SYST};
+use cortex_m::peripheral::NVIC;
 use cortex_m_rt::exception;
 use critical_section::Mutex as CsMutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
@@ -96,8 +97,6 @@ static RX_PIPE: Pipe<CriticalSectionRawMutex, RX_PIPE_BYTES> = Pipe::new();
 const RX_PIPE_BYTES: usize = 2 * lan9118::MAX_PAYLOAD;
 /// Frames the link dropped (not the link's EtherType, or malformed), reported as overruns.
 static RX_OVERRUNS: AtomicU32 = AtomicU32::new(0);
-/// SysTick interrupts since boot (low 32 bits), for the cycle counter.
-static TICKS: AtomicU32 = AtomicU32::new(0);
 /// Software watchdog: ticks since the last feed, and whether it is armed.
 static WATCHDOG_AGE: AtomicU32 = AtomicU32::new(0);
 static WATCHDOG_ARMED: AtomicBool = AtomicBool::new(false);
@@ -240,7 +239,6 @@ embassy_time_driver::time_driver_impl!(static DRIVER: SysTickDriver = SysTickDri
 
 #[exception]
 fn SysTick() {
-    TICKS.fetch_add(1, Ordering::Relaxed);
     critical_section::with(|cs| {
         let ticks = DRIVER.ticks.borrow(cs);
         let now = ticks.get() + 1;
@@ -259,28 +257,30 @@ fn SysTick() {
     }
 }
 
-/// Last value returned by [`cycles`].
-static LAST_CYCLES: AtomicU32 = AtomicU32::new(0);
+/// The AN386's CMSDK APB timer 1 (`cmsdk-apb-timer` in QEMU's mps2 model), run free as the
+/// cycle counter: a 32-bit down counter at the 25 MHz peripheral clock, no interrupt.
+const TIMER1_BASE: usize = 0x4000_1000;
+/// Timer registers: control (bit 0 enable), current value, reload value.
+const TIMER_CTRL: usize = 0x00;
+const TIMER_VALUE: usize = 0x04;
+const TIMER_RELOAD: usize = 0x08;
 
-/// Free-running 25 MHz SysTick clock cycles, wrapping; monotonic.
+fn timer_write(offset: usize, value: u32) {
+    // SAFETY: a word-aligned register of the timer block, which nothing else uses.
+    unsafe { core::ptr::write_volatile((TIMER1_BASE + offset) as *mut u32, value) }
+}
+
+/// Free-running 25 MHz cycles, wrapping (every 172 s; differences of shorter spans are exact).
 ///
-/// QEMU computes the SysTick count from its clock on every read but raises the wrap interrupt
-/// from a timer callback, so a read can see the new period before the interrupt counted it:
-/// a value behind the last one returned is moved on by one period.
+/// Timer 1 counts down from `u32::MAX` and reloads there, so its complement counts up and
+/// wraps with `u32`'s arithmetic. No interrupt is involved: an earlier counter built on SysTick
+/// counted its wrap interrupts, and QEMU computes SysTick's count from its clock on every read
+/// but raises the wrap interrupt from a timer callback, so a read in between came out a whole
+/// period early (one million instructions under `-icount shift=0`): a fresh-clone CI run of
+/// 2026-11-28 measured a mean of 25,286 instructions per control step at n = 10 against 4,875.
 pub fn cycles() -> u32 {
-    let period = SYSTICK_RELOAD + 1;
-    let c = loop {
-        let a = TICKS.load(Ordering::Relaxed);
-        let val = SYST::get_current();
-        if TICKS.load(Ordering::Relaxed) == a {
-            break a.wrapping_mul(period).wrapping_add(SYSTICK_RELOAD - val);
-        }
-    };
-    let last = LAST_CYCLES.load(Ordering::Relaxed);
-    let behind = last.wrapping_sub(c);
-    let c = if behind != 0 && behind <= period { c.wrapping_add(period) } else { c };
-    LAST_CYCLES.store(c, Ordering::Relaxed);
-    c
+    // SAFETY: a word-aligned register of the timer block, read only here.
+    !unsafe { core::ptr::read_volatile((TIMER1_BASE + TIMER_VALUE) as *const u32) }
 }
 
 /// Runs `iterations` of a two-instruction loop.
@@ -299,11 +299,11 @@ pub fn boot_report() {
     calibration_loop(CALIBRATION_ITERATIONS);
     let ticks = cycles().wrapping_sub(t0);
     let instructions = CALIBRATION_ITERATIONS * CALIBRATION_INSTRUCTIONS_PER_ITERATION;
-    defmt::info!("calibration: {=u32} instructions in {=u32} SysTick ticks", instructions, ticks);
+    defmt::info!("calibration: {=u32} instructions in {=u32} timer cycles", instructions, ticks);
     defmt::info!("stack used at boot: {=u32} bytes", stack_used_bytes());
 }
 
-/// Sets up SysTick and the Ethernet link.
+/// Sets up SysTick, the cycle timer and the Ethernet link.
 pub fn init() -> Board {
     if let Some(mut p) = cortex_m::Peripherals::take() {
         let syst = &mut p.SYST;
@@ -313,6 +313,10 @@ pub fn init() -> Board {
         syst.enable_interrupt();
         syst.enable_counter();
     }
+    timer_write(TIMER_CTRL, 0);
+    timer_write(TIMER_RELOAD, u32::MAX);
+    timer_write(TIMER_VALUE, u32::MAX);
+    timer_write(TIMER_CTRL, 1);
     if lan9118::init() {
         // Link up: an empty frame tells the host that frames are received from now on (QEMU's
         // controller drops what arrives while its receiver is off).

@@ -68,7 +68,7 @@ pub struct StepCounts {
 /// `pil-bench` output.
 #[derive(Debug, Clone, Serialize)]
 pub struct BenchReport {
-    /// Instructions per 25 MHz SysTick tick, measured by the firmware's calibration loop.
+    /// Instructions per 25 MHz timer cycle, measured by the firmware's calibration loop.
     pub instructions_per_tick: f64,
     /// The calibration as logged: (instructions, ticks).
     pub calibration: (u64, u64),
@@ -86,7 +86,7 @@ pub(super) fn parse_after(line: &str, prefix: &str) -> Option<u64> {
     line.split(prefix).nth(1)?.split(|c: char| !c.is_ascii_digit()).next()?.parse().ok()
 }
 
-/// The firmware's boot calibration (`board::boot_report`): instructions, SysTick ticks, and
+/// The firmware's boot calibration (`board::boot_report`): instructions, timer cycles, and
 /// their ratio (40 under `-icount shift=0`).
 ///
 /// # Errors

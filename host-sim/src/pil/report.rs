@@ -33,7 +33,7 @@ pub struct PilOptions {
     pub mcap: Option<PathBuf>,
 }
 
-/// Cycle statistics of one companion (board cycles: SysTick ticks under QEMU).
+/// Cycle statistics of one companion (board cycles: the 25 MHz timer under QEMU).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CycleStats {
     /// UAV index.
@@ -83,7 +83,7 @@ pub struct PilReport {
     /// Error counters last reported by each firmware (`SYS_STATUS`: checksum+framing, unknown
     /// ids, bad values, overruns, discarded bytes).
     pub firmware_errors: Vec<[u16; 5]>,
-    /// Loop timing reported by each firmware (SysTick ticks at 25 MHz; host speed dependent
+    /// Loop timing reported by each firmware (25 MHz timer cycles under QEMU; host speed dependent
     /// without `-icount`).
     pub cycles: Vec<CycleStats>,
     /// Exit codes of the emulators after the shutdown command.
