@@ -227,7 +227,7 @@ pub fn param_list(p: &Params) -> Vec<(Param, f32)> {
 /// Tube storage of dropped companions, reused by new ones: a companion borrows its tube for its
 /// lifetime (`'static` on the MCU), so the host's take theirs from this pool (leaked once,
 /// about 9 KiB each); memory is bounded by the most companions alive at once.
-static TUBE_POOL: std::sync::Mutex<Vec<&'static mut CompanionTube>> = std::sync::Mutex::new(Vec::new());
+static TUBE_POOL: Pool<CompanionTube> = std::sync::Mutex::new(Vec::new());
 
 /// A companion on the host with its tube storage from the pool (given back when dropped).
 pub struct HostCompanion {
@@ -297,30 +297,41 @@ fn give_back_replanning(r: Replanning<'static, 'static>) {
     give_back_tube(check);
 }
 
-/// Tube storage from the pool, or a new one (leaked once: the pool bounds the memory).
+/// Storage leaked once and reused: what dropped companions gave back (the pool bounds the
+/// memory by the most alive at once).
+type Pool<T> = std::sync::Mutex<Vec<&'static mut T>>;
+
+/// Storage from `pool`, or a new `make()` leaked.
+fn take_from<T>(pool: &Pool<T>, make: impl FnOnce() -> T) -> &'static mut T {
+    let pooled = pool.lock().ok().and_then(|mut p| p.pop());
+    pooled.unwrap_or_else(|| Box::leak(Box::new(make())))
+}
+
+/// Gives `t` back to `pool`.
+fn give_back<T>(pool: &Pool<T>, t: &'static mut T) {
+    if let Ok(mut p) = pool.lock() {
+        p.push(t);
+    }
+}
+
+/// Tube storage from the pool, or a new one.
 fn pooled_tube() -> &'static mut CompanionTube {
-    let pooled = TUBE_POOL.lock().ok().and_then(|mut pool| pool.pop());
-    pooled.unwrap_or_else(|| Box::leak(Box::new(CompanionTube::placeholder())))
+    take_from(&TUBE_POOL, CompanionTube::placeholder)
 }
 
 fn give_back_tube(t: &'static mut CompanionTube) {
-    if let Ok(mut pool) = TUBE_POOL.lock() {
-        pool.push(t);
-    }
+    give_back(&TUBE_POOL, t);
 }
 
-/// Onboard maps of dropped re-plannings, reused (about 270 KiB each, leaked once).
-static PERCEPTION_POOL: std::sync::Mutex<Vec<&'static mut Perception>> = std::sync::Mutex::new(Vec::new());
+/// Onboard maps of dropped re-plannings, reused (about 270 KiB each).
+static PERCEPTION_POOL: Pool<Perception> = std::sync::Mutex::new(Vec::new());
 
 fn pooled_perception() -> &'static mut Perception {
-    let pooled = PERCEPTION_POOL.lock().ok().and_then(|mut pool| pool.pop());
-    pooled.unwrap_or_else(|| Box::leak(Box::new(Perception::placeholder())))
+    take_from(&PERCEPTION_POOL, Perception::placeholder)
 }
 
 fn give_back_perception(p: &'static mut Perception) {
-    if let Ok(mut pool) = PERCEPTION_POOL.lock() {
-        pool.push(p);
-    }
+    give_back(&PERCEPTION_POOL, p);
 }
 
 #[cfg(test)]

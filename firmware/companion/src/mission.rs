@@ -101,6 +101,12 @@ impl Item {
     pub const fn tube_waypoint(seq: u16, x: i32, y: i32, w_left_m: f32, w_right_m: f32) -> Self {
         Self { seq, frame: FRAME_LOCAL_NED, command: CMD_NAV_WAYPOINT, x, y, param1: w_left_m, param2: w_right_m }
     }
+
+    /// Waypoint `w` (world ENU, m) as item `seq`: north and east on the 0.1 mm grid
+    /// ([`wire_units`]); `None` when a coordinate has no count.
+    pub fn of_waypoint(seq: u16, w: &Waypoint) -> Option<Self> {
+        Some(Self::tube_waypoint(seq, wire_units(w.pos_m.y)?, wire_units(w.pos_m.x)?, w.w_left_m, w.w_right_m))
+    }
 }
 
 /// Upload state.

@@ -2,7 +2,7 @@
 //! round what the map saw, a declined offer retried, and the no-route hold lifted by a route.
 
 use super::*;
-use crate::companion::Io;
+use crate::flight::tests::wire::TestIo;
 use crate::mission::{on_wire_grid_m, Item};
 use crate::perception::tests::{config, scan};
 use crate::perception::PerceptionConfig;
@@ -10,22 +10,6 @@ use crate::{Companion, Source};
 
 type V2 = vt_plan::Vec2;
 
-struct NoLink;
-impl Io for NoLink {
-    fn now_ms(&self) -> u32 {
-        0
-    }
-    fn cycles(&self) -> u32 {
-        0
-    }
-    fn send(&mut self, _frame: &[u8]) {}
-    fn wants_frames(&self) -> bool {
-        false
-    }
-}
-
-/// What companion `id` of `n` knows of its team: `healthy`, and its own UAV at `own` (the
-/// members' positions the plan must hold).
 fn view<H: Fn(usize) -> bool>(id: usize, n: usize, healthy: H, own: Vec3) -> TeamView<H, core::array::IntoIter<V2, 1>> {
     TeamView { id, n, healthy, positions_m: [own.xy()].into_iter() }
 }
@@ -39,9 +23,9 @@ fn leaked_tube() -> &'static mut CompanionTube {
 fn companion(own: Vec3, load: Vec3) -> Companion<'static> {
     let mut c = Companion::new(leaked_tube());
     let item = |seq, east: f32, north: f32| Item::tube_waypoint(seq, (north * 1e4) as i32, (east * 1e4) as i32, 3.0, 3.0);
-    c.upload_tube(&[item(0, 3.0, 10.0), item(1, 47.0, 10.0)], &mut NoLink).unwrap();
-    c.position(Source::Load, load, Vec3::zeros(), 0, &mut NoLink);
-    c.position(Source::Own, own, Vec3::zeros(), 0, &mut NoLink);
+    c.upload_tube(&[item(0, 3.0, 10.0), item(1, 47.0, 10.0)], &mut TestIo(Vec::new())).unwrap();
+    c.position(Source::Load, load, Vec3::zeros(), 0, &mut TestIo(Vec::new()));
+    c.position(Source::Own, own, Vec3::zeros(), 0, &mut TestIo(Vec::new()));
     c
 }
 
@@ -80,13 +64,13 @@ fn only_the_lowest_healthy_id_plans_and_its_offer_goes_round_what_it_saw() {
     // A UAV north of the rock lies outside the new tube (it bends south round the rock):
     // without a dissipative flight to join it widened, it keeps its tube.
     let north = Vec3::new(20.0, 12.5, 7.0);
-    c.position(Source::Own, north, Vec3::zeros(), 20, &mut NoLink);
+    c.position(Source::Own, north, Vec3::zeros(), 20, &mut TestIo(Vec::new()));
     let old_len = c.tube().unwrap().length_m();
     assert_eq!(r.take_offer(&mut c, &offer), Err(Some(Keep::OwnOutside)));
     assert_eq!(c.tube().unwrap().length_m(), old_len, "kept");
     assert!(!r.watch(&mut c, &north), "still declined from where it is");
     // Back above the load it may switch: the next watch retries the offer and takes it.
-    c.position(Source::Own, own, Vec3::zeros(), 40, &mut NoLink);
+    c.position(Source::Own, own, Vec3::zeros(), 40, &mut TestIo(Vec::new()));
     assert!(r.watch(&mut c, &own), "the retry switches");
     let new = c.tube().unwrap();
     assert!(new.length_m() != old_len && (new.samples()[0].pos_m - offer[0].pos_m).norm() < 1e-3, "flying the offer");

@@ -24,7 +24,7 @@ use mavlink::dialects::common::{
 
 use super::{Companion, Core, Io, Source};
 use crate::framer::Frame;
-use crate::mission::{wire_units, Item, MissionUpload, UploadReply};
+use crate::mission::{Item, MissionUpload, UploadReply};
 use crate::params::Param;
 use crate::replanning::{Planned, Replanning, TeamView};
 use crate::{Vec3, COMPANION_COMPONENT_ID, MAX_UAVS};
@@ -99,12 +99,12 @@ impl<'t> Companion<'t> {
         if let Some(a) = self.core.aboard.as_mut() {
             a.incoming.clear();
             let _ = a.incoming.begin(u16::try_from(waypoints.len()).unwrap_or(u16::MAX));
-            for (k, w) in waypoints.iter().enumerate() {
-                let (Some(x), Some(y)) = (wire_units(w.pos_m.y), wire_units(w.pos_m.x)) else {
+            for (seq, w) in (0u16..).zip(waypoints) {
+                let Some(it) = Item::of_waypoint(seq, w) else {
                     a.incoming.clear();
                     return;
                 };
-                let _ = a.incoming.item(&Item::tube_waypoint(k as u16, x, y, w.w_left_m, w.w_right_m));
+                let _ = a.incoming.item(&it);
             }
             a.offer_ready = a.incoming.waypoints().len() == waypoints.len() && !waypoints.is_empty();
         }
@@ -275,14 +275,14 @@ impl<'t> Core<'t> {
         let count = u16::try_from(waypoints.len()).unwrap_or(u16::MAX);
         self.send(io, &MISSION_COUNT_DATA { count, target_system: 0, target_component: 0 });
         for (seq, w) in (0..count).zip(waypoints) {
-            let (Some(x), Some(y)) = (wire_units(w.pos_m.y), wire_units(w.pos_m.x)) else {
+            let Some(it) = Item::of_waypoint(seq, w) else {
                 return;
             };
             let item = MISSION_ITEM_INT_DATA {
-                param1: w.w_left_m,
-                param2: w.w_right_m,
-                x,
-                y,
+                param1: it.param1,
+                param2: it.param2,
+                x: it.x,
+                y: it.y,
                 seq,
                 command: mavlink::dialects::common::MavCmd::MAV_CMD_NAV_WAYPOINT,
                 target_system: 0,
