@@ -61,6 +61,14 @@ impl Team for Recording {
     fn phases(&self, phases: &mut [u8], refusals: &mut [u8]) {
         self.team.phases(phases, refusals);
     }
+
+    fn published_tube(&self) -> Option<(u32, &host_sim::scenario::SimTube)> {
+        self.team.published_tube()
+    }
+
+    fn replan_stats(&self) -> Option<host_sim::mission::replan::ReplanStats> {
+        self.team.replan_stats()
+    }
 }
 
 /// Writes `text` as scenario `name` in a temporary folder of its own (`tag`), runs `host-sim run`

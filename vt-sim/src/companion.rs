@@ -10,7 +10,7 @@
 use crate::models::UavModel;
 use crate::scenario::{Scenario, StaleNeighbour};
 use crate::sim::{ControllerKind, SimError};
-use vt_companion::perception::{Perception, PerceptionConfig};
+use vt_companion::perception::Perception;
 use vt_companion::replanning::Replanning;
 use vt_companion::{Companion, CompanionTube, Item, Param, Params, AUTO, MAX_UAVS};
 use vt_dissipative::TrayParams;
@@ -193,8 +193,10 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
             ControllerKind::Baseline => 1.0,
         }),
     ];
+    // Issue 28: the onboard map's world and the planner's figures (`PR_MAP` 0: the tube is given).
+    let map = crate::mission::replan::perception_config(s).map_or_else(Vec::new, |m| m.params().to_vec());
     let mut p = Params::new();
-    for (param, v) in values {
+    for (param, v) in values.into_iter().chain(map) {
         p.set(param, v).map_err(|e| SimError(format!("UAV {i}: parameter {} = {v}: {e:?}", param.info().name)))?;
     }
     Ok(p)
@@ -259,23 +261,14 @@ impl HostCompanion {
 }
 
 impl HostCompanion {
-    /// Issue 28: attaches in-flight re-planning on an empty map of `cfg`'s world, its map and
-    /// tubes from the pools (given back when dropped), where a firmware keeps
-    /// them in `static`s.
-    ///
-    /// # Errors
-    /// The world does not fit the onboard map.
-    pub fn attach_replanning(&mut self, cfg: PerceptionConfig) -> Result<(), vt_map::MapError> {
-        let map = pooled_perception();
-        if let Err(e) = map.configure(cfg) {
-            give_back_perception(map);
-            return Err(e);
+    /// Issue 28: gives the companion the storage of in-flight re-planning (its map and two
+    /// tubes, from the pools and given back when dropped), where a firmware's perception build
+    /// keeps them in `static`s; the companion configures it from its `PR_*` parameters. Once:
+    /// a companion that has it keeps it.
+    pub fn provide_map(&mut self) {
+        if let Some(c) = self.companion.as_deref_mut().filter(|c| c.replanning().is_none()) {
+            c.attach_replanning(Replanning::new(pooled_perception(), pooled_tube(), pooled_tube()));
         }
-        let r = Replanning::new(map, pooled_tube(), pooled_tube());
-        if let Some(old) = self.companion.as_deref_mut().and_then(|c| c.attach_replanning(r)) {
-            give_back_replanning(old);
-        }
-        Ok(())
     }
 }
 

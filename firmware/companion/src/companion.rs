@@ -34,7 +34,7 @@ mod telemetry;
 mod tubes;
 
 #[cfg(feature = "perception")]
-pub use aboard::{ReplanReport, NO_ROUTE_TEXT};
+pub use aboard::{ReplanReport, ReplanTotals, NAME_REPLAN, NAME_TUBES, NO_ROUTE_TEXT};
 
 /// Largest accepted position magnitude per axis, m (anything beyond is a corrupt value).
 pub const POSITION_LIMIT_M: f32 = 1.0e5;
@@ -362,7 +362,11 @@ impl<'t> Companion<'t> {
         if self.core.flight.is_some() {
             return Err(ParamError::Locked);
         }
-        self.core.params.set(p, value)
+        self.core.params.set(p, value)?;
+        if p.is_map() {
+            self.core.map_params_changed();
+        }
+        Ok(())
     }
 
     /// The tube upload without the handshake: `items` as the mission protocol carries them,
@@ -595,6 +599,16 @@ impl Core<'_> {
         }
     }
 
+    /// Without the `perception` feature there is no onboard map.
+    #[cfg(not(feature = "perception"))]
+    fn map_on(&mut self) -> bool {
+        false
+    }
+
+    /// Without the `perception` feature there is no onboard map to configure.
+    #[cfg(not(feature = "perception"))]
+    fn map_params_changed(&mut self) {}
+
     fn high_level(&mut self, io: &mut impl Io) {
         let now = self.clock_ms;
         if let (Some(fl), Some(tube)) = (self.flight.as_mut(), self.tube_ok.then_some(&*self.tube)) {
@@ -702,6 +716,9 @@ impl Core<'_> {
             return self.bad_value();
         };
         let result = if self.flight.is_some() { Err(ParamError::Locked) } else { self.params.set(p, d.param_value) };
+        if result.is_ok() && p.is_map() {
+            self.map_params_changed();
+        }
         if let Err(_e) = result {
             log!(warn, "PARAM_SET {} refused: {}", p, _e);
             self.bad_value();

@@ -193,6 +193,9 @@ pub enum StartError {
         /// How far the UAV had drifted, m.
         drift_m: f32,
     },
+    /// `PR_MAP` 1 (the map is unknown), but this build has no onboard map (feature
+    /// `perception`), or the world `PR_X0`..`PR_Y1` does not fit it at `PR_CELL`.
+    NoMap,
 }
 
 /// What one low-level step produced.

@@ -196,6 +196,20 @@ params! {
     Shape => int("VT_SHAPE", 0.0, 0.0, 1.0), "Formation shape: 0 the take-off ring (the paper's rest lengths); 1 shaped to the tube ahead, a stadium of the ring's perimeter as narrow as the narrowest section ahead allows (extension; `vt_dissipative::shape`, docs/design.md \"A formation shaped to the tube\").";
     ShapeMrg => real("VT_SHAPE_MRG", 0.5, 0.0, LENGTH_MAX_M), "Shaped formation: room kept between the nodes and the tube barrier's safety radius, m.";
     ShapeAhd => real("VT_SHAPE_AHD", 6.0, 0.0, LENGTH_MAX_M), "Shaped formation: how far past the formation's front the tube's width is looked at, m.";
+    PrMap => int("PR_MAP", 0.0, 0.0, 1.0), "Onboard map (issue 28): 0 the tube is given before the flight; 1 unknown: the companion maps its range scans and the team's, and the team re-plans its tube in flight on the world `PR_X0`..`PR_Y1` to `PR_GOAL_X/Y` (a build without the `perception` feature refuses the start, refusal 11).";
+    PrX0 => real("PR_X0", 0.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Onboard map: the world's west edge, m (ENU x).";
+    PrX1 => real("PR_X1", 50.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Onboard map: the world's east edge, m.";
+    PrY0 => real("PR_Y0", -10.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Onboard map: the world's south edge, m (ENU y).";
+    PrY1 => real("PR_Y1", 10.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Onboard map: the world's north edge, m.";
+    PrCell => real("PR_CELL", 0.25, 0.01, 10.0), "Onboard map: cell side, m (the world must fit `perception::MAP_CELLS` cells).";
+    PrGoalX => real("PR_GOAL_X", 50.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Re-planning: the mission's goal, ENU x, m.";
+    PrGoalY => real("PR_GOAL_Y", 0.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Re-planning: the mission's goal, ENU y, m.";
+    PrPeriod => int("PR_PERIOD_MS", 500.0, 1.0, 60000.0), "Re-planning: the scheduled re-plan period, ms.";
+    PrHalfW => real("PR_HALF_W", 0.9, 0.01, LENGTH_MAX_M), "Re-planning: the half-width every section of a planned tube must have, m (`vt_plan::PlanParams::need_half_width_m`).";
+    PrMargin => real("PR_MARGIN", 0.4, 0.0, LENGTH_MAX_M), "Re-planning: kept between a planned tube and every obstacle, m.";
+    PrMaxHw => real("PR_MAX_HW", 5.5, 0.01, LENGTH_MAX_M), "Re-planning: the widest half-width of a planned tube, m.";
+    PrLattice => real("PR_LATTICE", 0.25, 0.01, LENGTH_MAX_M), "Re-planning: the search lattice's spacing, m.";
+    PrKw => real("PR_K_W", 0.5, 0.0, GAIN_MAX), "Re-planning: the weight of narrowness in the search's edge cost `k_w` (0: shortest path).";
 }
 
 /// Number of parameters.
@@ -215,6 +229,11 @@ impl Param {
     /// The parameter at `param_index`, if any.
     pub fn from_index(index: usize) -> Option<Self> {
         ALL.get(index).copied()
+    }
+
+    /// One of the onboard map's `PR_*` parameters (the table's last).
+    pub fn is_map(self) -> bool {
+        self as u8 >= Param::PrMap as u8
     }
 }
 

@@ -82,6 +82,49 @@ pub struct PerceptionConfig {
     pub plan: PlanParams,
 }
 
+impl PerceptionConfig {
+    /// The configuration the `PR_*` parameters give (`None`: `PR_MAP` 0, the tube is given).
+    pub fn from_params(p: &crate::params::Params) -> Option<Self> {
+        use crate::params::Param;
+        (p.get_u32(Param::PrMap) == 1).then(|| Self {
+            bounds_m: [p.get(Param::PrX0), p.get(Param::PrX1), p.get(Param::PrY0), p.get(Param::PrY1)],
+            cell_m: p.get(Param::PrCell),
+            goal_m: [p.get(Param::PrGoalX), p.get(Param::PrGoalY)],
+            replan_period_ms: p.get_u32(Param::PrPeriod),
+            plan: PlanParams {
+                need_half_width_m: p.get(Param::PrHalfW),
+                margin_m: p.get(Param::PrMargin),
+                max_half_width_m: p.get(Param::PrMaxHw),
+                lattice_m: p.get(Param::PrLattice),
+                clearance_weight: p.get(Param::PrKw),
+            },
+        })
+    }
+
+    /// The `PR_*` parameters that give this configuration ([`Self::from_params`]' inverse).
+    pub fn params(&self) -> [(crate::params::Param, f32); 14] {
+        use crate::params::Param;
+        let [x0, x1, y0, y1] = self.bounds_m;
+        let pl = &self.plan;
+        [
+            (Param::PrMap, 1.0),
+            (Param::PrX0, x0),
+            (Param::PrX1, x1),
+            (Param::PrY0, y0),
+            (Param::PrY1, y1),
+            (Param::PrCell, self.cell_m),
+            (Param::PrGoalX, self.goal_m[0]),
+            (Param::PrGoalY, self.goal_m[1]),
+            (Param::PrPeriod, self.replan_period_ms as f32),
+            (Param::PrHalfW, pl.need_half_width_m),
+            (Param::PrMargin, pl.margin_m),
+            (Param::PrMaxHw, pl.max_half_width_m),
+            (Param::PrLattice, pl.lattice_m),
+            (Param::PrKw, pl.clearance_weight),
+        ]
+    }
+}
+
 /// Why a companion kept its tube.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -180,6 +223,7 @@ impl Perception {
         self.next_plan_ms = 0;
         self.last_plan_ms = None;
         self.replans = 0;
+        self.backoff_m = BACKOFF_M;
         Ok(())
     }
 

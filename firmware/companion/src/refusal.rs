@@ -126,6 +126,7 @@ impl core::fmt::Display for StartError {
             Self::Infeasible(e) => write!(f, "pre-flight check: {e}"),
             Self::Wind(e) => write!(f, "pre-flight wind check: {e}"),
             Self::LiftFailed => f.write_str("lift abandoned: the load did not leave the ground (overload or snagged load)"),
+            Self::NoMap => f.write_str("PR_MAP = 1 (unknown map), but this build has no onboard map or the world PR_X0..PR_Y1 does not fit it at PR_CELL"),
             Self::Station { drift_m } => {
                 // The fixed-point formatter: no `core::fmt` float machinery in the flash.
                 let mut d = Line::new();
@@ -150,6 +151,7 @@ impl StartError {
             Self::Wind(_) => 8,
             Self::LiftFailed => 9,
             Self::Station { .. } => 10,
+            Self::NoMap => 11,
         }
     }
 
@@ -198,6 +200,11 @@ impl StartError {
             Self::LiftFailed => {
                 head.push("load did not leave the ground");
                 false
+            }
+            Self::NoMap => {
+                head.push("no onboard map");
+                detail.push(if cfg!(feature = "perception") { "PR_X0..PR_Y1 too large at PR_CELL" } else { "PR_MAP 1: build without perception" });
+                true
             }
             Self::Station { drift_m } => {
                 head.push("cannot hold station, landing");

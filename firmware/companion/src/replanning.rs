@@ -130,6 +130,20 @@ impl<'t, 'p> Replanning<'t, 'p> {
         Self { map, spare, declined: false, check, offer: heapless::Vec::new(), declared_no_route: false, from_load: false }
     }
 
+    /// Configures the map for `cfg`'s world (empty) and forgets every plan and offer: a new
+    /// mission. On error nothing changes.
+    ///
+    /// # Errors
+    /// As [`Perception::configure`].
+    pub fn configure(&mut self, cfg: crate::perception::PerceptionConfig) -> Result<(), vt_map::MapError> {
+        self.map.configure(cfg)?;
+        self.declined = false;
+        self.offer.clear();
+        self.declared_no_route = false;
+        self.from_load = false;
+        Ok(())
+    }
+
     /// The map.
     pub fn map(&self) -> &Perception {
         self.map

@@ -59,14 +59,6 @@ pub fn team_setup_with(ls: &LoadedScenario, to: Takeoff, cable_rated_n: f64, loc
 /// As [`team_setup`].
 pub fn team_setup_for(ls: &LoadedScenario, kind: ControllerKind, to: Takeoff, cable_rated_n: f64, lockstep: bool) -> Result<TeamSetup, PilError> {
     let s = &ls.scenario;
-    if crate::mission::replan::perception_config(ls).is_some() {
-        // Issue 28: scans do not cross the wire yet (`OBSTACLE_DISTANCE`); flying the
-        // bounds-only tube blind would be silently wrong.
-        return Err(PilError(format!(
-            "{}: `[perception] map = \"unknown\"` flies in the SIL backend only so far (`host-sim run`); the MAVLink backends (twin, PIL, SITL) do not carry range scans yet",
-            ls.source_name
-        )));
-    }
     let n = s.cables.lengths_m.len();
     let waypoints = tube_waypoints(s).map_err(|e| PilError(e.0))?;
     let configs = (0..n)
@@ -168,7 +160,8 @@ pub fn sync<P: Port + ?Sized>(port: &mut P, system_id: u8, enc: &mut Encoder) ->
         param_id: name.into(),
     };
     port.send(&gcs(enc, &req))?;
-    recv_until(port, 256, |rx| match rx {
+    // Room for a re-planning companion's tube offer (up to 65 frames) with its telemetry.
+    recv_until(port, 1024, |rx| match rx {
         Rx::ParamValue(n, _) if n == name => Some(()),
         _ => None,
     })

@@ -9,6 +9,7 @@ use super::port::Port;
 use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
 use vt_companion::Mode;
 use vt_dissipative::TeamMode;
+use super::relay::PortPerception;
 use super::{err, PilError};
 use crate::mission::{self, holding_of, team_mode_of, Setpoint, Team, TeamStart, Tick};
 use crate::record::RunRecord;
@@ -93,6 +94,8 @@ pub struct PortTeam<'p, P: Port> {
     /// Someone else starts the mission (a ground station, `host-sim sitl`): called once the
     /// start tick has been delivered; the team then waits for every companion's `COMMAND_ACK`.
     start_hook: Option<StartHook<'p>>,
+    /// Issue 28: the network's relay of scans and tube offers (`None`: the map is known).
+    perception: Option<PortPerception>,
 }
 
 /// What starts the companions when the team does not (see [`PortTeam::started_by`]).
@@ -116,6 +119,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
             last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
             relayed: vec![vec![TeamMode::Transport; n]; n],
             start_hook: None,
+            perception: None,
         }
     }
 
@@ -178,22 +182,45 @@ impl<'p, P: Port> PortTeam<'p, P> {
             }
         }
         let own = tick.own.get(i).copied().unwrap_or_default();
+        let system_id = self.configs.get(i).map_or(0, |c| c.system_id);
+        let e = &mut self.enc[i];
+        let relayed = self.perception.as_ref().map_or_else(Vec::new, |p| p.frames_for(i, system_id, tick, &mut e.autopilot, &mut e.network));
         let frames = TickFrames {
             time_ms: tick.time_ms,
-            system_id: self.configs.get(i).map_or(0, |c| c.system_id),
+            system_id,
             load: tick.high_level.then_some((tick.load.pos_m, tick.load.vel_mps)),
             neighbours: if tick.high_level { tick.views.get(i).map_or(&[], Vec::as_slice) } else { &[] },
             own: (own.pos_m, own.vel_mps),
             sample_ms: (own.sample_ms, tick.load.sample_ms),
             id: i,
         };
-        let e = &mut self.enc[i];
         if tick.own_stalled.get(i).copied().unwrap_or(false) {
-            beats.extend(frames.encode_stalled(&mut e.autopilot, &mut e.tracker, &mut e.network));
+            beats.extend(frames.encode_stalled_with(&mut e.autopilot, &mut e.tracker, &mut e.network, &relayed));
         } else {
-            beats.extend(frames.encode(&mut e.autopilot, &mut e.tracker, &mut e.network));
+            beats.extend(frames.encode_with(&mut e.autopilot, &mut e.tracker, &mut e.network, &relayed));
         }
         beats
+    }
+
+    /// Issue 28: what companion `i` sent that the network relays or counts.
+    fn absorb(&mut self, i: usize, rx: &Rx) {
+        if let Some(p) = self.perception.as_mut() {
+            p.absorb(i, rx);
+        }
+    }
+
+    /// Issue 28: the start of a period.
+    fn open(&mut self, tick: &Tick<'_>) {
+        if let Some(p) = self.perception.as_mut() {
+            p.open(tick);
+        }
+    }
+
+    /// Issue 28: the end of a period (`immediate`: before the start).
+    fn close(&mut self, tick: &Tick<'_>, immediate: bool) {
+        if let Some(p) = self.perception.as_mut() {
+            p.close(tick.time_ms, immediate);
+        }
     }
 
     fn fail(&self, i: usize, what: impl std::fmt::Display) -> SimError {
@@ -213,6 +240,7 @@ impl<P: Port> PortTeam<'_, P> {
         }
         let setup = team_setup_for(ls, self.kind, at.takeoff.clone(), at.cable_rated_n, true).map_err(|e| SimError(e.0))?;
         self.configs = setup.configs;
+        self.perception = PortPerception::new(ls, n).map_err(|e| SimError(e.0))?;
         for i in 0..n {
             let cfg = self.configs[i].clone();
             configure(&mut self.ports[i], &cfg, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
@@ -225,47 +253,69 @@ impl<P: Port> Team for PortTeam<'_, P> {
     fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
         self.configure_all(ls, at)?;
         // The period's frames to every companion (no flight: nothing is answered; they go into
-        // its survey), then one round trip each so no receive buffer overflows.
+        // its survey, and its re-planning), then one round trip each so no receive buffer
+        // overflows.
+        self.open(&at.tick);
         for i in 0..self.ports.len() {
             let bytes = self.tick_frames(i, &at.tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
         }
         for i in 0..self.ports.len() {
             let id = self.configs[i].system_id;
-            sync(&mut self.ports[i], id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+            let mut seen = Vec::new();
+            sync(&mut Tap { port: &mut self.ports[i], seen: &mut seen }, id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+            seen.iter().for_each(|rx| self.absorb(i, rx));
         }
+        self.close(&at.tick, true);
         Ok(())
     }
 
     fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
         self.configure_all(ls, start)?;
         if let Some(mut hook) = self.start_hook.take() {
+            self.open(&start.tick);
             for i in 0..self.ports.len() {
                 let bytes = self.tick_frames(i, &start.tick);
                 self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
             }
             hook().map_err(|e| SimError(format!("{}: the start failed: {e}", self.label)))?;
             for i in 0..self.ports.len() {
-                let mut texts = Vec::new();
+                let (mut texts, mut seen) = (Vec::new(), Vec::new());
                 let r = super::config::recv_until(&mut self.ports[i], 4096, |rx| match rx {
                     Rx::CommandAck(c, r) if *c == mavlink::dialects::common::MavCmd::MAV_CMD_MISSION_START as u32 => Some(*r),
-                    Rx::StatusText(_, t) => {
-                        texts.push(t.clone());
+                    other => {
+                        if let Rx::StatusText(_, t) = other {
+                            texts.push(t.clone());
+                        }
+                        seen.push(other.clone());
                         None
                     }
-                    _ => None,
                 })
                 .map_err(|e| self.fail(i, e))?;
+                seen.iter().for_each(|rx| self.absorb(i, rx));
                 if r != 0 {
                     return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, texts.join("; "))));
                 }
             }
+            self.close(&start.tick, true);
             return Ok(None);
         }
+        // The start tick to every companion (its re-planning's first tube goes out at once, as
+        // in SIL), then the start itself.
+        self.open(&start.tick);
+        let mut seen_all = vec![Vec::new(); self.ports.len()];
         for i in 0..self.ports.len() {
             let id = self.configs[i].system_id;
             let bytes = self.tick_frames(i, &start.tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
+            sync(&mut Tap { port: &mut self.ports[i], seen: &mut seen_all[i] }, id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
+        }
+        for (i, seen) in seen_all.iter().enumerate() {
+            seen.iter().for_each(|rx| self.absorb(i, rx));
+        }
+        self.close(&start.tick, true);
+        for i in 0..self.ports.len() {
+            let id = self.configs[i].system_id;
             let (r, texts) = start_mission_with_reason(&mut self.ports[i], id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             if r != 0 {
                 return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, texts.join("; "))));
@@ -280,6 +330,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
             return Err(SimError(format!("{n} companions, {} setpoints", out.len())));
         }
         // Send every UAV its tick first (the emulators compute in parallel), then collect.
+        self.open(tick);
         for i in 0..n {
             let bytes = self.tick_frames(i, tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
@@ -299,7 +350,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
                     }
                     Rx::Status(c) => self.status[i] = c,
                     Rx::Heartbeat(m) => self.custom_mode[i] = m,
-                    _ => {}
+                    other => self.absorb(i, &other),
                 }
             };
             if tick.high_level {
@@ -314,6 +365,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
             self.commands.push(CommandRecord { step: t, uav: i, kind: CommandKind::Attitude, values: vec![q[0], q[1], q[2], q[3], thrust] });
             *slot = Setpoint { q_ned: q, thrust };
         }
+        self.close(tick, false);
         Ok(())
     }
 
@@ -339,6 +391,32 @@ impl<P: Port> Team for PortTeam<'_, P> {
         for ((p, r), m) in phases.iter_mut().zip(refusals.iter_mut()).zip(&self.custom_mode) {
             (*p, *r) = (crate::mission::phase_of(*m), crate::mission::refusal_of(*m));
         }
+    }
+
+    fn published_tube(&self) -> Option<(u32, &crate::scenario::SimTube)> {
+        self.perception.as_ref().and_then(PortPerception::published)
+    }
+
+    fn replan_stats(&self) -> Option<crate::mission::replan::ReplanStats> {
+        self.perception.as_ref().map(|p| p.stats().clone())
+    }
+}
+
+/// A port whose every received message is also kept (what the team relays or counts, read off
+/// a round trip's way).
+struct Tap<'a, P: Port> {
+    port: &'a mut P,
+    seen: &'a mut Vec<Rx>,
+}
+
+impl<P: Port> Port for Tap<'_, P> {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), PilError> {
+        self.port.send(bytes)
+    }
+    fn recv(&mut self) -> Result<Rx, PilError> {
+        let rx = self.port.recv()?;
+        self.seen.push(rx.clone());
+        Ok(rx)
     }
 }
 

@@ -21,6 +21,7 @@ pub mod compare;
 pub mod config;
 pub mod flight;
 pub mod port;
+pub mod relay;
 pub mod wire;
 
 pub use compare::{compare, Difference};

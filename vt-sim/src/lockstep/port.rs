@@ -90,6 +90,11 @@ impl Port for SilPort {
             return Err(PilError("host twin: dropped".into()));
         };
         let _request = companion.on_bytes(bytes, &mut TwinIo { out: &mut out });
+        // Issue 28: the board gives the companion its map's storage once `PR_MAP` asks for
+        // one (the firmware's perception build holds it in `static`s from boot).
+        if companion.params().get_u32(vt_companion::Param::PrMap) == 1 {
+            self.companion.provide_map();
+        }
         decode_into(&mut self.framer, &out, &mut self.pending);
         Ok(())
     }

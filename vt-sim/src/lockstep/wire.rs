@@ -4,12 +4,12 @@
 use super::{AUTOPILOT_COMPONENT_ID, LOAD_COMPONENT_ID, SYSID_BASE};
 use mavlink::dialects::common::{
     MavAutopilot, MavModeFlag, MavState, MavType, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA,
-    MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA, NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA,
+    MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA, NAMED_VALUE_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA,
     SET_ATTITUDE_TARGET_DATA, STATUSTEXT_DATA, SYSTEM_TIME_DATA, SYS_STATUS_DATA,
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 use nalgebra::Vector3;
-use vt_companion::companion::{NAME_AGES, NAME_CABLE_FORCE, NAME_CLEARANCE, NAME_CYCLES};
+use vt_companion::companion::{NAME_AGES, NAME_CABLE_FORCE, NAME_CLEARANCE, NAME_CYCLES, NAME_REPLAN, NAME_TUBES};
 use vt_companion::COMPANION_COMPONENT_ID;
 
 type V3f = Vector3<f32>;
@@ -81,6 +81,16 @@ pub enum Rx {
     Clearance(f32),
     /// `STATUSTEXT`: severity (`MAV_SEVERITY`) and text.
     StatusText(u32, String),
+    /// `MISSION_COUNT` (issue 28: the start of a planner's tube offer, pushed to the team).
+    MissionCount(u16),
+    /// `MISSION_ITEM_INT` (an item of a pushed offer).
+    MissionItem(Box<MISSION_ITEM_INT_DATA>),
+    /// `DEBUG_VECT` `REPLAN`: re-plans started, re-plans that gave a tube, longest re-plan in
+    /// board cycles (since the map was configured).
+    Replan([f32; 3]),
+    /// `DEBUG_VECT` `TUBES`: switches to an offered tube, offers declined, 1 while this planner
+    /// holds the team for want of a route.
+    Tubes([f32; 3]),
     /// Anything else (message id).
     Other(u32),
 }
@@ -116,6 +126,8 @@ pub fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
                 n if n == NAME_CABLE_FORCE => Rx::CableForce([d.x, d.y, d.z]),
                 n if n == NAME_CYCLES => Rx::Cycles([d.x, d.y, d.z]),
                 n if n == NAME_AGES => Rx::Ages([d.x, d.y, d.z]),
+                n if n == NAME_REPLAN => Rx::Replan([d.x, d.y, d.z]),
+                n if n == NAME_TUBES => Rx::Tubes([d.x, d.y, d.z]),
                 _ => Rx::Other(id),
             }
         }
@@ -129,6 +141,8 @@ pub fn decode(id: u32, payload: &[u8]) -> Option<Rx> {
             Rx::ParamValue(d.param_id.to_str().unwrap_or("").to_string(), d.param_value)
         }
         MISSION_REQUEST_INT_DATA::ID => Rx::MissionRequest(MISSION_REQUEST_INT_DATA::deser(v2, payload).ok()?.seq),
+        MISSION_COUNT_DATA::ID => Rx::MissionCount(MISSION_COUNT_DATA::deser(v2, payload).ok()?.count),
+        MISSION_ITEM_INT_DATA::ID => Rx::MissionItem(Box::new(MISSION_ITEM_INT_DATA::deser(v2, payload).ok()?)),
         MISSION_ACK_DATA::ID => Rx::MissionAck(MISSION_ACK_DATA::deser(v2, payload).ok()?.mavtype as u32),
         COMMAND_ACK_DATA::ID => {
             let d = COMMAND_ACK_DATA::deser(v2, payload).ok()?;
@@ -177,6 +191,12 @@ pub struct TickFrames<'a> {
 impl TickFrames<'_> {
     /// Encodes the tick.
     pub fn encode(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
+        self.encode_with(autopilot, tracker, network, &[])
+    }
+
+    /// Encodes the tick with `relayed` (frames the team network relays this period: range scans,
+    /// a tube offer) after the load's and the neighbours' states, before the own state.
+    pub fn encode_with(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder, relayed: &[u8]) -> Vec<u8> {
         let (own_sample_ms, _) = self.sample_ms;
         let mut out = Vec::with_capacity(64 * (3 + self.neighbours.len()));
         if own_sample_ms != self.time_ms {
@@ -185,6 +205,7 @@ impl TickFrames<'_> {
             out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &self.system_time()));
         }
         self.encode_team(tracker, network, &mut out);
+        out.extend_from_slice(relayed);
         out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &local_position(own_sample_ms, &self.own.0, &self.own.1)));
         out
     }
@@ -194,9 +215,15 @@ impl TickFrames<'_> {
     /// follow as usual, and a second `SYSTEM_TIME` at the same time closes it instead of the own
     /// state (the lockstep clock, docs/protocol.md).
     pub fn encode_stalled(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder) -> Vec<u8> {
+        self.encode_stalled_with(autopilot, tracker, network, &[])
+    }
+
+    /// [`Self::encode_stalled`] with `relayed` as in [`Self::encode_with`].
+    pub fn encode_stalled_with(&self, autopilot: &mut Encoder, tracker: &mut Encoder, network: &mut Encoder, relayed: &[u8]) -> Vec<u8> {
         let mut out = Vec::with_capacity(64 * (3 + self.neighbours.len()));
         out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &self.system_time()));
         self.encode_team(tracker, network, &mut out);
+        out.extend_from_slice(relayed);
         out.extend(autopilot.frame(self.system_id, AUTOPILOT_COMPONENT_ID, &self.system_time()));
         out
     }

@@ -13,7 +13,7 @@
 use super::Tick;
 use crate::companion::HostCompanion;
 use crate::plan::params_of;
-use crate::scenario::{LoadedScenario, MapKnowledge, SimTube};
+use crate::scenario::{LoadedScenario, MapKnowledge, Scenario, SimTube};
 use vt_companion::perception::PerceptionConfig;
 use vt_companion::Source;
 use vt_tube::Waypoint;
@@ -24,8 +24,7 @@ pub const PLAN_LATENCY_MS: u32 = vt_companion::perception::HAND_OVER_MS;
 
 /// The onboard map configuration a scenario gives every companion (`None`: the map is known,
 /// nothing is re-planned).
-pub fn perception_config(ls: &LoadedScenario) -> Option<PerceptionConfig> {
-    let s = &ls.scenario;
+pub fn perception_config(s: &Scenario) -> Option<PerceptionConfig> {
     let spec = s.tube.plan.as_ref()?;
     if s.perception.map != MapKnowledge::Unknown {
         return None;
@@ -72,19 +71,16 @@ pub struct TeamPerception {
 }
 
 impl TeamPerception {
-    /// Attaches re-planning to each of `uavs` (`None` when `ls` does not re-plan).
-    ///
-    /// # Errors
-    /// The world does not fit the onboard map (validation refuses it first).
-    pub fn attach(ls: &LoadedScenario, uavs: &mut [HostCompanion]) -> Result<Option<Self>, crate::sim::SimError> {
-        let Some(cfg) = perception_config(ls) else {
-            return Ok(None);
-        };
+    /// Gives each of `uavs` its map's storage (`None` when `ls` does not re-plan); each
+    /// configures it from its `PR_*` parameters (a world it cannot hold refuses the start;
+    /// validation refuses it first).
+    pub fn attach(ls: &LoadedScenario, uavs: &mut [HostCompanion]) -> Option<Self> {
+        perception_config(&ls.scenario)?;
         for uav in uavs.iter_mut() {
-            uav.attach_replanning(cfg).map_err(|e| crate::sim::SimError(format!("onboard map: {e}")))?;
+            uav.provide_map();
         }
         let stats = ReplanStats { map_ram_bytes: vt_map::OccupancyGrid::<{ vt_companion::perception::MAP_CELLS }>::ram_bytes(), ..ReplanStats::default() };
-        Ok(Some(Self { pending: None, delivered: None, published: None, stats }))
+        Some(Self { pending: None, delivered: None, published: None, stats })
     }
 
     /// The start of a period: the offer whose time has come is delivered in it.

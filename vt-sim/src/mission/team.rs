@@ -217,7 +217,7 @@ impl CompanionTeam {
             c.upload_tube(&items, &mut Unlinked).map_err(|e| SimError(format!("UAV {i}: tube refused ({e:?})")))?;
             self.uavs.push(uav);
         }
-        self.perception = super::replan::TeamPerception::attach(ls, &mut self.uavs)?;
+        self.perception = super::replan::TeamPerception::attach(ls, &mut self.uavs);
         Ok(())
     }
 

@@ -18,7 +18,7 @@
 //!   `STATUSTEXT`; the team follows through the team failsafe (its heartbeat in `Hold`).
 
 use mavlink::dialects::common::{
-    MavFrame, MavMissionResult, MavSeverity, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    MavFrame, DEBUG_VECT_DATA, MavMissionResult, MavSeverity, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_DATA, STATUSTEXT_DATA,
 };
 
@@ -34,9 +34,23 @@ use vt_tube::Waypoint;
 /// `STATUSTEXT` of a planner that found no route (the team holds).
 pub const NO_ROUTE_TEXT: &str = "no route to the goal on the map as seen: holding";
 
+/// Whether the map follows the `PR_*` parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum MapState {
+    /// New storage, or a `PR_*` parameter changed: configured at the next use.
+    Stale,
+    /// `PR_MAP` 0: the tube is given, nothing is mapped or re-planned.
+    Off,
+    /// Configured from the parameters, in use.
+    On,
+    /// `PR_MAP` 1, but the world does not fit the map (the start is refused).
+    Unfit,
+}
+
 /// The companion's re-planning and its link state.
 pub(super) struct Aboard<'t> {
     replanning: Replanning<'t, 't>,
+    map: MapState,
     /// An offer being received.
     incoming: MissionUpload,
     /// The system id the incoming offer comes from.
@@ -47,7 +61,34 @@ pub(super) struct Aboard<'t> {
     report: ReplanReport,
     /// Team data (the load's or a member's state) arrived in the current period.
     team_data: bool,
+    /// The counts since the map was configured, as the telemetry reports them.
+    totals: ReplanTotals,
 }
+
+/// What a companion's re-planning did since its map was configured: what `DEBUG_VECT`
+/// [`NAME_REPLAN`] and [`NAME_TUBES`] report after each perception step that changed it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReplanTotals {
+    /// Re-plans started.
+    pub replans: u32,
+    /// Re-plans that gave a tube.
+    pub planned: u32,
+    /// Switches to an offered tube.
+    pub switches: u32,
+    /// Offers declined.
+    pub kept: u32,
+    /// This planner holds the team for want of a route.
+    pub no_route: bool,
+    /// The longest re-plan, board cycles (`Io::cycles`).
+    pub worst_cycles: u32,
+}
+
+/// `DEBUG_VECT` name of the re-planning counts: x re-plans started, y re-plans that gave a
+/// tube, z the longest re-plan in board cycles.
+pub const NAME_REPLAN: &str = "REPLAN";
+/// `DEBUG_VECT` name of the tube counts: x switches to an offered tube, y offers declined, z 1
+/// while this planner holds the team for want of a route.
+pub const NAME_TUBES: &str = "TUBES";
 
 /// What a companion's re-planning did since it was last asked, and an offer to relay.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -71,7 +112,16 @@ impl<'t> Companion<'t> {
     /// one, if any, is given back.
     pub fn attach_replanning(&mut self, r: Replanning<'t, 't>) -> Option<Replanning<'t, 't>> {
         let old = self.core.aboard.take().map(|a| a.replanning);
-        self.core.aboard = Some(Aboard { replanning: r, incoming: MissionUpload::new(), incoming_from: 0, offer_ready: false, report: ReplanReport::default(), team_data: false });
+        self.core.aboard = Some(Aboard {
+            replanning: r,
+            map: MapState::Stale,
+            incoming: MissionUpload::new(),
+            incoming_from: 0,
+            offer_ready: false,
+            report: ReplanReport::default(),
+            team_data: false,
+            totals: ReplanTotals::default(),
+        });
         old
     }
 
@@ -85,6 +135,11 @@ impl<'t> Companion<'t> {
         self.core.aboard.as_ref().map(|a| &a.replanning)
     }
 
+    /// What the re-planning did since its map was configured (zero without one).
+    pub fn replan_totals(&self) -> ReplanTotals {
+        self.core.aboard.as_ref().map(|a| a.totals).unwrap_or_default()
+    }
+
     /// A range scan from `from`'s LiDAR (own, or a member's relayed by the team network): folded
     /// at that UAV's last position as this companion knows it (dropped when it knows none).
     /// What an `OBSTACLE_DISTANCE` frame does once its ids are mapped.
@@ -96,6 +151,9 @@ impl<'t> Companion<'t> {
     /// at the next perception step. What a complete `MISSION_COUNT` + `MISSION_ITEM_INT` push
     /// does.
     pub fn offer(&mut self, waypoints: &[Waypoint]) {
+        if !self.core.map_on() {
+            return;
+        }
         if let Some(a) = self.core.aboard.as_mut() {
             a.incoming.clear();
             let _ = a.incoming.begin(u16::try_from(waypoints.len()).unwrap_or(u16::MAX));
@@ -123,6 +181,31 @@ impl<'t> Companion<'t> {
 }
 
 impl<'t> Core<'t> {
+    /// Whether the re-planning is in use: configured from the `PR_*` parameters at the first
+    /// use after they changed (an empty map, no plan). False without storage, with `PR_MAP` 0,
+    /// or with a world the map cannot hold.
+    pub(super) fn map_on(&mut self) -> bool {
+        let Some(a) = self.aboard.as_mut() else {
+            return false;
+        };
+        if a.map == MapState::Stale {
+            a.totals = ReplanTotals::default();
+            a.map = match crate::perception::PerceptionConfig::from_params(&self.params) {
+                None => MapState::Off,
+                Some(cfg) if a.replanning.configure(cfg).is_ok() => MapState::On,
+                Some(_) => MapState::Unfit,
+            };
+        }
+        a.map == MapState::On
+    }
+
+    /// A `PR_*` parameter changed: the map is configured afresh at its next use.
+    pub(super) fn map_params_changed(&mut self) {
+        if let Some(a) = self.aboard.as_mut() {
+            a.map = MapState::Stale;
+        }
+    }
+
     /// The load's or a member's state arrived in this period.
     pub(super) fn note_team_data(&mut self) {
         if let Some(a) = self.aboard.as_mut() {
@@ -143,6 +226,9 @@ impl<'t> Core<'t> {
 
     /// Folds `scan` at `from`'s last position (module docs).
     pub(super) fn fold_scan(&mut self, from: Source, scan: &Scan) {
+        if !self.map_on() {
+            return;
+        }
         let origin = match from {
             Source::Own => self.sources.own.map(|s| s.value.pos_m),
             Source::Member(j) => self.sources.neighbours.get(j).copied().flatten().map(|s| s.value),
@@ -184,8 +270,8 @@ impl<'t> Core<'t> {
 
     /// Whether a mission frame is a team member's offer push (its companion, any team system,
     /// this one included), not a ground station's upload.
-    pub(super) fn is_offer(&self, f: &Frame<'_>) -> bool {
-        self.aboard.is_some() && f.component_id == COMPANION_COMPONENT_ID && self.team_source(f.system_id).is_some()
+    pub(super) fn is_offer(&mut self, f: &Frame<'_>) -> bool {
+        f.component_id == COMPANION_COMPONENT_ID && self.team_source(f.system_id).is_some() && self.map_on()
     }
 
     /// An offer's `MISSION_COUNT`.
@@ -218,9 +304,13 @@ impl<'t> Core<'t> {
     /// The perception step before a high-level step (module docs), with the own position
     /// `own_m` of this period.
     pub(super) fn perception_step(&mut self, own_m: &Vec3, io: &mut impl Io) {
+        if !self.map_on() {
+            return;
+        }
         let Some(mut a) = self.aboard.take() else {
             return;
         };
+        let before = a.report;
         if a.replanning.watch(self, own_m) {
             a.report.switches += 1;
         }
@@ -242,7 +332,11 @@ impl<'t> Core<'t> {
         let healthy = |j: usize| j == id || fresh(j).is_some();
         let positions_m = (0..n).filter_map(|j| if j == id { Some(*own_m) } else { fresh(j) }).map(|p| p.xy());
         let load = self.sources.load.map_or(Vec3::zeros(), |s| s.value.pos_m);
+        let t0 = io.cycles();
         let planned = a.replanning.plan(&*self, TeamView { id, n, healthy, positions_m }, &load, now);
+        if planned.replanned() {
+            a.totals.worst_cycles = a.totals.worst_cycles.max(io.cycles().wrapping_sub(t0));
+        }
         a.report.replans += u32::from(planned.replanned());
         a.report.planned += u32::from(planned.planned());
         match planned {
@@ -267,7 +361,29 @@ impl<'t> Core<'t> {
             }
             Planned::Idle | Planned::Kept | Planned::Failed => {}
         }
+        let r = &a.report;
+        let t = &mut a.totals;
+        let changed = r.replans != before.replans || r.switches != before.switches || r.kept != before.kept || r.no_route != before.no_route;
+        t.replans = t.replans.wrapping_add(r.replans.wrapping_sub(before.replans));
+        t.planned = t.planned.wrapping_add(r.planned.wrapping_sub(before.planned));
+        t.switches = t.switches.wrapping_add(r.switches.wrapping_sub(before.switches));
+        t.kept = t.kept.wrapping_add(r.kept.wrapping_sub(before.kept));
+        if r.no_route != before.no_route {
+            t.no_route = r.no_route == Some(true);
+        }
+        let totals = *t;
         self.aboard = Some(a);
+        if changed {
+            self.send_replan_totals(&totals, io);
+        }
+    }
+
+    /// `DEBUG_VECT` [`NAME_REPLAN`] and [`NAME_TUBES`] with `t`.
+    fn send_replan_totals(&mut self, t: &ReplanTotals, io: &mut impl Io) {
+        let time_usec = u64::from(self.clock_ms) * 1000;
+        let f = |x: u32| x as f32;
+        self.send(io, &DEBUG_VECT_DATA { time_usec, x: f(t.replans), y: f(t.planned), z: f(t.worst_cycles), name: NAME_REPLAN.into() });
+        self.send(io, &DEBUG_VECT_DATA { time_usec, x: f(t.switches), y: f(t.kept), z: f(u32::from(t.no_route)), name: NAME_TUBES.into() });
     }
 
     /// The planner's push of `waypoints` to the team (module docs).

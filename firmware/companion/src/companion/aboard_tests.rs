@@ -49,7 +49,10 @@ fn companion_on(waypoints: &[(f32, f32)]) -> (Companion<'static>, TestIo) {
     }
     let items: Vec<Item> = (0u16..).zip(waypoints).map(|(seq, (e, n))| Item::tube_waypoint(seq, (n * 1e4) as i32, (e * 1e4) as i32, 3.0, 3.0)).collect();
     c.upload_tube(&items, &mut io).unwrap();
-    let map = Box::leak(Box::new(Perception::new(config()).unwrap()));
+    for (p, v) in config().params() {
+        c.set_param(p, v).unwrap();
+    }
+    let map = Box::leak(Box::new(Perception::placeholder()));
     assert!(c.attach_replanning(Replanning::new(map, leaked_tube(), leaked_tube())).is_none());
     (c, io)
 }
@@ -128,6 +131,10 @@ fn the_planner_pushes_its_tube_and_a_members_push_is_taken_and_acknowledged() {
     }
     let r = c.take_replan_report();
     assert!(r.offered && r.replans == 1 && r.planned == 1, "{r:?}");
+    // ... and reports its counts on the link (what the MAVLink backends count).
+    let debug = |name: &str| sent.iter().find_map(|m| if let MavMessage::DEBUG_VECT(d) = m { (d.name.to_str().unwrap() == name).then_some((d.x, d.y, d.z)) } else { None });
+    assert_eq!(debug(super::NAME_REPLAN).map(|(x, y, _)| (x, y)), Some((1.0, 1.0)), "REPLAN: one re-plan, one tube");
+    assert_eq!(debug(super::NAME_TUBES), Some((0.0, 0.0, 0.0)), "TUBES: no switch yet, none declined, a route");
     // Member 1 (system 2) pushes a tube bent 1 m north: taken at the next perception step and
     // acknowledged to it.
     let bent = [(3.0, 10.0), (25.0, 11.0), (47.0, 10.0)];
@@ -155,4 +162,31 @@ fn the_planner_pushes_its_tube_and_a_members_push_is_taken_and_acknowledged() {
     // always was (no flight yet), answered with a request for its first item.
     c.on_bytes(&frame(255, 190, &MISSION_COUNT_DATA { count: 2, target_system: 1, target_component: COMPANION_COMPONENT_ID }), &mut io);
     assert!(io.take().iter().any(|m| matches!(m, MavMessage::MISSION_REQUEST_INT(d) if d.seq == 0 && d.target_system == 255)));
+}
+
+#[test]
+fn the_map_follows_its_parameters_and_a_start_without_one_is_refused() {
+    let (mut c, mut io) = companion();
+    let rock = [(V2::new(20.0, 10.0), 1.0)];
+    let (own, m1) = (Vec3::new(14.0, 10.0, 7.0), Vec3::new(10.0, 10.0, 7.0));
+    period(&mut c, &mut io, 0, &own, &m1, &[]);
+    period(&mut c, &mut io, 20, &own, &m1, &encoded(&scan(V2::new(14.0, 10.0), &rock)));
+    assert!(occupied(&c) > 0);
+    // A `PR_*` parameter set: the map is configured afresh at its next use (empty).
+    c.set_param(Param::PrCell, 0.5).unwrap();
+    period(&mut c, &mut io, 40, &own, &m1, &[]);
+    assert_eq!((occupied(&c), c.replanning().unwrap().map().map().resolution_m()), (0, 0.5));
+    // A world the map cannot hold at its cell: no map, and the start says so.
+    c.set_param(Param::PrCell, 0.01).unwrap();
+    assert_eq!(c.start_mission(&mut io), Err(crate::flight::StartError::NoMap));
+    assert!(io.take().iter().any(|m| matches!(m, MavMessage::STATUSTEXT(d) if d.text.to_str().unwrap_or("").contains("no onboard map"))));
+    // `PR_MAP` 1 without the storage (a board that gives none): refused the same way.
+    c.detach_replanning();
+    c.set_param(Param::PrCell, 0.25).unwrap();
+    assert_eq!(c.start_mission(&mut io), Err(crate::flight::StartError::NoMap));
+}
+
+/// `scan` as the own autopilot's `OBSTACLE_DISTANCE` (system 1).
+fn encoded(s: &vt_map::Scan) -> Vec<u8> {
+    frame(1, AUTOPILOT_COMPONENT_ID, &encode(s, 5, 0).unwrap())
 }

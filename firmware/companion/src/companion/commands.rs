@@ -17,7 +17,13 @@ impl Core<'_> {
     pub(super) fn start(&mut self, io: &mut impl Io) -> Result<(), StartError> {
         let now = if self.params.get_u32(Param::Lockstep) == 1 { self.sources.own.map_or(self.clock_ms, |s| s.stamp_ms) } else { io.now_ms() };
         self.clock_ms = now;
-        match Flight::start(&self.params, self.tube(), &self.sources, now) {
+        // Issue 28: `PR_MAP` 1 needs a map this build holds and the world fits.
+        let started = if self.params.get_u32(Param::PrMap) == 1 && !self.map_on() {
+            Err(StartError::NoMap)
+        } else {
+            Flight::start(&self.params, self.tube(), &self.sources, now)
+        };
+        match started {
             Ok(fl) => {
                 self.phase_sent = fl.phase() as u8;
                 self.flight = Some(fl);
