@@ -303,14 +303,12 @@ impl<P: Port> Team for PortTeam<'_, P> {
         // The start tick to every companion (its re-planning's first tube goes out at once, as
         // in SIL), then the start itself.
         self.open(&start.tick);
-        let mut seen_all = vec![Vec::new(); self.ports.len()];
         for i in 0..self.ports.len() {
             let id = self.configs[i].system_id;
             let bytes = self.tick_frames(i, &start.tick);
             self.ports[i].send(&bytes).map_err(|e| self.fail(i, e))?;
-            sync(&mut Tap { port: &mut self.ports[i], seen: &mut seen_all[i] }, id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
-        }
-        for (i, seen) in seen_all.iter().enumerate() {
+            let mut seen = Vec::new();
+            sync(&mut Tap { port: &mut self.ports[i], seen: &mut seen }, id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             seen.iter().for_each(|rx| self.absorb(i, rx));
         }
         self.close(&start.tick, true);
