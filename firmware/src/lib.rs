@@ -35,8 +35,13 @@ use embassy_time::{Duration, Instant, Ticker, Timer};
 use static_cell::{ConstStaticCell, StaticCell};
 use vt_companion::{Companion, CompanionTube, Io, Request};
 
-/// Bytes queued for the link (a full parameter list, the largest burst, is about 1.7 KB).
+/// Bytes queued for the link (a full parameter list, the largest burst, is about 1.9 KB).
+#[cfg(not(feature = "perception"))]
 const TX_CAPACITY: usize = 2048;
+/// Bytes queued for the link: a re-planning companion's tube offer (`MISSION_COUNT` and up to
+/// 64 `MISSION_ITEM_INT`, about 3.4 KB) with a period's telemetry.
+#[cfg(feature = "perception")]
+const TX_CAPACITY: usize = 8192;
 /// Receive chunk handed to the companion at once.
 const RX_CHUNK: usize = 128;
 /// Transmit chunk written to the UART at once.
@@ -204,7 +209,32 @@ static EXECUTOR: StaticCell<board::Executor> = StaticCell::new();
 /// stays live under the executor forever, it held 3.8 KiB of stack for good.
 #[inline(never)]
 fn companion() -> &'static Shared {
-    COMPANION.init(Mutex::new(Companion::new(TUBE.take())))
+    let c = COMPANION.init(Mutex::new(Companion::new(TUBE.take())));
+    #[cfg(feature = "perception")]
+    if let Ok(mut c) = c.try_lock() {
+        perception::attach(&mut c);
+    }
+    c
+}
+
+/// Issue 28 aboard (feature `perception`): the re-planning's storage, given to the companion
+/// at boot; it configures it from its `PR_*` parameters.
+#[cfg(feature = "perception")]
+mod perception {
+    use static_cell::ConstStaticCell;
+    use vt_companion::perception::Perception;
+    use vt_companion::replanning::Replanning;
+    use vt_companion::{Companion, CompanionTube};
+
+    // Built in place from `const` placeholders: never on the stack.
+    static MAP: ConstStaticCell<Perception> = ConstStaticCell::new(Perception::placeholder());
+    static SPARE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
+    static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
+
+    /// Gives `c` the map and its two tubes.
+    pub(super) fn attach(c: &mut Companion<'static>) {
+        let _none = c.attach_replanning(Replanning::new(MAP.take(), SPARE.take(), CHECK.take()));
+    }
 }
 
 /// Boots the board and runs the tasks forever (called by each board's binary, `src/bin/`).

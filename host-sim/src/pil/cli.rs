@@ -41,7 +41,7 @@ pub fn cli(
             eprintln!("error: firmware ELF {} does not exist", p.display());
             return ExitCode::from(2);
         }
-        None => match build_firmware() {
+        None => match build_firmware_for(&ls) {
             Ok(p) => p,
             Err(e) => {
                 eprintln!("error: {e}");

@@ -29,6 +29,6 @@ pub mod report;
 pub use bench::{bench, bench_scenario, BenchReport, StepCounts, BENCH_TEAM_SIZES};
 pub use cli::{cli, cli_bench};
 pub use perception_bench::{build_perception_bench, perception_bench, PerceptionBench};
-pub use qemu::{build_firmware, build_firmware_bin, decode_defmt, default_firmware_path, firmware_dir, qemu_available, QemuOptions, QemuPort};
+pub use qemu::{build_firmware, build_firmware_bin, build_firmware_for, decode_defmt, default_firmware_path, firmware_dir, qemu_available, QemuOptions, QemuPort};
 pub use report::{run, write_report, CycleStats, PilOptions, PilReport};
 pub use vt_sim::lockstep::*;

@@ -303,6 +303,20 @@ pub fn build_firmware() -> Result<PathBuf, PilError> {
     build_firmware_bin("qemu", "vt-firmware-qemu")
 }
 
+/// The firmware `ls` needs: the `qemu` build, or for an unknown map (issue 28) the `qemu`
+/// build with in-flight re-planning (`--features qemu,perception`, the board's full 4 MiB of
+/// RAM: not a flight layout), built as [`build_firmware`] does.
+///
+/// # Errors
+/// cargo fails.
+pub fn build_firmware_for(ls: &crate::scenario::LoadedScenario) -> Result<PathBuf, PilError> {
+    if crate::mission::replan::perception_config(&ls.scenario).is_some() {
+        build_firmware_bin("qemu,perception", "vt-firmware-qemu-perception")
+    } else {
+        build_firmware()
+    }
+}
+
 /// Builds binary `bin` of the firmware workspace with `features` (release, `--bin bin` only:
 /// a bench build never re-links the flight image) and returns the ELF's path.
 ///
