@@ -61,6 +61,25 @@ fn sitl_lockstep_experiment_is_bit_exact_with_the_sil_twin() {
     assert_eq!((sil.min_uav_uav_m, sil.min_uav_boundary_m, sil.completion_time_s), (run.summary.min_uav_uav_m, run.summary.min_uav_boundary_m, run.summary.completion_time_s));
 }
 
+/// Issue 28 through the Linux companion: three `vt-companion` processes, configured by the
+/// ground station with their map's `PR_*` parameters, get their LiDAR scans as
+/// `OBSTACLE_DISTANCE` over UDP, re-plan aboard and push their tubes through host-sim's team
+/// network: the re-route flown in lockstep bit for bit as the SIL twin, with its re-plans and
+/// switches.
+#[test]
+fn sitl_lockstep_reroute_on_an_unknown_map_is_bit_exact_with_the_sil_twin() {
+    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let ls = scenario::load(Some(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/reroute-3uav-unknown.toml"))).unwrap();
+    let opts = RunOptions { record: false, ..RunOptions::default() };
+    let (run, report, _) = sitl::sitl_lockstep(&ls, &opts, &companion()).expect("SITL flies");
+    let p = run.summary.perception.clone().expect("perception figures");
+    println!("SITL lockstep, reroute-3uav-unknown: success {}, {} commands, bit-exact {:?}, {p:?}", run.summary.success, report.commands_compared, report.bit_exact);
+    assert_eq!(report.bit_exact, Some(true), "first difference {:?}", report.first_difference);
+    assert!(run.summary.success && p.replans > 0 && p.tube_switches > 0, "{:?} {p:?}", run.summary.failures);
+    let sil = sim::run(&ls, &opts).unwrap().summary;
+    assert_eq!(sil.perception, Some(p), "SIL's re-plans and switches");
+}
+
 #[test]
 fn sitl_realtime_experiment_succeeds_with_its_floors() {
     let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);

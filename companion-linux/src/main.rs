@@ -15,6 +15,8 @@ use std::net::SocketAddr;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use vt_companion::perception::Perception;
+use vt_companion::replanning::Replanning;
 use vt_companion::{Companion, CompanionTube, Param};
 
 #[derive(Parser)]
@@ -90,8 +92,12 @@ fn main() -> ExitCode {
     }
     // The tube's tables (about 9 KiB) live beside the companion, as in the firmware's static.
     let mut tube = Box::new(CompanionTube::placeholder());
+    // Issue 28: the onboard map and the re-planning's two tubes (about 290 KiB), configured by
+    // the companion from its `PR_*` parameters when `PR_MAP` is 1.
+    let (mut map, mut spare, mut check) = (Box::new(Perception::placeholder()), Box::new(CompanionTube::placeholder()), Box::new(CompanionTube::placeholder()));
     loop {
         let mut companion = Companion::new(&mut tube);
+        let _none = companion.attach_replanning(Replanning::new(&mut map, &mut spare, &mut check));
         for &(p, v) in &presets {
             if companion.set_param(p, v).is_err() {
                 return bad(&format!("parameter {} = {v} refused", p.info().name));

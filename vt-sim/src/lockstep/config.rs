@@ -107,7 +107,8 @@ pub fn configure<P: Port + ?Sized>(port: &mut P, cfg: &UavConfig, enc: &mut Enco
         let echoed = recv_until(port, 64, |rx| match rx {
             Rx::ParamValue(n, v) if n == name => Some(*v),
             _ => None,
-        })?;
+        })
+        .map_err(|e| PilError(format!("parameter {name}: no echo ({e}): a companion built before the parameter existed?")))?;
         if echoed.to_bits() != value.to_bits() {
             return err(format!("parameter {name}: sent {value}, companion holds {echoed}"));
         }

@@ -231,16 +231,20 @@ impl<'p, P: Port> PortTeam<'p, P> {
 impl<P: Port> PortTeam<'_, P> {
     /// Configures every companion (parameters, tube), once.
     fn configure_all(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
-        if !self.configs.is_empty() {
-            return Ok(());
-        }
         let n = ls.scenario.cables.lengths_m.len();
         if self.ports.len() != n {
             return Err(SimError(format!("{} ports for {n} UAVs", self.ports.len())));
         }
+        // The network relays scans and offers however the companions were configured (here,
+        // or by a ground station: `configured`).
+        if self.perception.is_none() {
+            self.perception = PortPerception::new(ls, n).map_err(|e| SimError(e.0))?;
+        }
+        if !self.configs.is_empty() {
+            return Ok(());
+        }
         let setup = team_setup_for(ls, self.kind, at.takeoff.clone(), at.cable_rated_n, true).map_err(|e| SimError(e.0))?;
         self.configs = setup.configs;
-        self.perception = PortPerception::new(ls, n).map_err(|e| SimError(e.0))?;
         for i in 0..n {
             let cfg = self.configs[i].clone();
             configure(&mut self.ports[i], &cfg, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
