@@ -933,3 +933,32 @@ fn pil_command_rejects_bad_input_with_exit_2() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("scenario.toml"), "{err}");
 }
+
+/// `PARAM_REQUEST_LIST` (a ground station's parameter screen): every parameter of the table
+/// comes back, once, in table order, then the answer to a later request. The list is bigger
+/// than the firmware's transmit queue.
+fn the_whole_parameter_list_comes_back<P: Port>(q: &mut P, enc: &mut Encoders) {
+    use mavlink::dialects::common::PARAM_REQUEST_LIST_DATA;
+    let list = PARAM_REQUEST_LIST_DATA { target_system: pil::SYSID_BASE, target_component: vt_companion::COMPANION_COMPONENT_ID };
+    q.send(&enc.gcs.frame(pil::GCS_SYSTEM_ID, pil::GCS_COMPONENT_ID, &list)).unwrap();
+    let mut names = Vec::new();
+    let t0 = std::time::Instant::now();
+    while names.len() < vt_companion::params::COUNT && t0.elapsed() < std::time::Duration::from_secs(20) {
+        if let Ok(Rx::ParamValue(n, _)) = q.recv() {
+            names.push(n);
+        }
+    }
+    let table: Vec<&str> = vt_companion::params::ALL.iter().map(|p| p.info().name).collect();
+    assert_eq!(names, table, "every parameter once, in table order");
+    pil::sync(q, pil::SYSID_BASE, &mut enc.gcs).unwrap();
+}
+
+#[test]
+fn firmware_sends_the_whole_parameter_list() {
+    on_firmware("param-list", the_whole_parameter_list_comes_back);
+}
+
+#[test]
+fn twin_sends_the_whole_parameter_list() {
+    the_whole_parameter_list_comes_back(&mut SilPort::new(), &mut Encoders::default());
+}

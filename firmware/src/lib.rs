@@ -105,6 +105,10 @@ impl Io for LinkIo {
     fn stack_used_bytes(&self) -> u32 {
         STACK_MARK.load(Ordering::Relaxed)
     }
+
+    fn tx_room(&self) -> usize {
+        TX.free_capacity()
+    }
 }
 
 #[embassy_executor::task]
@@ -146,11 +150,15 @@ async fn rx_task(companion: &'static Shared, mut rx: board::LinkRx) {
 }
 
 #[embassy_executor::task]
-async fn tx_task(mut tx: board::LinkTx) {
+async fn tx_task(companion: &'static Shared, mut tx: board::LinkTx) {
     let mut buf = [0u8; TX_CHUNK];
     loop {
         let n = TX.read(&mut buf).await;
         tx.write(buf.get(..n).unwrap_or(&[])).await;
+        // Room again: what waited for it (the rest of a parameter list).
+        if TX.is_empty() {
+            companion.lock().await.poll(&mut LinkIo);
+        }
     }
 }
 
@@ -248,7 +256,7 @@ pub fn run() -> ! {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn rx_task"),
         }
-        match tx_task(b.tx) {
+        match tx_task(companion, b.tx) {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn tx_task"),
         }

@@ -23,7 +23,7 @@ use crate::framer::{Frame, Framer, LinkCounters};
 use crate::frames::ned_from_enu;
 use crate::mission::{Item, MissionResult, MissionUpload, UploadReply};
 use crate::Vec3;
-use crate::params::{self, Param, ParamError, Params};
+use crate::params::{Param, ParamError, Params};
 use crate::{log, CompanionTube, AUTOPILOT_COMPONENT_ID, COMPANION_COMPONENT_ID};
 
 #[cfg(feature = "perception")]
@@ -71,6 +71,12 @@ pub trait Io {
     fn cycles(&self) -> u32;
     /// Sends one complete frame.
     fn send(&mut self, frame: &[u8]);
+    /// Bytes the link can take now without dropping a frame (unbounded: a host link or a
+    /// socket). A parameter list goes out only while [`PARAM_LIST_HEADROOM`] is free; the rest
+    /// follows at [`Companion::poll`].
+    fn tx_room(&self) -> usize {
+        usize::MAX
+    }
     /// Stack high-water mark, bytes (0 if unknown).
     fn stack_used_bytes(&self) -> u32 {
         0
@@ -82,6 +88,10 @@ pub trait Io {
         true
     }
 }
+
+/// Room a parameter list leaves on the link for the control frames (a period's telemetry and
+/// the setpoint), bytes: the list's frames go out only while more than this is free.
+pub const PARAM_LIST_HEADROOM: usize = 1024;
 
 /// Where a position report comes from (the frame's system and component ids, mapped by
 /// `VT_SYSID_BASE` and `VT_LOAD_COMP`; docs/protocol.md).
@@ -189,6 +199,8 @@ struct Core<'t> {
     beacon: u32,
     /// The last low-level setpoint.
     setpoint: Option<Setpoint>,
+    /// The next parameter of a `PARAM_REQUEST_LIST` still to send (table index).
+    param_list_next: Option<u8>,
     /// Issue 28: in-flight re-planning, when attached.
     #[cfg(feature = "perception")]
     aboard: Option<aboard::Aboard<'t>>,
@@ -224,6 +236,7 @@ impl<'t> Companion<'t> {
                 refusal: 0,
                 beacon: 0,
                 setpoint: None,
+                param_list_next: None,
                 #[cfg(feature = "perception")]
                 aboard: None,
             },
@@ -259,6 +272,12 @@ impl<'t> Companion<'t> {
         }
         self.core.link = *self.framer.counters();
         self.core.request.take()
+    }
+
+    /// Sends what waits for room on the link: the rest of a parameter list. The board calls it
+    /// when its transmit queue drains (the firmware's transmit task).
+    pub fn poll(&mut self, io: &mut impl Io) {
+        self.core.send_param_list(io);
     }
 
     /// Handles every complete frame the framer holds.
@@ -524,9 +543,8 @@ impl Core<'_> {
                 if !self.for_us(d.target_system, d.target_component) {
                     return self.ignored();
                 }
-                for &p in params::ALL {
-                    self.send_param(io, p);
-                }
+                self.param_list_next = Some(0);
+                self.send_param_list(io);
             }
             MISSION_COUNT_DATA::ID => {
                 let d = decode!(MISSION_COUNT_DATA);

@@ -98,6 +98,22 @@ impl Core<'_> {
         self.send_status(io);
     }
 
+    /// The parameter list's next frames, while the link has more than [`super::PARAM_LIST_HEADROOM`]
+    /// bytes free.
+    pub(super) fn send_param_list(&mut self, io: &mut impl Io) {
+        while let Some(k) = self.param_list_next {
+            let Some(p) = Param::from_index(usize::from(k)) else {
+                self.param_list_next = None;
+                return;
+            };
+            if io.tx_room() <= super::PARAM_LIST_HEADROOM {
+                return;
+            }
+            self.send_param(io, p);
+            self.param_list_next = k.checked_add(1);
+        }
+    }
+
     pub(super) fn send_param(&mut self, io: &mut impl Io, p: Param) {
         let msg = PARAM_VALUE_DATA {
             param_value: self.params.get(p),
