@@ -216,6 +216,12 @@ fn perception_firmware() -> Option<PathBuf> {
 fn pil_reroute_on_an_unknown_map_is_bit_exact() {
     if let Some(r) = pil_unknown_map("reroute-3uav-unknown.toml") {
         assert!(r.summary.success, "{:?}", r.summary.failures);
+        // The perception build's flash budget (issue 28: < 256 KiB); the map's storage is
+        // all zero, `.bss`, no image in flash (its RAM budget is open: docs/design.md).
+        let elf = perception_firmware().expect("built above");
+        let size = host_sim::pil::image::elf_size(&std::fs::read(&elf).expect("the ELF is readable")).expect("a 32-bit ELF");
+        eprintln!("perception build: flash {} B, static RAM {} B", size.flash_bytes, size.static_ram_bytes);
+        assert!(size.flash_bytes < 256 * 1024, "perception build flash {} B", size.flash_bytes);
     }
 }
 

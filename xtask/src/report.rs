@@ -135,6 +135,16 @@ pub fn bench(paths: &Paths, plan: &Plan) -> Result<bool, String> {
                 }
             }
         }
+        // Issue 28's perception build (`qemu` with in-flight re-planning).
+        let (features, bin) = firmware::PERCEPTION_BUILD;
+        match firmware::build_and_measure_bin(paths, features, bin) {
+            Ok(s) => {
+                images.insert(PERCEPTION_IMAGE.into(), s);
+            }
+            Err(e) => {
+                notes.insert(format!("firmware_{PERCEPTION_IMAGE}"), format!("not measured: {e}"));
+            }
+        }
         match firmware::run_hook(paths, plan.mcu_cmd.as_deref()) {
             Ok(m) => hook = m,
             Err(e) => {
@@ -320,8 +330,15 @@ fn budgets(doc: &Map<String, Value>) -> Vec<Value> {
         let ram = at(doc, "firmware_static_ram_bytes", board).zip(at(doc, "firmware_stack_peak_bytes", board)).map(|(r, s)| r + s);
         b.push(budget(&format!("firmware static RAM + stack peak ({board})"), ram, firmware::RAM_BUDGET_BYTES as f64, true, "bytes"));
     }
+    let flash = at(doc, "firmware_flash_bytes", PERCEPTION_IMAGE);
+    b.push(budget("perception build flash (issue 28)", flash, firmware::PERCEPTION_FLASH_BUDGET_BYTES as f64, true, "bytes"));
+    let ram = at(doc, "firmware_static_ram_bytes", PERCEPTION_IMAGE).zip(num(doc, "perception_stack_bytes")).map(|(r, s)| r + s);
+    b.push(budget("perception build static RAM + perception stack (issue 28)", ram, firmware::PERCEPTION_RAM_BUDGET_BYTES as f64, true, "bytes"));
     b
 }
+
+/// The perception build's key in the per-image maps of `bench.json`.
+const PERCEPTION_IMAGE: &str = "qemu_perception";
 
 fn fmt_ns(x: Option<f64>) -> String {
     match x {

@@ -49,6 +49,14 @@ impl<const CELLS: usize> Default for OccupancyGrid<CELLS> {
 }
 
 impl<const CELLS: usize> OccupancyGrid<CELLS> {
+    /// A grid of no cells whose every byte is zero (`resolution_m` 0): the storage a firmware
+    /// keeps in `.bss`, with no image in flash, until [`OccupancyGrid::reset`] gives it a
+    /// world. Nothing folds into it or reads from it before.
+    pub const fn zeroed() -> Self {
+        const { assert!(CELLS > 0, "an occupancy grid needs at least one cell") };
+        Self { cells: [0; CELLS], width: 0, height: 0, resolution_m: 0.0, origin_m: Vec2::new(0.0, 0.0) }
+    }
+
     /// A grid of no cells (every query `None`, every scan ignored) until
     /// [`OccupancyGrid::reset`]; usable in a `static`.
     pub const fn empty() -> Self {

@@ -172,21 +172,22 @@ impl Perception {
     }
 
     /// Storage for the perception state before it is configured: a map of no cells, every scan
-    /// ignored, every re-plan an error. `const` and all zero but for a few words, so firmware
-    /// keeps it in a `static` (about 270 KiB: built on the stack and moved, as
-    /// [`Perception::new`]'s result is, it would need that much stack) and configures it in
-    /// place.
+    /// ignored, every re-plan an error. `const` and every byte zero, so firmware keeps it in a
+    /// `static` in `.bss`, with no image in flash (about 270 KiB: built on the stack and moved,
+    /// as [`Perception::new`]'s result is, it would need that much stack; a single non-zero
+    /// word put all of it in `.data`, 278 kB of flash), and [`Perception::configure`] gives it
+    /// its world and figures in place.
     pub const fn placeholder() -> Self {
         Self {
             cfg: PerceptionConfig {
                 bounds_m: [0.0; 4],
-                cell_m: 1.0,
+                cell_m: 0.0,
                 goal_m: [0.0; 2],
                 replan_period_ms: 0,
-                plan: PlanParams { need_half_width_m: 0.9, margin_m: 0.4, max_half_width_m: 5.5, lattice_m: 0.25, clearance_weight: 0.5 },
+                plan: PlanParams { need_half_width_m: 0.0, margin_m: 0.0, max_half_width_m: 0.0, lattice_m: 0.0, clearance_weight: 0.0 },
             },
-            map: OccupancyGrid::empty(),
-            log_odds: LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::OCTOMAP },
+            map: OccupancyGrid::zeroed(),
+            log_odds: LogOddsParams { hit: 0, miss: 0, min: 0, max: 0 },
             plan_cells: [0.0; PLAN_CELLS],
             line: [0.0; 3 * PLAN_LINE + 1],
             envelope: [0; PLAN_LINE + 1],
@@ -194,12 +195,12 @@ impl Perception {
             floats: [0.0; 3 * LATTICE_NODES],
             ints: [0; 3 * LATTICE_NODES],
             blocked: false,
-            blocked_s_m: f32::INFINITY,
-            blocked_end_s_m: f32::NEG_INFINITY,
+            blocked_s_m: 0.0,
+            blocked_end_s_m: 0.0,
             next_plan_ms: 0,
             last_plan_ms: None,
             replans: 0,
-            backoff_m: BACKOFF_M,
+            backoff_m: 0.0,
         }
     }
 
@@ -217,6 +218,7 @@ impl Perception {
         }
         self.map.reset(w as usize, h as usize, cfg.cell_m, vt_map::Vec2::new(x0, y0))?;
         self.cfg = cfg;
+        self.log_odds = LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::OCTOMAP };
         self.blocked = false;
         self.blocked_s_m = f32::INFINITY;
         self.blocked_end_s_m = f32::NEG_INFINITY;
