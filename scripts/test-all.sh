@@ -60,7 +60,8 @@ echo "== clippy, host, MCU crates and both firmware boards; warnings are errors"
 cargo clippy --workspace --all-targets -- -D warnings
 cargo clippy --target thumbv7em-none-eabihf -p vt-fpu -p vt-tube -p vt-dissipative -p vt-cfo -p vt-plan -p vt-map -- -D warnings
 (cd firmware && cargo clippy --release --features qemu -- -D warnings && cargo clippy --release --features stm32f405 -- -D warnings \
-  && cargo clippy --release --features perception-bench --bin vt-bench-perception -- -D warnings)
+  && cargo clippy --release --features perception-bench --bin vt-bench-perception -- -D warnings \
+  && cargo clippy --release --features qemu,perception --bin vt-firmware-qemu-perception -- -D warnings)
 
 echo "== firmware companion unit tests (host build of the firmware's logic)"
 host_triple=$(rustc -vV | sed -n 's/^host: //p')
