@@ -245,11 +245,20 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     let r = pil::run(&ls, &opts).unwrap();
     let s = &r.summary;
     let p = s.perception.as_ref().expect("perception figures");
-    eprintln!("PIL {file}: {} commands, bit_exact {}, success {} {:?}, {p:?}", r.commands_compared, r.bit_exact, s.success, s.failures);
+    eprintln!(
+        "PIL {file}: {} commands, bit_exact {}, success {} {:?}, {p:?}, worst re-plan {:?} instructions, wall {:.1} s",
+        r.commands_compared, r.bit_exact, s.success, s.failures, r.replan_worst_instructions, r.wall_time_s[1]
+    );
     assert!(r.bit_exact, "{file}: first difference: {:?}", r.first_difference);
     assert_eq!(comparable(s), comparable(&r.sil_summary), "{file}: PIL and SIL twin summaries");
     assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "{file}: PIL and SIL-crates summaries");
     assert!(p.replans > 0 && p.tube_switches > 0, "{file}: {p:?}");
+    // The re-plans' cost in flight, measured on the board under `-icount` (the report's
+    // `replan_worst_instructions`): a full re-plan is millions of instructions. Issue 28's
+    // budget (16.8 M, 100 ms at 168 MHz) is NOT met in flight: 30.0 M on the re-route, 43.2 M
+    // in the yard (2026-11-28; the bench's open field measures 15.5 M; docs/benchmarks.md).
+    let worst = r.replan_worst_instructions.expect("re-plans measured under -icount");
+    assert!(worst.is_finite() && worst > 1.0e6, "{file}: worst re-plan {worst} instructions");
     assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "{file}: clean link, no error counted");
     assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "{file}: every emulator shut down on command");
     Some(r)

@@ -92,6 +92,10 @@ pub struct PilReport {
     pub defmt_log_uav0: Vec<String>,
     /// Wall-clock seconds: SIL flight, PIL flight.
     pub wall_time_s: [f64; 2],
+    /// Issue 28 (map unknown; the emulators then run under `-icount shift=0`): the longest
+    /// re-plan any firmware made in the flight, Cortex-M4 instructions (its `REPLAN.z` board
+    /// cycles times UAV 0's boot calibration); `None` with a known map.
+    pub replan_worst_instructions: Option<f64>,
 }
 
 fn cycle_stats(out: &FlightOutput) -> Vec<CycleStats> {
@@ -145,7 +149,9 @@ pub fn run(ls: &LoadedScenario, opts: &PilOptions) -> Result<PilReport, PilError
     let sock_dir = opts.out_dir.join("sockets");
     let mut qemus = Vec::with_capacity(n);
     for i in 0..n {
-        let o = QemuOptions { qemu: opts.qemu.clone(), icount: false, socket_dir: sock_dir.clone(), name: format!("uav{i}") };
+        // With re-planning aboard, instruction counts (the re-plan's budget) need `-icount`.
+        let icount = crate::mission::replan::perception_config(s).is_some();
+        let o = QemuOptions { qemu: opts.qemu.clone(), icount, socket_dir: sock_dir.clone(), name: format!("uav{i}") };
         qemus.push(QemuPort::spawn(&opts.firmware, &o)?);
     }
     let pil = match fly(ls, &mut qemus, &run_opts, "PIL") {
@@ -178,6 +184,10 @@ pub fn run(ls: &LoadedScenario, opts: &PilOptions) -> Result<PilReport, PilError
     let _ = std::fs::remove_dir(&sock_dir);
 
     let (commands_compared, max_abs_diff, bit_exact, first_difference) = compare(&sil.commands, &pil.commands, dt);
+    let replan_worst_instructions = match (pil.replan_worst_cycles.iter().copied().reduce(f32::max), super::bench::calibration(&defmt0)) {
+        (Some(cycles), Ok((_, _, per_tick))) => Some(f64::from(cycles) * per_tick),
+        _ => None,
+    };
     let host_sim_summary = sim::run(ls, &sim::RunOptions { record: false, ..run_opts.clone() }).ok().map(|o| o.summary);
     let report = PilReport {
         scenario: s.name.clone(),
@@ -200,6 +210,7 @@ pub fn run(ls: &LoadedScenario, opts: &PilOptions) -> Result<PilReport, PilError
         qemu_exit_codes: exit_codes,
         defmt_log_uav0: defmt0,
         wall_time_s: [sil_wall, pil_wall],
+        replan_worst_instructions,
     };
     write_report(&opts.out_dir, &report)?;
     // The PIL flight as the browser replay (docs/replay.md), beside the report.

@@ -67,6 +67,8 @@ pub struct FlightOutput {
     pub status: Vec<[u16; 5]>,
     /// Last `HEARTBEAT.custom_mode` of each companion.
     pub custom_mode: Vec<u32>,
+    /// Issue 28: each companion's longest re-plan, board cycles (empty: the map is known).
+    pub replan_worst_cycles: Vec<f32>,
 }
 
 /// The companions behind `ports` (one per UAV, fresh) as a [`Team`].
@@ -446,6 +448,7 @@ pub fn fly_team<P: Port>(ls: &LoadedScenario, mut team: PortTeam<'_, P>, opts: &
         commands: team.commands,
         hl_cycles: team.hl_cycles,
         ll_cycles: team.ll_cycles,
+        replan_worst_cycles: team.perception.as_ref().map_or_else(Vec::new, PortPerception::worst_replan_cycles),
         status: team.status,
         custom_mode: team.custom_mode,
     })

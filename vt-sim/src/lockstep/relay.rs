@@ -194,6 +194,11 @@ impl PortPerception {
     pub fn stats(&self) -> &ReplanStats {
         &self.stats
     }
+
+    /// Per UAV, its longest re-plan as it reported it (`REPLAN.z`), board cycles.
+    pub fn worst_replan_cycles(&self) -> Vec<f32> {
+        self.totals.iter().map(|t| t.0[2]).collect()
+    }
 }
 
 /// UAV `j`'s system id.
