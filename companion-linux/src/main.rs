@@ -15,7 +15,7 @@ use std::net::SocketAddr;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use vt_companion::perception::Perception;
+use vt_companion::perception::{Perception, PlannerSpace};
 use vt_companion::replanning::Replanning;
 use vt_companion::{Companion, CompanionTube, Param};
 
@@ -94,10 +94,11 @@ fn main() -> ExitCode {
     let mut tube = Box::new(CompanionTube::placeholder());
     // Issue 28: the onboard map and the re-planning's two tubes (about 290 KiB), configured by
     // the companion from its `PR_*` parameters when `PR_MAP` is 1.
-    let (mut map, mut spare, mut check) = (Box::new(Perception::placeholder()), Box::new(CompanionTube::placeholder()), Box::new(CompanionTube::placeholder()));
+    let (mut map, mut space) = (Box::new(Perception::placeholder()), Box::new(PlannerSpace::zeroed()));
+    let (mut spare, mut check) = (Box::new(CompanionTube::placeholder()), Box::new(CompanionTube::placeholder()));
     loop {
         let mut companion = Companion::new(&mut tube);
-        let _none = companion.attach_replanning(Replanning::new(&mut map, &mut spare, &mut check));
+        let _none = companion.attach_replanning(Replanning::new(&mut map, &mut space, &mut spare, &mut check));
         for &(p, v) in &presets {
             if companion.set_param(p, v).is_err() {
                 return bad(&format!("parameter {} = {v} refused", p.info().name));

@@ -230,18 +230,19 @@ fn companion() -> &'static Shared {
 #[cfg(feature = "perception")]
 mod perception {
     use static_cell::ConstStaticCell;
-    use vt_companion::perception::Perception;
+    use vt_companion::perception::{Perception, PlannerSpace};
     use vt_companion::replanning::Replanning;
     use vt_companion::{Companion, CompanionTube};
 
     // Built in place from `const` placeholders: never on the stack.
     static MAP: ConstStaticCell<Perception> = ConstStaticCell::new(Perception::placeholder());
+    static SPACE: ConstStaticCell<PlannerSpace> = ConstStaticCell::new(PlannerSpace::zeroed());
     static SPARE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
     static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
 
     /// Gives `c` the map and its two tubes.
     pub(super) fn attach(c: &mut Companion<'static>) {
-        let _none = c.attach_replanning(Replanning::new(MAP.take(), SPARE.take(), CHECK.take()));
+        let _none = c.attach_replanning(Replanning::new(MAP.take(), SPACE.take(), SPARE.take(), CHECK.take()));
     }
 }
 

@@ -21,7 +21,7 @@
 //! `perception bench: replan K: T ticks, ok B, waypoints W`.
 
 use static_cell::ConstStaticCell;
-use vt_companion::perception::{Perception, PerceptionConfig};
+use vt_companion::perception::{Perception, PerceptionConfig, PlannerSpace};
 use vt_companion::{CompanionTube, Vec3};
 use vt_map::{Return, Scan, Vec2};
 use vt_plan::PlanParams;
@@ -51,6 +51,7 @@ const SCANS: usize = 75;
 
 // Built in place (`const` placeholders configured at run time): never on the stack.
 static PERCEPTION: ConstStaticCell<Perception> = ConstStaticCell::new(Perception::placeholder());
+static SPACE: ConstStaticCell<PlannerSpace> = ConstStaticCell::new(PlannerSpace::zeroed());
 static TUBE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
 static GRID: ConstStaticCell<vt_map::OccupancyGrid<{ vt_companion::perception::MAP_CELLS }>> = ConstStaticCell::new(vt_map::OccupancyGrid::empty());
 
@@ -92,9 +93,9 @@ fn scan_at(o: Vec2) -> Scan {
 }
 
 /// Times one re-plan from the load at `load` and logs it as re-plan `k`.
-fn time_replan(p: &mut Perception, tube: &CompanionTube, load: &Vec3, k: u32) {
+fn time_replan(p: &mut Perception, space: &mut PlannerSpace, tube: &CompanionTube, load: &Vec3, k: u32) {
     let t0 = board::cycles();
-    let r = p.replan(tube, load, 0);
+    let r = p.replan(tube, load, 0, space);
     let ticks = board::cycles().wrapping_sub(t0);
     let waypoints = r.as_ref().map_or(0, |t| t.waypoints.len());
     defmt::info!("perception bench: replan {=u32}: {=u32} ticks, ok {=bool}, waypoints {=usize}", k, ticks, r.is_ok(), waypoints);
@@ -123,9 +124,10 @@ pub fn run() -> ! {
         board::reboot();
     }
     let tube: &CompanionTube = tube;
-    defmt::info!("perception bench: state {=usize} bytes", core::mem::size_of::<Perception>());
+    let space = SPACE.take();
+    defmt::info!("perception bench: state {=usize} bytes", core::mem::size_of::<Perception>() + core::mem::size_of::<PlannerSpace>());
     let start = Vec3::new(3.0, 15.0, 3.0);
-    time_replan(p, tube, &start, 0);
+    time_replan(p, space, tube, &start, 0);
     let (mut sum, mut max) = (0u64, 0u32);
     let mut load = start;
     for k in 0..SCANS {
@@ -170,7 +172,7 @@ pub fn run() -> ! {
         defmt::info!("perception bench: fold alone: mean {=u32}, max {=u32} ticks, {=usize} cells per scan", (gsum / SCANS as u64) as u32, gmax, cells / SCANS);
     }
     defmt::info!("perception bench: map update: {=usize} scans, mean {=u32}, max {=u32} ticks, blocked {=bool}", SCANS, mean, max, p.blocked());
-    time_replan(p, tube, &load, 1);
+    time_replan(p, space, tube, &load, 1);
     defmt::info!("perception bench: done; stack used {=u32} bytes", board::stack_used_bytes());
     board::shutdown()
 }

@@ -77,6 +77,12 @@ pub trait Io {
     fn tx_room(&self) -> usize {
         usize::MAX
     }
+    /// Issue 28: the board runs a re-plan's search in a task of lower priority
+    /// ([`Companion::take_plan_job`]), outside lockstep; otherwise the perception step runs it
+    /// in line.
+    fn plans_aside(&self) -> bool {
+        false
+    }
     /// Stack high-water mark, bytes (0 if unknown).
     fn stack_used_bytes(&self) -> u32 {
         0

@@ -137,17 +137,64 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The onboard map, the trigger and the planner's work space.
-pub struct Perception {
-    cfg: PerceptionConfig,
-    map: OccupancyGrid<MAP_CELLS>,
-    log_odds: LogOddsParams,
+/// The planner's work space (about 245 KiB): the distance field, its line buffers and the
+/// lattice search's arrays. Apart from the map, so a board can lend it to a task of lower
+/// priority while the map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
+pub struct PlannerSpace {
     plan_cells: [f32; PLAN_CELLS],
     line: [f32; 3 * PLAN_LINE + 1],
     envelope: [usize; PLAN_LINE + 1],
     breaks: [f32; PLAN_LINE + 2],
     floats: [f32; 3 * LATTICE_NODES],
     ints: [u32; 3 * LATTICE_NODES],
+}
+
+impl PlannerSpace {
+    /// Storage, every byte zero (`.bss` in a firmware's `static`).
+    pub const fn zeroed() -> Self {
+        Self {
+            plan_cells: [0.0; PLAN_CELLS],
+            line: [0.0; 3 * PLAN_LINE + 1],
+            envelope: [0; PLAN_LINE + 1],
+            breaks: [0.0; PLAN_LINE + 2],
+            floats: [0.0; 3 * LATTICE_NODES],
+            ints: [0; 3 * LATTICE_NODES],
+        }
+    }
+
+    /// The search of a re-plan [`Perception::prepare`]d into this space: the distance field
+    /// and the planner (`vt_plan::plan`), on this space alone. The expensive part of a re-plan
+    /// (docs/benchmarks.md).
+    ///
+    /// # Errors
+    /// The planner's: no route, a start inside an obstacle.
+    pub fn plan(&mut self, p: &Prepared) -> Result<PlannedTube, PlanError> {
+        let cells = self.plan_cells.get_mut(..p.width * p.height).ok_or(PlanError::BadParams { field: "plan cells" })?;
+        vt_plan::distance_transform(cells, p.width, p.height, &mut self.line, &mut self.envelope, &mut self.breaks)?;
+        let grid = GridMap { dist_cells: cells, width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
+        let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
+        vt_plan::plan(&grid, p.start_m, p.goal_m, &p.params, &mut ws)
+    }
+}
+
+/// A re-plan made ready in a [`PlannerSpace`] ([`Perception::prepare`]): the map's cells copied
+/// in, where it starts and ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prepared {
+    width: usize,
+    height: usize,
+    resolution_m: f32,
+    origin_m: vt_plan::Vec2,
+    start_m: vt_plan::Vec2,
+    goal_m: vt_plan::Vec2,
+    params: PlanParams,
+}
+
+/// The onboard map and the trigger.
+pub struct Perception {
+    cfg: PerceptionConfig,
+    map: OccupancyGrid<MAP_CELLS>,
+    log_odds: LogOddsParams,
     blocked: bool,
     /// Arc length along the tube of the nearest obstacle cell seen in it ahead of the load, m.
     blocked_s_m: f32,
@@ -188,12 +235,6 @@ impl Perception {
             },
             map: OccupancyGrid::zeroed(),
             log_odds: LogOddsParams { hit: 0, miss: 0, min: 0, max: 0 },
-            plan_cells: [0.0; PLAN_CELLS],
-            line: [0.0; 3 * PLAN_LINE + 1],
-            envelope: [0; PLAN_LINE + 1],
-            breaks: [0.0; PLAN_LINE + 2],
-            floats: [0.0; 3 * LATTICE_NODES],
-            ints: [0; 3 * LATTICE_NODES],
             blocked: false,
             blocked_s_m: 0.0,
             blocked_end_s_m: 0.0,
@@ -303,8 +344,8 @@ impl Perception {
     ///
     /// # Errors
     /// The planner's: no route (the team holds), a start inside an obstacle.
-    pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32) -> Result<PlannedTube, PlanError> {
-        self.replan_from(tube, load_m, BACKOFF_M, now_ms)
+    pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32, space: &mut PlannerSpace) -> Result<PlannedTube, PlanError> {
+        self.replan_from(tube, load_m, BACKOFF_M, now_ms, space)
     }
 
     /// [`Self::replan`] from `backoff_m` behind the load along `tube` (0: from the load's
@@ -312,26 +353,35 @@ impl Perception {
     ///
     /// # Errors
     /// As [`Self::replan`].
-    pub fn replan_from(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32) -> Result<PlannedTube, PlanError> {
+    pub fn replan_from(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32, space: &mut PlannerSpace) -> Result<PlannedTube, PlanError> {
+        let p = self.prepare(tube, load_m, backoff_m, now_ms, space)?;
+        space.plan(&p)
+    }
+
+    /// The first part of [`Self::replan_from`], on the map: the schedule restarts and the
+    /// trigger clears, the start is placed `backoff_m` behind the load along `tube`, and the
+    /// map's cells are copied into `space`; [`PlannerSpace::plan`] does the rest, on `space`
+    /// alone.
+    ///
+    /// # Errors
+    /// The map does not fit the planner's grid.
+    pub fn prepare(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32, space: &mut PlannerSpace) -> Result<Prepared, PlanError> {
         self.blocked = false;
         self.backoff_m = backoff_m;
         self.last_plan_ms = Some(now_ms);
         self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
         self.replans = self.replans.saturating_add(1);
-        let start = start_point_at(tube, load_m, backoff_m);
-        let (w, h) = self.map.write_planner_cells(PLAN_COARSEN, &mut self.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
-        let cells = self.plan_cells.get_mut(..w * h).ok_or(PlanError::BadParams { field: "plan cells" })?;
-        vt_plan::distance_transform(cells, w, h, &mut self.line, &mut self.envelope, &mut self.breaks)?;
-        let grid = GridMap {
-            dist_cells: cells,
-            width: w,
-            height: h,
+        let start_m = start_point_at(tube, load_m, backoff_m);
+        let (width, height) = self.map.write_planner_cells(PLAN_COARSEN, &mut space.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
+        Ok(Prepared {
+            width,
+            height,
             resolution_m: self.map.resolution_m() * PLAN_COARSEN as f32,
             origin_m: self.map.origin_m(),
-        };
-        let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
-        let goal = vt_plan::Vec2::new(self.cfg.goal_m[0], self.cfg.goal_m[1]);
-        vt_plan::plan(&grid, start, goal, &self.cfg.plan, &mut ws)
+            start_m,
+            goal_m: vt_plan::Vec2::new(self.cfg.goal_m[0], self.cfg.goal_m[1]),
+            params: self.cfg.plan,
+        })
     }
 
     /// Whether the team should switch from `current` to `planned` (the load at `load_m`): an

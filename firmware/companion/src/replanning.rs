@@ -15,11 +15,20 @@
 //!    ahead ([`Perception::must_stop`]).
 //! 3. [`Replanning::take_offer`] for an offer the link delivered.
 //! 4. [`Replanning::plan`]: the designated planner re-plans when due.
+//!
+//! A re-plan is three parts: on the map ([`Perception::prepare`]: the start, the map's cells
+//! copied into the planner's work space), the search on the work space alone
+//! ([`PlannerSpace::plan`], the expensive part), and the check against the team and the offer.
+//! [`Replanning::plan`] runs them in a row (lockstep, SIL, a host). A board that plans aside
+//! ([`Replanning::plan_aside`]) lends the work space with the prepared search to a task of
+//! lower priority ([`Replanning::lend`]), which runs it ([`PlanJob::run`]) while the map keeps
+//! taking scans and the control loop keeps its rate, and gives it back
+//! ([`Replanning::give_back`]); the check follows at the next perception step.
 
-use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, BACKOFF_M, HOLD_AHEAD_M};
+use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, PlannerSpace, Prepared, BACKOFF_M, HOLD_AHEAD_M};
 use crate::{CompanionTube, Vec3, MAX_WAYPOINTS};
 use vt_map::Scan;
-use vt_plan::PlanError;
+use vt_plan::{PlanError, PlannedTube};
 use vt_tube::Waypoint;
 
 /// What re-planning needs of the companion it serves ([`crate::Companion`] implements it).
@@ -59,6 +68,14 @@ pub fn hold_margin_m(r_safe_m: f32, v_max_mps: f32) -> f32 {
 /// is (about 270 KiB of map and planner work space, two tubes of about 9 KiB).
 pub struct Replanning<'t, 'p> {
     map: &'p mut Perception,
+    /// The planner's work space (`None` while lent to a [`PlanJob`]).
+    space: Option<&'p mut PlannerSpace>,
+    /// A prepared search waiting to be lent ([`Self::plan_aside`]), with its back-off, m.
+    ready: Option<(Prepared, f32)>,
+    /// A search lent out: its back-off, m, until it comes back.
+    lent: Option<f32>,
+    /// A search that came back: its result and back-off, m, for the next perception step.
+    done: Option<(Result<PlannedTube, PlanError>, f32)>,
     /// Where an offered tube is built before the switch; holds a declined one to retry.
     spare: &'t mut CompanionTube,
     /// The spare holds a tube this companion declined.
@@ -72,6 +89,24 @@ pub struct Replanning<'t, 'p> {
     /// The next re-plan starts at the load's section, not [`crate::perception::BACKOFF_M`]
     /// behind it: the last one was needed but left a member outside.
     from_load: bool,
+}
+
+/// A re-plan's search lent to a task of lower priority ([`Replanning::lend`]): the planner's
+/// work space with the map's cells in it, and where the search starts and ends.
+pub struct PlanJob<'p> {
+    space: &'p mut PlannerSpace,
+    prepared: Prepared,
+}
+
+impl PlanJob<'_> {
+    /// The search ([`PlannerSpace::plan`]): up to tens of millions of instructions, on the work
+    /// space alone.
+    ///
+    /// # Errors
+    /// The planner's.
+    pub fn run(&mut self) -> Result<PlannedTube, PlanError> {
+        self.space.plan(&self.prepared)
+    }
 }
 
 /// What a companion knows of its team when it may plan.
@@ -126,8 +161,20 @@ impl Planned<'_> {
 
 impl<'t, 'p> Replanning<'t, 'p> {
     /// Re-planning around `map`, offers built in `spare`, plans checked in `check`.
-    pub fn new(map: &'p mut Perception, spare: &'t mut CompanionTube, check: &'p mut CompanionTube) -> Self {
-        Self { map, spare, declined: false, check, offer: heapless::Vec::new(), declared_no_route: false, from_load: false }
+    pub fn new(map: &'p mut Perception, space: &'p mut PlannerSpace, spare: &'t mut CompanionTube, check: &'p mut CompanionTube) -> Self {
+        Self {
+            map,
+            space: Some(space),
+            ready: None,
+            lent: None,
+            done: None,
+            spare,
+            declined: false,
+            check,
+            offer: heapless::Vec::new(),
+            declared_no_route: false,
+            from_load: false,
+        }
     }
 
     /// Configures the map for `cfg`'s world (empty) and forgets every plan and offer: a new
@@ -137,6 +184,8 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// As [`Perception::configure`].
     pub fn configure(&mut self, cfg: crate::perception::PerceptionConfig) -> Result<(), vt_map::MapError> {
         self.map.configure(cfg)?;
+        self.ready = None;
+        self.done = None;
         self.declined = false;
         self.offer.clear();
         self.declared_no_route = false;
@@ -154,9 +203,10 @@ impl<'t, 'p> Replanning<'t, 'p> {
         &self.offer
     }
 
-    /// Gives the storage back: the map, the spare tube, the check tube.
-    pub fn into_parts(self) -> (&'p mut Perception, &'t mut CompanionTube, &'p mut CompanionTube) {
-        (self.map, self.spare, self.check)
+    /// Gives the storage back: the map, the planner's work space (`None` while lent), the spare
+    /// tube, the check tube.
+    pub fn into_parts(self) -> (&'p mut Perception, Option<&'p mut PlannerSpace>, &'t mut CompanionTube, &'p mut CompanionTube) {
+        (self.map, self.space, self.spare, self.check)
     }
 
     /// Folds one scan (own, or relayed from a member, its origin that member's position) into
@@ -213,17 +263,83 @@ impl<'t, 'p> Replanning<'t, 'p> {
         H: Fn(usize) -> bool,
         T: Iterator<Item = vt_tube::Vec2>,
     {
-        if designated_planner(team.n, team.healthy) != Some(team.id) {
-            return Planned::Idle;
-        }
-        let Some(tube) = c.tube() else {
+        let Some((prepared, backoff)) = self.begin(c, &team.healthy, team.id, team.n, load_m, now_ms) else {
             return Planned::Idle;
         };
-        if !self.map.replan_due(now_ms) {
+        let result = match (prepared, self.space.as_deref_mut()) {
+            (Ok(p), Some(space)) => space.plan(&p),
+            (Ok(_), None) => Err(PlanError::BadParams { field: "planner space lent" }),
+            (Err(e), _) => Err(e),
+        };
+        self.conclude(c, team.positions_m, load_m, result, backoff)
+    }
+
+    /// [`Self::plan`] for a board that plans aside: a due re-plan is prepared and waits for
+    /// [`Self::lend`]; the search that came back ([`Self::give_back`]) is checked and offered
+    /// now, against the team as it is now. `Idle` in between.
+    pub fn plan_aside<H, T>(&mut self, c: &impl Crew<'t>, team: TeamView<H, T>, load_m: &Vec3, now_ms: u32) -> Planned<'_>
+    where
+        H: Fn(usize) -> bool,
+        T: Iterator<Item = vt_tube::Vec2>,
+    {
+        if let Some((result, backoff)) = self.done.take() {
+            return self.conclude(c, team.positions_m, load_m, result, backoff);
+        }
+        if self.ready.is_some() || self.lent.is_some() {
             return Planned::Idle;
         }
+        match self.begin(c, &team.healthy, team.id, team.n, load_m, now_ms) {
+            None => Planned::Idle,
+            Some((Ok(p), backoff)) => {
+                self.ready = Some((p, backoff));
+                Planned::Idle
+            }
+            Some((Err(e), backoff)) => self.conclude(c, team.positions_m, load_m, Err(e), backoff),
+        }
+    }
+
+    /// The prepared search with the planner's work space, for a task of lower priority to run
+    /// (`None`: nothing waits).
+    pub fn lend(&mut self) -> Option<PlanJob<'p>> {
+        let (prepared, backoff) = self.ready?;
+        let space = self.space.take()?;
+        self.ready = None;
+        self.lent = Some(backoff);
+        Some(PlanJob { space, prepared })
+    }
+
+    /// A lent search back, with its result: checked and offered at the next perception step.
+    pub fn give_back(&mut self, job: PlanJob<'p>, result: Result<PlannedTube, PlanError>) {
+        self.space = Some(job.space);
+        if let Some(backoff) = self.lent.take() {
+            self.done = Some((result, backoff));
+        }
+    }
+
+    /// A re-plan due now from this planner: prepared on the map (the start, the map's cells in
+    /// the work space), with its back-off (`None`: not the planner, no tube, not due, or the
+    /// work space is lent).
+    fn begin(&mut self, c: &impl Crew<'t>, healthy: &impl Fn(usize) -> bool, id: usize, n: usize, load_m: &Vec3, now_ms: u32) -> Option<(Result<Prepared, PlanError>, f32)> {
+        if designated_planner(n, healthy) != Some(id) {
+            return None;
+        }
+        let tube = c.tube()?;
+        if !self.map.replan_due(now_ms) {
+            return None;
+        }
+        let space = self.space.as_deref_mut()?;
         let backoff = if core::mem::take(&mut self.from_load) { 0.0 } else { BACKOFF_M };
-        match self.map.replan_from(tube, load_m, backoff, now_ms) {
+        Some((self.map.prepare(tube, load_m, backoff, now_ms, space), backoff))
+    }
+
+    /// The check of a search's result: offered when worth a switch and holding every member
+    /// of `positions_m` by the flown `r_safe` plus the hand-over; kept otherwise; with no route
+    /// and the tube blocked within [`HOLD_AHEAD_M`] of the load, the team holds.
+    fn conclude(&mut self, c: &impl Crew<'t>, positions_m: impl Iterator<Item = vt_tube::Vec2>, load_m: &Vec3, result: Result<PlannedTube, PlanError>, backoff: f32) -> Planned<'_> {
+        let Some(tube) = c.tube() else {
+            return Planned::Failed;
+        };
+        match result {
             Ok(t) => {
                 let worth = self.map.worth_switching(tube, &t, load_m);
                 self.offer.clear();
@@ -232,7 +348,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
                     // Both hold MAX_WAYPOINTS.
                     let _ = self.offer.push(on_grid);
                 }
-                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, team.positions_m, hold_margin_m(c.r_safe_m(), c.v_max_mps()));
+                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, positions_m, hold_margin_m(c.r_safe_m(), c.v_max_mps()));
                 if !hand_over_now(worth, holds) {
                     // Needed but a member is outside it: the team stands ahead of the back-off
                     // point where the new route leaves the old one. The next plan starts at the

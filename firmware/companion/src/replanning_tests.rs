@@ -30,7 +30,7 @@ fn companion(own: Vec3, load: Vec3) -> Companion<'static> {
 }
 
 fn replanning(cfg: PerceptionConfig) -> Replanning<'static, 'static> {
-    Replanning::new(Box::leak(Box::new(Perception::new(cfg).unwrap())), leaked_tube(), leaked_tube())
+    Replanning::new(Box::leak(Box::new(Perception::new(cfg).unwrap())), Box::leak(Box::new(crate::perception::PlannerSpace::zeroed())), leaked_tube(), leaked_tube())
 }
 
 #[test]

@@ -26,7 +26,7 @@ use super::{Companion, Core, Io, Source};
 use crate::framer::Frame;
 use crate::mission::{Item, MissionUpload, UploadReply};
 use crate::params::Param;
-use crate::replanning::{Planned, Replanning, TeamView};
+use crate::replanning::{PlanJob, Planned, Replanning, TeamView};
 use crate::{Vec3, COMPANION_COMPONENT_ID, MAX_UAVS};
 use vt_map::Scan;
 use vt_tube::Waypoint;
@@ -138,6 +138,21 @@ impl<'t> Companion<'t> {
     /// What the re-planning did since its map was configured (zero without one).
     pub fn replan_totals(&self) -> ReplanTotals {
         self.core.aboard.as_ref().map(|a| a.totals).unwrap_or_default()
+    }
+
+    /// A re-plan's search for the board's task of lower priority ([`Io::plans_aside`]): run it
+    /// without holding the companion ([`PlanJob::run`]), then [`Self::return_plan_job`].
+    pub fn take_plan_job(&mut self) -> Option<PlanJob<'t>> {
+        self.core.aboard.as_mut().and_then(|a| a.replanning.lend())
+    }
+
+    /// A search back from the board's task, with its result and its length in board cycles:
+    /// checked and offered at the next perception step.
+    pub fn return_plan_job(&mut self, job: PlanJob<'t>, result: Result<vt_plan::PlannedTube, vt_plan::PlanError>, cycles: u32) {
+        if let Some(a) = self.core.aboard.as_mut() {
+            a.replanning.give_back(job, result);
+            a.totals.worst_cycles = a.totals.worst_cycles.max(cycles);
+        }
     }
 
     /// A range scan from `from`'s LiDAR (own, or a member's relayed by the team network): folded
@@ -333,8 +348,12 @@ impl<'t> Core<'t> {
         let positions_m = (0..n).filter_map(|j| if j == id { Some(*own_m) } else { fresh(j) }).map(|p| p.xy());
         let load = self.sources.load.map_or(Vec3::zeros(), |s| s.value.pos_m);
         let t0 = io.cycles();
-        let planned = a.replanning.plan(&*self, TeamView { id, n, healthy, positions_m }, &load, now);
-        if planned.replanned() {
+        let team = TeamView { id, n, healthy, positions_m };
+        // In lockstep the search runs in line (the flight does not see its time; PIL stays
+        // SIL's bits); a board that plans aside runs it in a task of lower priority.
+        let aside = io.plans_aside() && self.params.get_u32(Param::Lockstep) != 1;
+        let planned = if aside { a.replanning.plan_aside(&*self, team, &load, now) } else { a.replanning.plan(&*self, team, &load, now) };
+        if planned.replanned() && !aside {
             a.totals.worst_cycles = a.totals.worst_cycles.max(io.cycles().wrapping_sub(t0));
         }
         a.report.replans += u32::from(planned.replanned());

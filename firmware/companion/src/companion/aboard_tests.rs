@@ -53,7 +53,8 @@ fn companion_on(waypoints: &[(f32, f32)]) -> (Companion<'static>, TestIo) {
         c.set_param(p, v).unwrap();
     }
     let map = Box::leak(Box::new(Perception::placeholder()));
-    assert!(c.attach_replanning(Replanning::new(map, leaked_tube(), leaked_tube())).is_none());
+    let space = Box::leak(Box::new(crate::perception::PlannerSpace::zeroed()));
+    assert!(c.attach_replanning(Replanning::new(map, space, leaked_tube(), leaked_tube())).is_none());
     (c, io)
 }
 
