@@ -68,13 +68,25 @@ fn with_no_route_the_team_holds_and_never_touches_the_wall() {
     assert!(s.failures.iter().all(|f| f.contains("no route") || f.contains("did not reach")), "{:?}", s.failures);
 }
 
-/// The MAVLink backends do not carry range scans yet: they refuse the scenario by name rather
-/// than fly the bounds-only tube blind.
+/// The MAVLink backends carry the scans as `OBSTACLE_DISTANCE` (tests/backends.rs, tests/pil.rs,
+/// tests/sitl.rs fly them bit for bit): each companion gets its map's configuration as `PR_*`
+/// parameters. A LiDAR whose scans the message cannot carry is refused by name, file and
+/// field, rather than flown blind.
 #[test]
-fn the_mavlink_backends_refuse_an_unknown_map_by_name() {
+fn the_mavlink_backends_carry_the_map_and_refuse_a_lidar_the_wire_cannot_carry() {
     let ls = load("paper-10uav-unknown.toml");
-    let Err(e) = host_sim::lockstep::team_setup(&ls, true) else { panic!("an unknown map was accepted by the lockstep backend") };
-    assert!(e.0.contains("paper-10uav-unknown.toml") && e.0.contains("SIL backend only"), "{e}");
+    let setup = host_sim::lockstep::team_setup(&ls, true).expect("an unknown map flies on the wire");
+    let pr_map = setup.configs[0].params.iter().find(|p| p.0 == vt_companion::Param::PrMap).map(|p| p.1);
+    assert_eq!(pr_map, Some(1.0), "PR_MAP 1: the companion maps and re-plans");
+    let mut odd = ls.clone();
+    if let Some(l) = odd.scenario.sensors.lidar.as_mut() {
+        l.beams = 50; // 7.2 deg sectors: not whole degrees dividing 90
+    }
+    let mut ports: Vec<host_sim::pil::SilPort> = (0..odd.scenario.cables.lengths_m.len()).map(|_| host_sim::pil::SilPort::new()).collect();
+    let Err(e) = host_sim::pil::fly(&odd, &mut ports, &host_sim::sim::RunOptions { duration_s: Some(1.0), ..Default::default() }, "twin") else {
+        panic!("a LiDAR the wire cannot carry was flown")
+    };
+    assert!(e.0.contains("paper-10uav-unknown.toml") && e.0.contains("[sensors.lidar]") && e.0.contains("OBSTACLE_DISTANCE"), "{e}");
 }
 
 /// The perception campaign (`scenarios/campaigns/perception-forest.toml`), 40 unknown forests

@@ -109,6 +109,12 @@ impl Io for LinkIo {
     fn tx_room(&self) -> usize {
         TX.free_capacity()
     }
+
+    fn plans_aside(&self) -> bool {
+        // The perception build runs the re-plan's search in `planner_task`, below the control
+        // tasks' priority.
+        cfg!(feature = "perception")
+    }
 }
 
 #[embassy_executor::task]
@@ -240,6 +246,31 @@ mod perception {
     static SPARE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
     static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
 
+    /// How often the planner task looks for a re-plan to run, ms.
+    const PLANNER_LOOK_MS: u64 = 5;
+
+    /// The re-plan's search (`vt_companion::replanning::PlanJob`), in thread mode: every
+    /// control task preempts it. It holds the companion only to take the job and give it back.
+    #[embassy_executor::task]
+    pub(super) async fn planner_task(companion: &'static super::Shared) {
+        loop {
+            embassy_time::Timer::after_millis(PLANNER_LOOK_MS).await;
+            // An offer's tube first (a few million instructions), then a re-plan's search.
+            let build = companion.lock().await.take_build_job();
+            if let Some(mut job) = build {
+                let built = job.run();
+                companion.lock().await.return_build_job(job, built);
+            }
+            let job = companion.lock().await.take_plan_job();
+            if let Some(mut job) = job {
+                let t0 = crate::board::cycles();
+                let result = job.run();
+                let cycles = crate::board::cycles().wrapping_sub(t0);
+                companion.lock().await.return_plan_job(job, result, cycles);
+            }
+        }
+    }
+
     /// Gives `c` the map and its two tubes.
     pub(super) fn attach(c: &mut Companion<'static>) {
         let _none = c.attach_replanning(Replanning::new(MAP.take(), SPACE.take(), SPARE.take(), CHECK.take()));
@@ -247,12 +278,30 @@ mod perception {
 }
 
 /// Boots the board and runs the tasks forever (called by each board's binary, `src/bin/`).
+/// The perception build runs the link and control tasks in the board's control interrupt and
+/// the re-plan's search in thread mode below it (`planner_task`); the flight builds run
+/// everything in thread mode.
 pub fn run() -> ! {
     let b = board::init();
     defmt::info!("vt-firmware {=str} on {=str}", env!("CARGO_PKG_VERSION"), board::NAME);
     board::boot_report();
     let companion = companion();
-    EXECUTOR.init(board::Executor::new()).run(|spawner| {
+    #[cfg(feature = "perception")]
+    {
+        spawn_control(board::control_executor(), companion, b);
+        board::start_control();
+        EXECUTOR.init(board::Executor::new()).run(|spawner| match perception::planner_task(companion) {
+            Ok(t) => spawner.spawn(t),
+            Err(_) => defmt::error!("cannot spawn planner_task"),
+        })
+    }
+    #[cfg(not(feature = "perception"))]
+    EXECUTOR.init(board::Executor::new()).run(|spawner| spawn_control(spawner, companion, b))
+}
+
+/// The link and control tasks.
+fn spawn_control(spawner: embassy_executor::Spawner, companion: &'static Shared, b: board::Board) {
+    {
         match rx_task(companion, b.rx) {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn rx_task"),
@@ -269,5 +318,5 @@ pub fn run() -> ! {
             Ok(t) => spawner.spawn(t),
             Err(_) => defmt::error!("cannot spawn low_level_task"),
         }
-    })
+    }
 }

@@ -289,8 +289,12 @@ fn give_back_replanning(r: Replanning<'static, 'static>) {
     if let Some(s) = space {
         give_back(&SPACE_POOL, s);
     }
-    give_back_tube(spare);
-    give_back_tube(check);
+    if let Some(s) = spare {
+        give_back_tube(s);
+    }
+    if let Some(c) = check {
+        give_back_tube(c);
+    }
 }
 
 /// Storage leaked once and reused: what dropped companions gave back (the pool bounds the

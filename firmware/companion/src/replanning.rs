@@ -75,13 +75,17 @@ pub struct Replanning<'t, 'p> {
     /// A search lent out: its back-off, m, until it comes back.
     lent: Option<f32>,
     /// A search that came back: its result and back-off, m, for the next perception step.
-    done: Option<(Result<PlannedTube, PlanError>, f32)>,
+    done: Option<(Searched, f32)>,
     /// Where an offered tube is built before the switch; holds a declined one to retry.
-    spare: &'t mut CompanionTube,
+    spare: Option<&'t mut CompanionTube>,
+    /// An offer being built aside ([`Self::offer_aside`]): its waypoints, and the state.
+    building: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
+    build: Build,
     /// The spare holds a tube this companion declined.
     declined: bool,
-    /// The planner builds its plan here to check that it holds the team.
-    check: &'p mut CompanionTube,
+    /// The planner builds its plan here to check that it holds the team (`None` while lent
+    /// with the work space).
+    check: Option<&'p mut CompanionTube>,
     /// The waypoints of the last plan, on the mission protocol's grid.
     offer: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
     /// This companion, as the planner, told the team there is no route.
@@ -91,22 +95,86 @@ pub struct Replanning<'t, 'p> {
     from_load: bool,
 }
 
+/// Where an offer built aside stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Build {
+    /// None.
+    Idle,
+    /// Waiting for the task of lower priority.
+    Waiting,
+    /// With the task.
+    Lent,
+    /// Back: whether the tube built.
+    Built(bool),
+}
+
+/// An offer's tube built by a task of lower priority ([`Replanning::lend_build`]): the spare
+/// storage and the offer's waypoints.
+pub struct BuildJob<'t> {
+    spare: &'t mut CompanionTube,
+    waypoints: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
+}
+
+impl BuildJob<'_> {
+    /// Builds the tube's tables (a few million instructions): true when it built.
+    pub fn run(&mut self) -> bool {
+        self.spare.rebuild(&self.waypoints).is_ok()
+    }
+}
+
 /// A re-plan's search lent to a task of lower priority ([`Replanning::lend`]): the planner's
-/// work space with the map's cells in it, and where the search starts and ends.
+/// work space with the map's cells in it, where the search starts and ends, and the tube the
+/// plan is built in for its check.
 pub struct PlanJob<'p> {
     space: &'p mut PlannerSpace,
+    check: &'p mut CompanionTube,
     prepared: Prepared,
 }
 
 impl PlanJob<'_> {
-    /// The search ([`PlannerSpace::plan`]): up to tens of millions of instructions, on the work
-    /// space alone.
-    ///
-    /// # Errors
-    /// The planner's.
-    pub fn run(&mut self) -> Result<PlannedTube, PlanError> {
-        self.space.plan(&self.prepared)
+    /// The search and the plan's tube ([`search`]): up to tens of millions of instructions, on
+    /// the job's storage alone.
+    pub fn run(&mut self) -> Searched {
+        search(self.space, self.check, &self.prepared)
     }
+}
+
+/// What a re-plan's search found: the plan, its waypoints on the mission protocol's grid (what
+/// would be offered), and whether its tube was built in the check storage.
+pub struct Searched {
+    result: Result<PlannedTube, PlanError>,
+    offer: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
+    check_built: bool,
+}
+
+impl Searched {
+    /// A search that could not run.
+    fn failed(e: PlanError) -> Self {
+        Self { result: Err(e), offer: heapless::Vec::new(), check_built: false }
+    }
+
+    /// Whether it found a route.
+    pub fn found(&self) -> bool {
+        self.result.is_ok()
+    }
+}
+
+/// The expensive part of a re-plan, on its storage alone: the search ([`PlannerSpace::plan`]),
+/// the plan's waypoints on the wire grid, and its tube built in `check` (the tube tables: the
+/// other large cost, kept out of the control loop with the search).
+pub fn search(space: &mut PlannerSpace, check: &mut CompanionTube, p: &Prepared) -> Searched {
+    let result = space.plan(p);
+    let mut offer = heapless::Vec::new();
+    let mut check_built = false;
+    if let Ok(t) = &result {
+        for w in &t.waypoints {
+            let on_grid = Waypoint::new(crate::mission::on_wire_grid_m(w.pos_m.x), crate::mission::on_wire_grid_m(w.pos_m.y), w.w_left_m, w.w_right_m);
+            // Both hold MAX_WAYPOINTS.
+            let _ = offer.push(on_grid);
+        }
+        check_built = check.rebuild(&offer).is_ok();
+    }
+    Searched { result, offer, check_built }
 }
 
 /// What a companion knows of its team when it may plan.
@@ -168,9 +236,11 @@ impl<'t, 'p> Replanning<'t, 'p> {
             ready: None,
             lent: None,
             done: None,
-            spare,
+            spare: Some(spare),
+            building: heapless::Vec::new(),
+            build: Build::Idle,
             declined: false,
-            check,
+            check: Some(check),
             offer: heapless::Vec::new(),
             declared_no_route: false,
             from_load: false,
@@ -205,7 +275,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
 
     /// Gives the storage back: the map, the planner's work space (`None` while lent), the spare
     /// tube, the check tube.
-    pub fn into_parts(self) -> (&'p mut Perception, Option<&'p mut PlannerSpace>, &'t mut CompanionTube, &'p mut CompanionTube) {
+    pub fn into_parts(self) -> (&'p mut Perception, Option<&'p mut PlannerSpace>, Option<&'t mut CompanionTube>, Option<&'p mut CompanionTube>) {
         (self.map, self.space, self.spare, self.check)
     }
 
@@ -223,8 +293,8 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// ([`Perception::must_stop`], [`Crew::set_blocked`]).
     pub fn watch(&mut self, c: &mut impl Crew<'t>, own_m: &Vec3) -> bool {
         let mut switched = false;
-        if self.declined {
-            switched = c.switch_tube(&mut self.spare).is_ok();
+        if let (true, Some(spare)) = (self.declined, self.spare.as_mut()) {
+            switched = c.switch_tube(spare).is_ok();
             self.declined = !switched;
             if switched {
                 self.map.handed_over();
@@ -244,8 +314,57 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// every [`Self::watch`]).
     pub fn take_offer(&mut self, c: &mut impl Crew<'t>, waypoints: &[Waypoint]) -> Result<(), Option<Keep>> {
         self.declined = false;
-        self.spare.rebuild(waypoints).map_err(|_| None)?;
-        let r = c.switch_tube(&mut self.spare).map_err(Some);
+        let built = self.spare.as_mut().is_some_and(|s| s.rebuild(waypoints).is_ok());
+        self.switch_to_spare(c, built)
+    }
+
+    /// For a board that builds aside: an offer to build in the spare storage by the task of
+    /// lower priority ([`Self::lend_build`]); false while another is being built (the caller
+    /// keeps it for later).
+    pub fn offer_aside(&mut self, waypoints: &[Waypoint]) -> bool {
+        if self.build != Build::Idle || self.spare.is_none() {
+            return false;
+        }
+        self.declined = false;
+        self.building.clear();
+        // Both hold MAX_WAYPOINTS.
+        let _ = self.building.extend_from_slice(waypoints.get(..MAX_WAYPOINTS.min(waypoints.len())).unwrap_or(&[]));
+        self.build = Build::Waiting;
+        true
+    }
+
+    /// The offer's build with the spare storage, for the task of lower priority.
+    pub fn lend_build(&mut self) -> Option<BuildJob<'t>> {
+        if self.build != Build::Waiting {
+            return None;
+        }
+        let spare = self.spare.take()?;
+        self.build = Build::Lent;
+        Some(BuildJob { spare, waypoints: self.building.clone() })
+    }
+
+    /// The build back: the switch follows at the next perception step ([`Self::take_built`]).
+    pub fn give_back_build(&mut self, job: BuildJob<'t>, built: bool) {
+        self.spare = Some(job.spare);
+        if self.build == Build::Lent {
+            self.build = Build::Built(built);
+        }
+    }
+
+    /// The switch to an offer built aside, when its build came back (`None`: none did); as
+    /// [`Self::take_offer`] otherwise.
+    pub fn take_built(&mut self, c: &mut impl Crew<'t>) -> Option<Result<(), Option<Keep>>> {
+        let Build::Built(built) = self.build else {
+            return None;
+        };
+        self.build = Build::Idle;
+        Some(self.switch_to_spare(c, built))
+    }
+
+    /// The switch to the tube built in the spare storage (`built`: it built).
+    fn switch_to_spare(&mut self, c: &mut impl Crew<'t>, built: bool) -> Result<(), Option<Keep>> {
+        let spare = self.spare.as_mut().filter(|_| built).ok_or(None)?;
+        let r = c.switch_tube(spare).map_err(Some);
         self.declined = r.is_err();
         if r.is_ok() {
             self.map.handed_over();
@@ -266,12 +385,12 @@ impl<'t, 'p> Replanning<'t, 'p> {
         let Some((prepared, backoff)) = self.begin(c, &team.healthy, team.id, team.n, load_m, now_ms) else {
             return Planned::Idle;
         };
-        let result = match (prepared, self.space.as_deref_mut()) {
-            (Ok(p), Some(space)) => space.plan(&p),
-            (Ok(_), None) => Err(PlanError::BadParams { field: "planner space lent" }),
-            (Err(e), _) => Err(e),
+        let searched = match (prepared, self.space.as_deref_mut(), self.check.as_deref_mut()) {
+            (Ok(p), Some(space), Some(check)) => search(space, check, &p),
+            (Ok(_), _, _) => Searched::failed(PlanError::BadParams { field: "planner space lent" }),
+            (Err(e), _, _) => Searched::failed(e),
         };
-        self.conclude(c, team.positions_m, load_m, result, backoff)
+        self.conclude(c, team.positions_m, load_m, searched, backoff)
     }
 
     /// [`Self::plan`] for a board that plans aside: a due re-plan is prepared and waits for
@@ -294,7 +413,7 @@ impl<'t, 'p> Replanning<'t, 'p> {
                 self.ready = Some((p, backoff));
                 Planned::Idle
             }
-            Some((Err(e), backoff)) => self.conclude(c, team.positions_m, load_m, Err(e), backoff),
+            Some((Err(e), backoff)) => self.conclude(c, team.positions_m, load_m, Searched::failed(e), backoff),
         }
     }
 
@@ -302,17 +421,22 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// (`None`: nothing waits).
     pub fn lend(&mut self) -> Option<PlanJob<'p>> {
         let (prepared, backoff) = self.ready?;
-        let space = self.space.take()?;
+        let (space, check) = (self.space.take()?, self.check.take());
+        let Some(check) = check else {
+            self.space = Some(space);
+            return None;
+        };
         self.ready = None;
         self.lent = Some(backoff);
-        Some(PlanJob { space, prepared })
+        Some(PlanJob { space, check, prepared })
     }
 
-    /// A lent search back, with its result: checked and offered at the next perception step.
-    pub fn give_back(&mut self, job: PlanJob<'p>, result: Result<PlannedTube, PlanError>) {
+    /// A lent search back, with what it found: checked and offered at the next perception step.
+    pub fn give_back(&mut self, job: PlanJob<'p>, searched: Searched) {
         self.space = Some(job.space);
+        self.check = Some(job.check);
         if let Some(backoff) = self.lent.take() {
-            self.done = Some((result, backoff));
+            self.done = Some((searched, backoff));
         }
     }
 
@@ -335,20 +459,16 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// The check of a search's result: offered when worth a switch and holding every member
     /// of `positions_m` by the flown `r_safe` plus the hand-over; kept otherwise; with no route
     /// and the tube blocked within [`HOLD_AHEAD_M`] of the load, the team holds.
-    fn conclude(&mut self, c: &impl Crew<'t>, positions_m: impl Iterator<Item = vt_tube::Vec2>, load_m: &Vec3, result: Result<PlannedTube, PlanError>, backoff: f32) -> Planned<'_> {
+    fn conclude(&mut self, c: &impl Crew<'t>, positions_m: impl Iterator<Item = vt_tube::Vec2>, load_m: &Vec3, searched: Searched, backoff: f32) -> Planned<'_> {
         let Some(tube) = c.tube() else {
             return Planned::Failed;
         };
-        match result {
+        match searched.result {
             Ok(t) => {
                 let worth = self.map.worth_switching(tube, &t, load_m);
-                self.offer.clear();
-                for w in &t.waypoints {
-                    let on_grid = Waypoint::new(crate::mission::on_wire_grid_m(w.pos_m.x), crate::mission::on_wire_grid_m(w.pos_m.y), w.w_left_m, w.w_right_m);
-                    // Both hold MAX_WAYPOINTS.
-                    let _ = self.offer.push(on_grid);
-                }
-                let holds = worth && self.check.rebuild(&self.offer).is_ok() && holds_team(self.check, positions_m, hold_margin_m(c.r_safe_m(), c.v_max_mps()));
+                self.offer = searched.offer;
+                let built = searched.check_built && self.check.is_some();
+                let holds = worth && built && self.check.as_deref().is_some_and(|k| holds_team(k, positions_m, hold_margin_m(c.r_safe_m(), c.v_max_mps())));
                 if !hand_over_now(worth, holds) {
                     // Needed but a member is outside it: the team stands ahead of the back-off
                     // point where the new route leaves the old one. The next plan starts at the

@@ -143,3 +143,47 @@ fn the_hand_over_margin_adds_the_flight_until_the_tube_arrives() {
         assert_eq!(hold_margin_m(0.5, bad), 0.5, "speed {bad}");
     }
 }
+
+/// A board that plans aside gets what the in-line path gets: the same offer from the search
+/// it ran in its task, and the same switch from the tube it built there; nothing is decided
+/// before the work comes back, and only one search or build is out at a time.
+#[test]
+fn a_search_and_a_build_run_aside_give_what_the_in_line_path_gives() {
+    let (own, load) = (Vec3::new(14.0, 10.0, 7.0), Vec3::new(14.0, 10.0, 3.0));
+    let rock = (V2::new(20.0, 10.5), 1.5);
+    let seen = |r: &mut Replanning<'static, 'static>, c: &Companion<'static>| {
+        for o in [V2::new(8.0, 10.0), V2::new(8.0, 10.0), V2::new(14.0, 10.0), V2::new(14.0, 10.0)] {
+            r.fold(c, &scan(o, &[rock]), &load);
+        }
+    };
+    // In line.
+    let (mut c1, mut r1) = (companion(own, load), replanning(config()));
+    seen(&mut r1, &c1);
+    let in_line = match r1.plan(&c1, view(0, 3, |_| true, own), &load, 0) {
+        Planned::Offer { waypoints, .. } => waypoints.to_vec(),
+        other => panic!("{other:?}"),
+    };
+    r1.take_offer(&mut c1, &in_line).unwrap();
+    // Aside: prepared, lent, run, given back, then concluded at the next step.
+    let (mut c2, mut r2) = (companion(own, load), replanning(config()));
+    seen(&mut r2, &c2);
+    assert_eq!(r2.plan_aside(&c2, view(0, 3, |_| true, own), &load, 0), Planned::Idle, "prepared, waiting for the task");
+    let mut job = r2.lend().expect("the prepared search");
+    assert!(r2.lend().is_none(), "one search out at a time");
+    assert_eq!(r2.plan_aside(&c2, view(0, 3, |_| true, own), &load, 20), Planned::Idle, "nothing decided while it is out");
+    let searched = job.run();
+    assert!(searched.found());
+    r2.give_back(job, searched);
+    let aside = match r2.plan_aside(&c2, view(0, 3, |_| true, own), &load, 40) {
+        Planned::Offer { waypoints, .. } => waypoints.to_vec(),
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(aside, in_line, "the same offer");
+    assert!(r2.offer_aside(&aside) && !r2.offer_aside(&aside), "one build at a time");
+    assert!(r2.take_built(&mut c2).is_none(), "no switch before the build is back");
+    let mut build = r2.lend_build().expect("the offer's build");
+    let built = build.run();
+    r2.give_back_build(build, built);
+    assert_eq!(r2.take_built(&mut c2), Some(Ok(())), "the switch after the build came back");
+    assert_eq!(c2.tube().unwrap().length_m(), c1.tube().unwrap().length_m(), "the same tube as in line");
+}

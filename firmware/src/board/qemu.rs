@@ -40,8 +40,60 @@ use defmt_semihosting as _; // the global defmt logger
 static PENDING: AtomicBool = AtomicBool::new(true);
 
 #[export_name = "__pender"]
-fn pender(_context: *mut ()) {
+fn pender(context: *mut ()) {
+    #[cfg(feature = "perception")]
+    if context as usize == Irq::Control as usize {
+        NVIC::pend(Irq::Control);
+        return;
+    }
+    let _ = context; // the thread-mode executor's: null
     PENDING.store(true, Ordering::SeqCst);
+}
+
+/// The perception build's control executor: the link and the control tasks run in the
+/// interrupt of line [`Irq::Control`], at a priority below the link's and the clock's and above
+/// thread mode, where the re-plan's search runs (docs/firmware.md, "The perception build").
+#[cfg(feature = "perception")]
+static CONTROL: core::sync::atomic::AtomicPtr<embassy_executor::raw::Executor> = core::sync::atomic::AtomicPtr::new(core::ptr::null_mut());
+
+/// NVIC priority of the control executor's line (lower urgency than the Ethernet line's and
+/// SysTick's, 0; thread mode is below every interrupt).
+#[cfg(feature = "perception")]
+const CONTROL_PRIORITY: u8 = 0x80;
+
+/// The perception build: the control executor (its tasks spawned through the returned spawner
+/// run once [`start_control`] unmasks its line).
+#[cfg(feature = "perception")]
+pub fn control_executor() -> embassy_executor::Spawner {
+    static EXEC: static_cell::StaticCell<embassy_executor::raw::Executor> = static_cell::StaticCell::new();
+    let exec: &'static embassy_executor::raw::Executor = EXEC.init(embassy_executor::raw::Executor::new(Irq::Control as usize as *mut ()));
+    CONTROL.store(core::ptr::from_ref(exec).cast_mut(), Ordering::SeqCst);
+    exec.spawner()
+}
+
+/// The perception build: sets the control line's priority and unmasks it.
+#[cfg(feature = "perception")]
+pub fn start_control() {
+    // SAFETY: `init` took the core peripherals; this only writes the control line's priority
+    // register, once, before the line is unmasked (embassy's interrupt executor's rule).
+    unsafe {
+        let mut p = cortex_m::Peripherals::steal();
+        p.NVIC.set_priority(Irq::Control, CONTROL_PRIORITY);
+    }
+    // SAFETY: the executor behind the line is initialised ([`control_executor`]).
+    unsafe { NVIC::unmask(Irq::Control) };
+}
+
+/// The control executor's interrupt: polls its tasks.
+#[cfg(feature = "perception")]
+#[no_mangle]
+unsafe extern "C" fn CONTROL_IRQ() {
+    let exec = CONTROL.load(Ordering::SeqCst);
+    if !exec.is_null() {
+        // SAFETY: the executor is a `'static` initialised before the line was unmasked, and it
+        // is polled from this one interrupt only, as `raw::Executor::poll` requires.
+        unsafe { (*exec).poll() };
+    }
 }
 
 /// Thread-mode executor that sleeps with `WFI`. QEMU 7.2 treats `WFE` (what embassy's
@@ -105,6 +157,9 @@ static WATCHDOG_ARMED: AtomicBool = AtomicBool::new(false);
 #[derive(Clone, Copy)]
 enum Irq {
     Ethernet = 13,
+    /// Not wired to a peripheral on the AN386: the perception build's control executor.
+    #[cfg(feature = "perception")]
+    Control = 31,
 }
 
 // SAFETY: the number is the line QEMU wires the LAN9118's interrupt to (mps2.c, AN385/AN386).
@@ -132,6 +187,10 @@ extern "C" {
 pub static __INTERRUPTS: [Vector; 32] = {
     let mut v = [const { Vector { handler: DefaultHandler } }; 32];
     v[13] = Vector { handler: ETHERNET };
+    #[cfg(feature = "perception")]
+    {
+        v[31] = Vector { handler: CONTROL_IRQ };
+    }
     v
 };
 

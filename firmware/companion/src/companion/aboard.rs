@@ -26,7 +26,7 @@ use super::{Companion, Core, Io, Source};
 use crate::framer::Frame;
 use crate::mission::{Item, MissionUpload, UploadReply};
 use crate::params::Param;
-use crate::replanning::{PlanJob, Planned, Replanning, TeamView};
+use crate::replanning::{BuildJob, PlanJob, Planned, Replanning, Searched, TeamView};
 use crate::{Vec3, COMPANION_COMPONENT_ID, MAX_UAVS};
 use vt_map::Scan;
 use vt_tube::Waypoint;
@@ -146,11 +146,26 @@ impl<'t> Companion<'t> {
         self.core.aboard.as_mut().and_then(|a| a.replanning.lend())
     }
 
+    /// An offer's tube to build for the board's task of lower priority ([`Io::plans_aside`]):
+    /// run it without holding the companion ([`BuildJob::run`]), then
+    /// [`Self::return_build_job`].
+    pub fn take_build_job(&mut self) -> Option<BuildJob<'t>> {
+        self.core.aboard.as_mut().and_then(|a| a.replanning.lend_build())
+    }
+
+    /// A build back from the board's task (`built`: the tube built): the switch, or not, at the
+    /// next perception step, and its `MISSION_ACK`.
+    pub fn return_build_job(&mut self, job: BuildJob<'t>, built: bool) {
+        if let Some(a) = self.core.aboard.as_mut() {
+            a.replanning.give_back_build(job, built);
+        }
+    }
+
     /// A search back from the board's task, with its result and its length in board cycles:
     /// checked and offered at the next perception step.
-    pub fn return_plan_job(&mut self, job: PlanJob<'t>, result: Result<vt_plan::PlannedTube, vt_plan::PlanError>, cycles: u32) {
+    pub fn return_plan_job(&mut self, job: PlanJob<'t>, searched: Searched, cycles: u32) {
         if let Some(a) = self.core.aboard.as_mut() {
-            a.replanning.give_back(job, result);
+            a.replanning.give_back(job, searched);
             a.totals.worst_cycles = a.totals.worst_cycles.max(cycles);
         }
     }
@@ -329,9 +344,22 @@ impl<'t> Core<'t> {
         if a.replanning.watch(self, own_m) {
             a.report.switches += 1;
         }
-        if a.offer_ready {
-            a.offer_ready = false;
-            let taken = a.replanning.take_offer(self, a.incoming.waypoints());
+        // In lockstep the searches and the offers' tubes are built in line (the flight does not
+        // see their time; PIL stays SIL's bits); a board that plans aside builds them in a task
+        // of lower priority, and takes an offer at the perception step after its tube came back.
+        let aside = io.plans_aside() && self.params.get_u32(Param::Lockstep) != 1;
+        let taken = if aside {
+            let taken = a.replanning.take_built(self);
+            if a.offer_ready && a.replanning.offer_aside(a.incoming.waypoints()) {
+                a.offer_ready = false;
+            }
+            taken
+        } else if core::mem::take(&mut a.offer_ready) {
+            Some(a.replanning.take_offer(self, a.incoming.waypoints()))
+        } else {
+            None
+        };
+        if let Some(taken) = taken {
             match taken {
                 Ok(()) => a.report.switches += 1,
                 Err(_) => a.report.kept += 1,
@@ -349,9 +377,6 @@ impl<'t> Core<'t> {
         let load = self.sources.load.map_or(Vec3::zeros(), |s| s.value.pos_m);
         let t0 = io.cycles();
         let team = TeamView { id, n, healthy, positions_m };
-        // In lockstep the search runs in line (the flight does not see its time; PIL stays
-        // SIL's bits); a board that plans aside runs it in a task of lower priority.
-        let aside = io.plans_aside() && self.params.get_u32(Param::Lockstep) != 1;
         let planned = if aside { a.replanning.plan_aside(&*self, team, &load, now) } else { a.replanning.plan(&*self, team, &load, now) };
         if planned.replanned() && !aside {
             a.totals.worst_cycles = a.totals.worst_cycles.max(io.cycles().wrapping_sub(t0));
