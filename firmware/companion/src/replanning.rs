@@ -254,8 +254,12 @@ impl<'t, 'p> Replanning<'t, 'p> {
     /// As [`Perception::configure`].
     pub fn configure(&mut self, cfg: crate::perception::PerceptionConfig) -> Result<(), vt_map::MapError> {
         self.map.configure(cfg)?;
+        // A search or a build still out comes back to nothing (`give_back` keeps only what it
+        // lent for).
         self.ready = None;
+        self.lent = None;
         self.done = None;
+        self.build = Build::Idle;
         self.declined = false;
         self.offer.clear();
         self.declared_no_route = false;
