@@ -2,10 +2,16 @@
 //! control steps at `VT_HL_HZ` and `VT_LL_HZ` (the firmware's Tickers; high level first when
 //! both are due), frames out. With `VT_LOCKSTEP = 1` the steps run on received own states
 //! instead, as in the firmware (a simulator driving the clock).
+//!
+//! Issue 28: on the wall clock a re-plan's search and an offered tube's build run on a planner
+//! thread, as the firmware's perception build runs them in a task below its control loop
+//! (`Io::plans_aside`); in lockstep the companion runs them in line.
 
 use crate::link::{Link, READ_CHUNK};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+use std::sync::mpsc;
+use vt_companion::replanning::{BuildJob, PlanJob, Searched};
 use vt_companion::{Companion, Io, Mode, Request};
 
 /// How long one wait for bytes may last when no step is due, ms (the stop flag is polled).
@@ -45,6 +51,42 @@ impl Io for WallIo<'_> {
     fn send(&mut self, frame: &[u8]) {
         self.out.push(frame.to_vec());
     }
+
+    fn plans_aside(&self) -> bool {
+        true
+    }
+}
+
+/// Work for the planner thread.
+enum Job<'t> {
+    /// A re-plan's search.
+    Plan(PlanJob<'t>),
+    /// An offered tube's build (its waypoints inline: boxed).
+    Build(Box<BuildJob<'t>>),
+}
+
+/// Work back from the planner thread.
+enum Done<'t> {
+    /// The search, what it found, and how long it took, microseconds.
+    Plan(PlanJob<'t>, Box<Searched>, u32),
+    /// The build, and whether the tube built.
+    Build(Box<BuildJob<'t>>, bool),
+}
+
+impl<'t> Job<'t> {
+    fn run(self) -> Done<'t> {
+        match self {
+            Job::Plan(mut j) => {
+                let t0 = Instant::now();
+                let searched = Box::new(j.run());
+                Done::Plan(j, searched, u32::try_from(t0.elapsed().as_micros()).unwrap_or(u32::MAX))
+            }
+            Job::Build(mut j) => {
+                let built = j.run();
+                Done::Build(j, built)
+            }
+        }
+    }
 }
 
 /// A periodic deadline on the wall clock.
@@ -78,7 +120,46 @@ impl Period {
 ///
 /// # Errors
 /// The link failed for good.
-pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool, mut on_mode: impl FnMut(Mode, u32)) -> std::io::Result<Exit> {
+pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool, on_mode: impl FnMut(Mode, u32)) -> std::io::Result<Exit> {
+    std::thread::scope(|s| {
+        let (jobs, job_rx) = mpsc::channel::<Job<'_>>();
+        let (done_tx, done) = mpsc::channel::<Done<'_>>();
+        s.spawn(move || {
+            for job in job_rx {
+                if done_tx.send(job.run()).is_err() {
+                    break;
+                }
+            }
+        });
+        // Dropping `jobs` on the way out ends the planner thread; the scope waits for it.
+        run_loop(companion, link, stop, on_mode, &jobs, &done)
+    })
+}
+
+/// What a planner thread brought back goes to the companion; what waits goes to the thread.
+fn exchange<'t>(companion: &mut Companion<'t>, jobs: &mpsc::Sender<Job<'t>>, done: &mpsc::Receiver<Done<'t>>) {
+    while let Ok(d) = done.try_recv() {
+        match d {
+            Done::Plan(job, searched, us) => companion.return_plan_job(job, *searched, us),
+            Done::Build(job, built) => companion.return_build_job(*job, built),
+        }
+    }
+    if let Some(j) = companion.take_build_job() {
+        let _ = jobs.send(Job::Build(Box::new(j)));
+    }
+    if let Some(j) = companion.take_plan_job() {
+        let _ = jobs.send(Job::Plan(j));
+    }
+}
+
+fn run_loop<'t>(
+    companion: &mut Companion<'t>,
+    link: &mut dyn Link,
+    stop: &AtomicBool,
+    mut on_mode: impl FnMut(Mode, u32),
+    jobs: &mpsc::Sender<Job<'t>>,
+    done: &mpsc::Receiver<Done<'t>>,
+) -> std::io::Result<Exit> {
     let start = Instant::now();
     let mut out: Vec<Vec<u8>> = Vec::new();
     let mut buf = vec![0u8; READ_CHUNK];
@@ -122,7 +203,10 @@ pub fn run(companion: &mut Companion<'_>, link: &mut dyn Link, stop: &AtomicBool
         if let Some((hl, ll)) = clocks.as_mut() {
             let now = Instant::now();
             if hl.due(now) {
+                // Work back before the step (its check and switch), new work out after it.
+                exchange(companion, jobs, done);
                 companion.high_level_step(&mut io);
+                exchange(companion, jobs, done);
             }
             if ll.due(now) {
                 companion.low_level_step(&mut io);

@@ -204,22 +204,34 @@ impl<'p, P: Port> PortTeam<'p, P> {
         beats
     }
 
+    /// Issue 28: sets up the network's relay of scans and offers for `ls` (once; nothing for a
+    /// known map), for a team that runs its own periods (`sitl::realtime`).
+    ///
+    /// # Errors
+    /// The scenario's LiDAR takes scans `OBSTACLE_DISTANCE` cannot carry.
+    pub fn relay_for(&mut self, ls: &LoadedScenario) -> Result<(), SimError> {
+        if self.perception.is_none() {
+            self.perception = PortPerception::new(ls, self.ports.len()).map_err(|e| SimError(e.0))?;
+        }
+        Ok(())
+    }
+
     /// Issue 28: what companion `i` sent that the network relays or counts.
-    fn absorb(&mut self, i: usize, rx: &Rx) {
+    pub fn absorb(&mut self, i: usize, rx: &Rx) {
         if let Some(p) = self.perception.as_mut() {
             p.absorb(i, rx);
         }
     }
 
     /// Issue 28: the start of a period.
-    fn open(&mut self, tick: &Tick<'_>) {
+    pub fn open(&mut self, tick: &Tick<'_>) {
         if let Some(p) = self.perception.as_mut() {
             p.open(tick);
         }
     }
 
     /// Issue 28: the end of a period (`immediate`: before the start).
-    fn close(&mut self, tick: &Tick<'_>, immediate: bool) {
+    pub fn close(&mut self, tick: &Tick<'_>, immediate: bool) {
         if let Some(p) = self.perception.as_mut() {
             p.close(tick.time_ms, immediate);
         }
@@ -239,9 +251,7 @@ impl<P: Port> PortTeam<'_, P> {
         }
         // The network relays scans and offers however the companions were configured (here,
         // or by a ground station: `configured`).
-        if self.perception.is_none() {
-            self.perception = PortPerception::new(ls, n).map_err(|e| SimError(e.0))?;
-        }
+        self.relay_for(ls)?;
         if !self.configs.is_empty() {
             return Ok(());
         }

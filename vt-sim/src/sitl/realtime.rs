@@ -59,8 +59,10 @@ impl<'p> RealtimeTeam<'p> {
         self
     }
 
-    /// Sends every companion its share of `tick`, then `SYSTEM_TIME` at high-level ticks.
+    /// Sends every companion its share of `tick` (with what the team network relays: issue
+    /// 28's scans and offers), then `SYSTEM_TIME` at high-level ticks.
     fn send(&mut self, tick: &Tick<'_>) -> Result<(), SimError> {
+        self.inner.open(tick);
         for i in 0..self.latest.len() {
             let mut bytes = self.inner.frames_for(i, tick);
             if tick.high_level {
@@ -96,7 +98,7 @@ impl<'p> RealtimeTeam<'p> {
                         self.arrived[i] = true;
                     }
                     Some(Rx::Heartbeat(m)) => self.inner.note_heartbeat(i, m),
-                    Some(_) => {}
+                    Some(other) => self.inner.absorb(i, &other),
                     None => break,
                 }
             }
@@ -106,13 +108,17 @@ impl<'p> RealtimeTeam<'p> {
 }
 
 impl Team for RealtimeTeam<'_> {
-    fn preflight(&mut self, _ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+    fn preflight(&mut self, ls: &LoadedScenario, at: &TeamStart<'_>) -> Result<(), SimError> {
+        self.inner.relay_for(ls)?;
         self.send(&at.tick)?;
         self.pace(at.tick.time_ms);
-        self.drain()
+        self.drain()?;
+        self.inner.close(&at.tick, true);
+        Ok(())
     }
 
-    fn start(&mut self, _ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
+    fn start(&mut self, ls: &LoadedScenario, start: &TeamStart<'_>) -> Result<Option<String>, SimError> {
+        self.inner.relay_for(ls)?;
         self.send(&start.tick)?;
         let mut hook = self.inner.take_start_hook().ok_or_else(|| SimError("realtime: nobody starts the companions".into()))?;
         hook().map_err(|e| SimError(format!("the start failed: {e}")))?;
@@ -136,11 +142,12 @@ impl Team for RealtimeTeam<'_> {
                             *a = true;
                         }
                         Rx::Setpoint { q, thrust, .. } => self.latest[i] = Some(Setpoint { q_ned: q, thrust }),
-                        _ => {}
+                        other => self.inner.absorb(i, &other),
                     }
                 }
             }
         }
+        self.inner.close(&start.tick, true);
         // Simulated time starts now.
         self.anchor = Some((Instant::now(), start.tick.time_ms));
         Ok(None)
@@ -151,6 +158,7 @@ impl Team for RealtimeTeam<'_> {
         self.pace(tick.time_ms);
         self.arrived.iter_mut().for_each(|a| *a = false);
         self.drain()?;
+        self.inner.close(tick, false);
         for ((o, l), a) in out.iter_mut().zip(&self.latest).zip(&self.arrived) {
             if let Some(sp) = l {
                 *o = *sp;
@@ -173,4 +181,12 @@ impl Team for RealtimeTeam<'_> {
     }
 
     fn controller_outputs(&self, _vel_cmd_mps: &mut [Vector3<f32>], _f_hat_n: &mut [Vector3<f32>]) {}
+
+    fn published_tube(&self) -> Option<(u32, &crate::scenario::SimTube)> {
+        self.inner.published_tube()
+    }
+
+    fn replan_stats(&self) -> Option<crate::mission::replan::ReplanStats> {
+        self.inner.replan_stats()
+    }
 }
