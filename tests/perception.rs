@@ -65,6 +65,9 @@ fn with_no_route_the_team_holds_and_never_touches_the_wall() {
     // of the boundary while tubes that left a member outside were handed over near a block.
     let floor = 0.4;
     assert!(s.min_uav_boundary_m >= floor && s.min_load_boundary_m >= floor && s.min_uav_uav_m >= floor, "{s:?}");
+    // The airframes carry their envelope: surfaces keep the scenario's 0.2 m floor too.
+    let clearance = 0.2;
+    assert!(s.min_uav_uav_clearance_m >= clearance && s.min_uav_boundary_clearance_m >= clearance, "{s:?}");
     assert!(s.failures.iter().all(|f| f.contains("no route") || f.contains("did not reach")), "{:?}", s.failures);
 }
 
