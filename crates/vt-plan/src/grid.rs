@@ -165,6 +165,96 @@ fn eighths(d2: f32) -> u8 {
     }
 }
 
+/// [`distance_transform`] into two bytes a cell: `q = 4 d^2` for the exact distance `d` in
+/// cells (a whole number: `d^2` is a sum of two squares of half-integers, or of a half-integer
+/// and zero), [`SQUARES_FAR`] from `4 d^2 >= 65,534` on (128 cells less a hair, 32 m at
+/// 0.25 m: read back as that lower bound), [`SQUARES_NONE`] when no cell is occupied. Half the
+/// memory of the `f32` field and the same planner: [`GridMap`] reads `sqrt(q / 4)`, bit for bit
+/// the `f32` transform's value below the cap (its squared distances are these quarters,
+/// exact in `f32`), in place.
+///
+/// Input: `cells[j * width + i]` is `0` for an occupied cell and anything else for a free
+/// one. The columns' distances are whole cells (two passes, up and down the rows); the rows
+/// take the same envelope as [`distance_transform`]. Work space as [`distance_transform`]'s.
+///
+/// # Errors
+/// [`PlanError::BadParams`] when a slice is too short or the grid is empty.
+pub fn distance_transform_squares(
+    cells: &mut [u16],
+    width: usize,
+    height: usize,
+    line: &mut [f32],
+    v: &mut [usize],
+    z: &mut [f32],
+) -> Result<(), PlanError> {
+    let n = check_sizes(cells.len(), width, height, line, v, z)?;
+    if height >= usize::from(u16::MAX) {
+        return Err(PlanError::BadParams { field: "cells" });
+    }
+    // Columns, by rows (contiguous): whole cells to the nearest occupied cell of the column,
+    // up then down; `u16::MAX` for none (below 65,535 rows no count saturates).
+    for c in cells[..width].iter_mut() {
+        *c = if *c == 0 { 0 } else { u16::MAX };
+    }
+    for j in 1..height {
+        let (done, rest) = cells.split_at_mut(j * width);
+        let above = &done[(j - 1) * width..];
+        for (c, &a) in rest[..width].iter_mut().zip(above) {
+            *c = if *c == 0 { 0 } else { a.saturating_add(1) };
+        }
+    }
+    for j in (0..height - 1).rev() {
+        let (upto, below) = cells.split_at_mut((j + 1) * width);
+        for (c, &b) in upto[j * width..].iter_mut().zip(&below[..width]) {
+            let b = b.saturating_add(1);
+            if b < *c {
+                *c = b;
+            }
+        }
+    }
+    let (f, rest) = line.split_at_mut(n);
+    let (d, h) = rest.split_at_mut(n);
+    // Rows: the column distance `m` (whole cells) is `(m - 1/2)^2` to the square, squared,
+    // exactly as the `f32` transform's column pass gives it.
+    for j in 0..height {
+        let row = &mut cells[j * width..(j + 1) * width];
+        for (fx, &m) in f.iter_mut().zip(row.iter()) {
+            *fx = match m {
+                0 => 0.0,
+                u16::MAX => f32::INFINITY,
+                _ => {
+                    let x = f32::from(m) - 0.5;
+                    x * x
+                }
+            };
+        }
+        square_pass(&f[..width], &mut d[..width], h, v, z);
+        for (c, dd) in row.iter_mut().zip(d.iter()) {
+            *c = quarter_squares(*dd);
+        }
+    }
+    Ok(())
+}
+
+/// The largest squared distance the two-byte field holds, in quarters of a cell squared
+/// (`4 d^2`): 16,383.5 cells^2 and beyond, read as that lower bound.
+pub const SQUARES_FAR: u16 = u16::MAX - 1;
+/// The two-byte field's value when no cell is occupied: infinitely far.
+pub const SQUARES_NONE: u16 = u16::MAX;
+
+/// `4 d2` as a whole number for a squared distance `d2` that is a multiple of 1/4, capped at
+/// [`SQUARES_FAR`]; [`SQUARES_NONE`] for infinity (or NaN, which the envelope never gives).
+fn quarter_squares(d2: f32) -> u16 {
+    let q = 4.0 * d2;
+    if q < f32::from(SQUARES_FAR) {
+        q as u16
+    } else if q.is_finite() {
+        SQUARES_FAR
+    } else {
+        SQUARES_NONE
+    }
+}
+
 /// The transforms' size checks: a non-empty `width x height` grid of `len` cells and work
 /// space for its longest line; returns that length.
 fn check_sizes(len: usize, width: usize, height: usize, line: &[f32], v: &[usize], z: &[f32]) -> Result<usize, PlanError> {
@@ -276,14 +366,24 @@ impl DistanceCells for [u8] {
     }
 }
 
+impl DistanceCells for [u16] {
+    /// `sqrt(q / 4)` cells: the exact distance below [`SQUARES_FAR`] (the same `f32` as
+    /// [`distance_transform`]'s: `q / 4` is its squared distance, exactly), 127.998 cells (a
+    /// lower bound) at it, infinite for [`SQUARES_NONE`].
+    #[inline]
+    fn distance_cells(&self, k: usize) -> Option<f32> {
+        self.get(k).map(|&q| if q == SQUARES_NONE { f32::INFINITY } else { vt_fpu::sqrt(f32::from(q) * 0.25) })
+    }
+}
+
 /// An occupancy grid with its distance transform: the clearance map of a raster.
 ///
 /// Cell `(i, j)` (column `i` east, row `j` north, row-major `j * width + i`) covers the square
 /// `origin + [i, i+1] x [j, j+1] resolution`. An occupied cell is a solid square.
 #[derive(Debug, Clone, Copy)]
 pub struct GridMap<'a, C: ?Sized + DistanceCells = [f32]> {
-    /// Output of [`distance_transform`] (`[f32]`) or [`distance_transform_eighths`] (`[u8]`),
-    /// cells.
+    /// Output of [`distance_transform`] (`[f32]`), [`distance_transform_squares`] (`[u16]`) or
+    /// [`distance_transform_eighths`] (`[u8]`), cells.
     pub dist_cells: &'a C,
     /// Columns.
     pub width: usize,
@@ -524,6 +624,36 @@ mod tests {
         assert_eq!(eighths(f32::INFINITY), EIGHTHS_FAR);
     }
 
+    /// Far from everything the field holds its cap, a lower bound; past 65,534 rows it refuses.
+    #[test]
+    fn squares_cap_far_distances_from_below() {
+        let (w, h) = (300, 2);
+        let mut words = vec![1u16; w * h];
+        words[0] = 0;
+        let (mut line, mut v, mut z) = (vec![0.0; 3 * w + 1], vec![0; w + 1], vec![0.0; w + 2]);
+        distance_transform_squares(&mut words, w, h, &mut line, &mut v, &mut z).unwrap();
+        let mut exact: Vec<f32> = words.iter().map(|_| f32::INFINITY).collect();
+        exact[0] = 0.0;
+        edt(&mut exact, w, h);
+        for k in 0..w * h {
+            let back = words[..].distance_cells(k).unwrap();
+            if exact[k] < 127.99 {
+                assert_eq!(back.to_bits(), exact[k].to_bits(), "cell {k}");
+            } else {
+                assert_eq!(words[k], SQUARES_FAR, "cell {k}");
+                assert!(back <= exact[k] && back > 127.99, "cell {k}: {back} against {}", exact[k]);
+            }
+        }
+        let mut empty = vec![1u16; 6];
+        distance_transform_squares(&mut empty, 3, 2, &mut line, &mut v, &mut z).unwrap();
+        assert!(empty.iter().all(|&q| q == SQUARES_NONE));
+        assert_eq!(empty[..].distance_cells(0), Some(f32::INFINITY));
+        let tall = 1usize << 16;
+        let mut column = vec![1u16; tall];
+        let (mut line, mut v, mut z) = (vec![0.0; 3 * tall + 1], vec![0; tall + 1], vec![0.0; tall + 2]);
+        assert!(distance_transform_squares(&mut column, 1, tall, &mut line, &mut v, &mut z).is_err());
+    }
+
     proptest! {
         #[test]
         fn transform_equals_brute_force(w in 1usize..12, h in 1usize..12, bits in proptest::collection::vec(0u8..6, 144)) {
@@ -565,6 +695,27 @@ mod tests {
             if in_map && ce.is_finite() && ce >= res && ce < 31.0 * res {
                 prop_assert!(cb >= ce - 0.125 * res - 1e-4, "bytes {} exact {}", cb, ce);
             }
+        }
+
+        /// The two-byte transform reads back bit for bit as the `f32` transform (below its cap,
+        /// which these grids never reach), and so does every clearance on it.
+        #[test]
+        fn squares_read_back_as_the_exact_transform(w in 1usize..40, h in 1usize..40, bits in proptest::collection::vec(0u8..40, 1600), px in -1.0f32..21.0, py in -1.0f32..21.0) {
+            let mut exact: Vec<f32> = (0..w * h).map(|k| if bits[k] == 0 { 0.0 } else { f32::INFINITY }).collect();
+            let mut words: Vec<u16> = (0..w * h).map(|k| u16::from(bits[k] != 0)).collect();
+            edt(&mut exact, w, h);
+            let n = w.max(h);
+            let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
+            distance_transform_squares(&mut words, w, h, &mut line, &mut v, &mut z).unwrap();
+            for k in 0..w * h {
+                let back = words[..].distance_cells(k).unwrap();
+                prop_assert_eq!(back.to_bits(), exact[k].to_bits(), "cell {} exact {} read {}", k, exact[k], back);
+            }
+            let res = 0.5f32;
+            let ge = GridMap { dist_cells: &exact[..], width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
+            let gw = GridMap { dist_cells: &words[..], width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
+            let p = Vec2::new(px, py);
+            prop_assert_eq!(ge.clearance_m(p).to_bits(), gw.clearance_m(p).to_bits());
         }
 
         /// Random occupied cells: the clearance never exceeds the true distance to the occupied

@@ -30,10 +30,10 @@ pub mod search;
 
 pub use corridor::{Disc, MAX_DISCS};
 pub use error::PlanError;
-pub use grid::{distance_transform, distance_transform_eighths, DistanceCells, GridMap, EIGHTHS_FAR};
+pub use grid::{distance_transform, distance_transform_eighths, distance_transform_squares, DistanceCells, GridMap, EIGHTHS_FAR, SQUARES_FAR, SQUARES_NONE};
 pub use map::{ClearanceMap, Obstacle, ObstacleMap};
 pub use planner::{plan, Bottleneck, PlanParams, PlannedTube};
-pub use search::{Lattice, Workspace};
+pub use search::{Lattice, NodeIndex, Workspace};
 
 /// 2-D vector, metres.
 pub type Vec2 = nalgebra::Vector2<f32>;

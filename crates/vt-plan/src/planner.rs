@@ -13,7 +13,7 @@
 //! - `vt_tube::Tube::from_waypoints` accepts the result (else an error is returned).
 
 use crate::corridor::{Disc, MAX_DISCS};
-use crate::search::{self, Lattice, RadiusRule, Workspace, NO_PARENT};
+use crate::search::{self, Lattice, NodeIndex, RadiusRule, Workspace};
 use crate::{ClearanceMap, PlanError, Vec2};
 use vt_tube::spline::Spline;
 use vt_tube::tube::MAX_WAYPOINTS;
@@ -106,8 +106,8 @@ enum At {
 }
 
 /// The searched path: start, lattice nodes (following parents), goal.
-struct Path<'p, 'w, 'a> {
-    ws: &'p Workspace<'w>,
+struct Path<'p, 'w, 'a, I: NodeIndex> {
+    ws: &'p Workspace<'w, I>,
     lat: &'a Lattice,
     start: Vec2,
     goal: Vec2,
@@ -118,14 +118,14 @@ struct Path<'p, 'w, 'a> {
     len: usize,
 }
 
-impl Path<'_, '_, '_> {
+impl<I: NodeIndex> Path<'_, '_, '_, I> {
     fn next(&self, a: At) -> Option<At> {
         match a {
             At::Start => Some(At::Node(self.first)),
             At::Node(k) if k == self.last => Some(At::Goal),
             At::Node(k) => match self.ws.parent.get(k).copied() {
-                Some(NO_PARENT) | None => Some(At::Goal),
-                Some(p) => Some(At::Node(p as usize)),
+                Some(p) if p != I::NONE => Some(At::Node(p.node())),
+                _ => Some(At::Goal),
             },
             At::Goal => None,
         }
@@ -161,12 +161,12 @@ impl Path<'_, '_, '_> {
 /// the required half-width; [`PlanError::TooManyDiscs`], [`PlanError::CurveLeavesCorridor`],
 /// [`PlanError::Tube`] when the result cannot be made valid; [`PlanError::BadParams`],
 /// [`PlanError::WorkspaceTooSmall`].
-pub fn plan<M: ClearanceMap>(
+pub fn plan<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     start_m: Vec2,
     goal_m: Vec2,
     params: &PlanParams,
-    ws: &mut Workspace<'_>,
+    ws: &mut Workspace<'_, I>,
 ) -> Result<PlannedTube, PlanError> {
     params.validate()?;
     for (which, p) in [("start", start_m), ("goal", goal_m)] {
@@ -259,10 +259,10 @@ pub fn plan<M: ClearanceMap>(
 }
 
 /// Corridor, curve and widths along the lattice path found by the search (parents in `ws`).
-fn fit_path<M: ClearanceMap>(
+fn fit_path<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
-    ws: &Workspace<'_>,
+    ws: &Workspace<'_, I>,
     params: &PlanParams,
     [start_m, goal_m]: [Vec2; 2],
     [r_start, r_goal]: [f32; 2],
@@ -363,7 +363,7 @@ fn push_gap(wps: &mut heapless::Vec<(Vec2, usize), MAX_WAYPOINTS>, p: Vec2, inde
 /// Greedy disc chain along the path: from the current disc, the farthest path point whose
 /// disc chains to it ([`Disc::chains_to`]) with every path point in between inside the two
 /// discs; at least the next point (progress).
-fn chain(path: &Path<'_, '_, '_>, need: f32) -> Result<heapless::Vec<Disc, MAX_DISCS>, PlanError> {
+fn chain<I: NodeIndex>(path: &Path<'_, '_, '_, I>, need: f32) -> Result<heapless::Vec<Disc, MAX_DISCS>, PlanError> {
     let mut discs: heapless::Vec<Disc, MAX_DISCS> = heapless::Vec::new();
     let full = PlanError::TooManyDiscs { capacity: MAX_DISCS };
     let mut cur = (At::Start, 0usize);
@@ -503,7 +503,7 @@ mod tests {
 
     fn plan_on(map: &ObstacleMap<'_>, start: Vec2, goal: Vec2, p: &PlanParams) -> Result<PlannedTube, PlanError> {
         let cap = 1 << 16;
-        let (mut f, mut u) = (vec![0.0; 3 * cap], vec![0; 3 * cap]);
+        let (mut f, mut u) = (vec![0.0; 3 * cap], vec![0u32; 3 * cap]);
         plan(map, start, goal, p, &mut Workspace::new(&mut f, &mut u))
     }
 

@@ -15,12 +15,43 @@
 
 use crate::{ClearanceMap, PlanError, Vec2};
 
-/// Marks a node that is not in the open set.
-const NOT_QUEUED: u32 = u32::MAX;
-/// Marks a node taken out of the open set for good.
-const CLOSED: u32 = u32::MAX - 1;
-/// Marks "no parent".
-pub const NO_PARENT: u32 = u32::MAX;
+/// A lattice node's index as the work space stores it (parents, the heap, heap positions):
+/// `u16` on the flight MCU (its 4,096 nodes in half the bytes), `u32` on the host.
+pub trait NodeIndex: Copy + Ord + core::fmt::Debug {
+    /// No parent; a node not in the open set.
+    const NONE: Self;
+    /// A node taken out of the open set for good.
+    const CLOSED: Self;
+    /// Nodes a work space of this index can hold (both marks stay above them).
+    const CAPACITY: usize;
+    /// Node `k`, below [`Self::CAPACITY`].
+    fn from_node(k: usize) -> Self;
+    /// The node this index names.
+    fn node(self) -> usize;
+}
+
+macro_rules! node_index {
+    ($t:ty) => {
+        impl NodeIndex for $t {
+            const NONE: Self = <$t>::MAX;
+            const CLOSED: Self = <$t>::MAX - 1;
+            const CAPACITY: usize = <$t>::MAX as usize - 2;
+            #[inline]
+            fn from_node(k: usize) -> Self {
+                k as $t
+            }
+            #[inline]
+            fn node(self) -> usize {
+                self as usize
+            }
+        }
+    };
+}
+node_index!(u16);
+node_index!(u32);
+
+/// Marks "no parent" in a host work space (`u32` indices).
+pub const NO_PARENT: u32 = <u32 as NodeIndex>::NONE;
 /// The 8 neighbour offsets and their lengths in lattice steps.
 const NEIGHBOURS: [(i32, i32, f32); 8] = [
     (1, 0, 1.0),
@@ -134,22 +165,23 @@ impl Lattice {
     }
 }
 
-/// The planner's work space, borrowed from the caller: 3 `f32` and 3 `u32` per lattice node.
+/// The planner's work space, borrowed from the caller: 3 `f32` and 3 indices `I` per lattice
+/// node.
 #[derive(Debug)]
-pub struct Workspace<'a> {
+pub struct Workspace<'a, I: NodeIndex = u32> {
     radius_m: &'a mut [f32],
     cost: &'a mut [f32],
     key: &'a mut [f32],
     /// Parent of each node in the last search ([`NO_PARENT`] for none).
-    pub(crate) parent: &'a mut [u32],
-    heap: &'a mut [u32],
-    pos: &'a mut [u32],
+    pub(crate) parent: &'a mut [I],
+    heap: &'a mut [I],
+    pos: &'a mut [I],
 }
 
-impl<'a> Workspace<'a> {
+impl<'a, I: NodeIndex> Workspace<'a, I> {
     /// Splits caller buffers: `floats` holds `3 capacity` values, `ints` `3 capacity`.
-    pub fn new(floats: &'a mut [f32], ints: &'a mut [u32]) -> Self {
-        let cap = (floats.len() / 3).min(ints.len() / 3).min(NO_PARENT as usize - 2);
+    pub fn new(floats: &'a mut [f32], ints: &'a mut [I]) -> Self {
+        let cap = (floats.len() / 3).min(ints.len() / 3).min(I::CAPACITY);
         let (radius_m, rest) = floats.split_at_mut(cap);
         let (cost, rest) = rest.split_at_mut(cap);
         let key = rest.split_at_mut(cap).0;
@@ -171,8 +203,8 @@ impl<'a> Workspace<'a> {
         }
         self.cost[..n].fill(f32::INFINITY);
         self.key[..n].fill(f32::INFINITY);
-        self.parent[..n].fill(NO_PARENT);
-        self.pos[..n].fill(NOT_QUEUED);
+        self.parent[..n].fill(I::NONE);
+        self.pos[..n].fill(I::NONE);
     }
 }
 
@@ -197,22 +229,22 @@ impl RadiusRule {
 }
 
 /// Indexed binary min-heap over node keys, ties broken by node index.
-struct Heap<'w, 'a> {
-    ws: &'w mut Workspace<'a>,
+struct Heap<'w, 'a, I: NodeIndex> {
+    ws: &'w mut Workspace<'a, I>,
     len: usize,
 }
 
-impl Heap<'_, '_> {
-    fn less(&self, a: u32, b: u32) -> bool {
-        let (ka, kb) = (self.ws.key[a as usize], self.ws.key[b as usize]);
+impl<I: NodeIndex> Heap<'_, '_, I> {
+    fn less(&self, a: I, b: I) -> bool {
+        let (ka, kb) = (self.ws.key[a.node()], self.ws.key[b.node()]);
         ka < kb || (ka == kb && a < b)
     }
 
     fn swap(&mut self, i: usize, j: usize) {
         self.ws.heap.swap(i, j);
         let (a, b) = (self.ws.heap[i], self.ws.heap[j]);
-        self.ws.pos[a as usize] = i as u32;
-        self.ws.pos[b as usize] = j as u32;
+        self.ws.pos[a.node()] = I::from_node(i);
+        self.ws.pos[b.node()] = I::from_node(j);
     }
 
     fn up(&mut self, mut i: usize) {
@@ -248,13 +280,13 @@ impl Heap<'_, '_> {
     /// Inserts `k` or lowers its key (the key is already written).
     fn push_or_decrease(&mut self, k: usize) {
         let p = self.ws.pos[k];
-        if p == NOT_QUEUED {
-            self.ws.heap[self.len] = k as u32;
-            self.ws.pos[k] = self.len as u32;
+        if p == I::NONE {
+            self.ws.heap[self.len] = I::from_node(k);
+            self.ws.pos[k] = I::from_node(self.len);
             self.len += 1;
             self.up(self.len - 1);
-        } else if p != CLOSED {
-            self.up(p as usize);
+        } else if p != I::CLOSED {
+            self.up(p.node());
         }
     }
 
@@ -262,18 +294,18 @@ impl Heap<'_, '_> {
         if self.len == 0 {
             return None;
         }
-        let top = self.ws.heap[0] as usize;
+        let top = self.ws.heap[0].node();
         self.len -= 1;
         if self.len > 0 {
             self.swap(0, self.len);
             self.down(0);
         }
-        self.ws.pos[top] = CLOSED;
+        self.ws.pos[top] = I::CLOSED;
         Some(top)
     }
 }
 
-fn radius_of<M: ClearanceMap>(ws: &mut Workspace<'_>, lat: &Lattice, map: &M, rule: &RadiusRule, k: usize) -> f32 {
+fn radius_of<M: ClearanceMap, I: NodeIndex>(ws: &mut Workspace<'_, I>, lat: &Lattice, map: &M, rule: &RadiusRule, k: usize) -> f32 {
     let r = ws.radius_m[k];
     if r.is_nan() {
         let r = rule.radius_m(map, lat.point_m(k));
@@ -287,7 +319,7 @@ fn radius_of<M: ClearanceMap>(ws: &mut Workspace<'_>, lat: &Lattice, map: &M, ru
 }
 
 /// Cached disc radius of node `k` after a search (NaN if never evaluated).
-pub(crate) fn cached_radius(ws: &Workspace<'_>, k: usize) -> f32 {
+pub(crate) fn cached_radius<I: NodeIndex>(ws: &Workspace<'_, I>, k: usize) -> f32 {
     ws.radius_m.get(k).copied().unwrap_or(f32::NAN)
 }
 
@@ -296,11 +328,11 @@ pub(crate) fn cached_radius(ws: &Workspace<'_>, k: usize) -> f32 {
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub fn astar<M: ClearanceMap>(
+pub fn astar<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_>,
+    ws: &mut Workspace<'_, I>,
     from: usize,
     to: usize,
 ) -> Result<bool, PlanError> {
@@ -310,11 +342,11 @@ pub fn astar<M: ClearanceMap>(
 /// [`astar`], keeping the disc radii a previous search on the same map, lattice and rule
 /// (margin and cap; the need may differ) left in `ws` when `keep_radii`: the planner's
 /// second pass and the narrowest-passage search reuse them.
-pub(crate) fn astar_cached<M: ClearanceMap>(
+pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_>,
+    ws: &mut Workspace<'_, I>,
     from: usize,
     to: usize,
     keep_radii: bool,
@@ -341,7 +373,7 @@ pub(crate) fn astar_cached<M: ClearanceMap>(
         let gu = heap.ws.cost[u];
         for (di, dj, len) in NEIGHBOURS {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
-            if heap.ws.pos[v] == CLOSED {
+            if heap.ws.pos[v] == I::CLOSED {
                 continue;
             }
             let rv = radius_of(heap.ws, lat, map, rule, v);
@@ -354,7 +386,7 @@ pub(crate) fn astar_cached<M: ClearanceMap>(
             if g < heap.ws.cost[v] {
                 heap.ws.cost[v] = g;
                 heap.ws.key[v] = g + vt_fpu::norm(&(lat.point_m(v) - goal));
-                heap.ws.parent[v] = u as u32;
+                heap.ws.parent[v] = I::from_node(u);
                 heap.push_or_decrease(v);
             }
         }
@@ -368,11 +400,11 @@ pub(crate) fn astar_cached<M: ClearanceMap>(
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub fn widest_path_bottleneck<M: ClearanceMap>(
+pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_>,
+    ws: &mut Workspace<'_, I>,
     from: usize,
     to: usize,
 ) -> Result<(usize, f32), PlanError> {
@@ -394,14 +426,14 @@ pub fn widest_path_bottleneck<M: ClearanceMap>(
         let bu = heap.ws.cost[u];
         for (di, dj, _) in NEIGHBOURS {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
-            if heap.ws.pos[v] == CLOSED {
+            if heap.ws.pos[v] == I::CLOSED {
                 continue;
             }
             let b = bu.min(radius_of(heap.ws, lat, map, rule, v));
             if heap.ws.cost[v] == f32::INFINITY || b > heap.ws.cost[v] {
                 heap.ws.cost[v] = b;
                 heap.ws.key[v] = -b;
-                heap.ws.parent[v] = u as u32;
+                heap.ws.parent[v] = I::from_node(u);
                 heap.push_or_decrease(v);
             }
         }
@@ -416,11 +448,11 @@ pub fn widest_path_bottleneck<M: ClearanceMap>(
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub fn narrowest_passage<M: ClearanceMap>(
+pub fn narrowest_passage<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_>,
+    ws: &mut Workspace<'_, I>,
     from: usize,
     to: usize,
 ) -> Result<(usize, f32), PlanError> {
@@ -437,7 +469,7 @@ pub fn narrowest_passage<M: ClearanceMap>(
 }
 
 /// Walks the parents back from `to`: the first node with the smallest radius.
-fn narrowest_on_path(ws: &Workspace<'_>, to: usize, n: usize) -> (usize, f32) {
+fn narrowest_on_path<I: NodeIndex>(ws: &Workspace<'_, I>, to: usize, n: usize) -> (usize, f32) {
     let mut k = to;
     let mut worst = (to, ws.radius_m[to]);
     for _ in 0..n {
@@ -446,8 +478,8 @@ fn narrowest_on_path(ws: &Workspace<'_>, to: usize, n: usize) -> (usize, f32) {
             worst = (k, r);
         }
         match ws.parent[k] {
-            NO_PARENT => break,
-            p => k = p as usize,
+            p if p == I::NONE => break,
+            p => k = p.node(),
         }
     }
     worst
@@ -500,5 +532,33 @@ mod tests {
         let p = lat.point_m(k);
         assert!((p.x - 10.0).abs() <= 0.5 && p.y > 8.6, "{p:?}");
         assert!(r > 1.1 && r <= 1.4, "{r}");
+    }
+
+    /// The MCU's two-byte indices give the host's search, parent for parent.
+    #[test]
+    fn two_byte_indices_search_as_four_byte_ones() {
+        let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
+        let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+        let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
+        let (mut f4, mut u4) = (vec![0.0; 3 * 4096], vec![0u32; 3 * 4096]);
+        let (mut f2, mut u2) = (vec![0.0; 3 * 4096], vec![0u16; 3 * 4096]);
+        let mut w4 = Workspace::new(&mut f4, &mut u4);
+        let mut w2 = Workspace::new(&mut f2, &mut u2);
+        assert_eq!(w2.capacity(), 4096);
+        let from = lat.around(Vec2::new(2.0, 2.0))[0].unwrap();
+        let to = lat.around(Vec2::new(18.0, 2.0))[0].unwrap();
+        assert!(astar(&map, &lat, &rule(0.5), &mut w4, from, to).unwrap());
+        assert!(astar(&map, &lat, &rule(0.5), &mut w2, from, to).unwrap());
+        for k in 0..lat.len() {
+            let (p4, p2) = (w4.parent[k], w2.parent[k]);
+            assert_eq!(p4 == NO_PARENT, p2 == u16::MAX, "node {k}");
+            if p4 != NO_PARENT {
+                assert_eq!(p4 as usize, usize::from(p2), "node {k}");
+            }
+        }
+        assert_eq!(narrowest_passage(&map, &lat, &rule(1.5), &mut w4, from, to).unwrap(), narrowest_passage(&map, &lat, &rule(1.5), &mut w2, from, to).unwrap());
+        // A work space never takes more nodes than its indices can name beside their marks.
+        let (mut f, mut u) = (vec![0.0; 3 * 70_000], vec![0u16; 3 * 70_000]);
+        assert_eq!(Workspace::new(&mut f, &mut u).capacity(), usize::from(u16::MAX) - 2);
     }
 }

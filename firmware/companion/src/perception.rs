@@ -141,19 +141,19 @@ pub enum Keep {
 /// lattice search's arrays. Apart from the map, so a board can lend it to a task of lower
 /// priority while the map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
-    plan_cells: [f32; PLAN_CELLS],
+    plan_cells: [u16; PLAN_CELLS],
     line: [f32; 3 * PLAN_LINE + 1],
     envelope: [usize; PLAN_LINE + 1],
     breaks: [f32; PLAN_LINE + 2],
     floats: [f32; 3 * LATTICE_NODES],
-    ints: [u32; 3 * LATTICE_NODES],
+    ints: [u16; 3 * LATTICE_NODES],
 }
 
 impl PlannerSpace {
     /// Storage, every byte zero (`.bss` in a firmware's `static`).
     pub const fn zeroed() -> Self {
         Self {
-            plan_cells: [0.0; PLAN_CELLS],
+            plan_cells: [0; PLAN_CELLS],
             line: [0.0; 3 * PLAN_LINE + 1],
             envelope: [0; PLAN_LINE + 1],
             breaks: [0.0; PLAN_LINE + 2],
@@ -170,8 +170,8 @@ impl PlannerSpace {
     /// The planner's: no route, a start inside an obstacle.
     pub fn plan(&mut self, p: &Prepared) -> Result<PlannedTube, PlanError> {
         let cells = self.plan_cells.get_mut(..p.width * p.height).ok_or(PlanError::BadParams { field: "plan cells" })?;
-        vt_plan::distance_transform(cells, p.width, p.height, &mut self.line, &mut self.envelope, &mut self.breaks)?;
-        let grid = GridMap { dist_cells: cells, width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
+        vt_plan::distance_transform_squares(cells, p.width, p.height, &mut self.line, &mut self.envelope, &mut self.breaks)?;
+        let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
         let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
         vt_plan::plan(&grid, p.start_m, p.goal_m, &p.params, &mut ws)
     }
@@ -372,7 +372,7 @@ impl Perception {
         self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
         self.replans = self.replans.saturating_add(1);
         let start_m = start_point_at(tube, load_m, backoff_m);
-        let (width, height) = self.map.write_planner_cells(PLAN_COARSEN, &mut space.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
+        let (width, height) = self.map.write_planner_words(PLAN_COARSEN, &mut space.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
         Ok(Prepared {
             width,
             height,
