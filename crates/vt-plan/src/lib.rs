@@ -32,7 +32,7 @@ pub use corridor::{Disc, MAX_DISCS};
 pub use error::PlanError;
 pub use grid::{distance_transform, distance_transform_eighths, distance_transform_squares, DistanceCells, GridMap, EIGHTHS_FAR, SQUARES_FAR, SQUARES_NONE};
 pub use map::{ClearanceMap, Obstacle, ObstacleMap};
-pub use planner::{plan, Bottleneck, PlanParams, PlannedTube};
+pub use planner::{plan, plan_in, Bottleneck, PlanParams, PlannedTube};
 pub use search::{Lattice, NodeIndex, Workspace};
 
 /// 2-D vector, metres.

@@ -168,6 +168,24 @@ pub fn plan<M: ClearanceMap, I: NodeIndex>(
     params: &PlanParams,
     ws: &mut Workspace<'_, I>,
 ) -> Result<PlannedTube, PlanError> {
+    plan_in(map, start_m, goal_m, params, ws, &mut Tube::<DEFAULT_SAMPLES>::placeholder())
+}
+
+/// [`plan`], building the tube that checks the result in `check` (the tube tables, about
+/// 8 KiB at the default size, so a flight MCU keeps them in a `static` and not on the stack).
+/// On success `check` holds the planned tube; otherwise its contents are unspecified (rebuild
+/// it before use).
+///
+/// # Errors
+/// As [`plan`].
+pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
+    map: &M,
+    start_m: Vec2,
+    goal_m: Vec2,
+    params: &PlanParams,
+    ws: &mut Workspace<'_, I>,
+    check: &mut Tube<DEFAULT_SAMPLES>,
+) -> Result<PlannedTube, PlanError> {
     params.validate()?;
     for (which, p) in [("start", start_m), ("goal", goal_m)] {
         if !(p.x.is_finite() && p.y.is_finite() && map.contains(p)) {
@@ -244,7 +262,7 @@ pub fn plan<M: ClearanceMap, I: NodeIndex>(
             }
             continue;
         }
-        match fit_path(map, &lat, ws, params, [start_m, goal_m], [r_start, r_goal], [first, last]) {
+        match fit_path(map, &lat, ws, params, [start_m, goal_m], [r_start, r_goal], [first, last], check) {
             Ok(t) => return Ok(t),
             // The smooth curve could not hold the width: the passage is too narrow for it there.
             Err(PlanError::CurveLeavesCorridor { x_m, y_m }) => {
@@ -259,6 +277,7 @@ pub fn plan<M: ClearanceMap, I: NodeIndex>(
 }
 
 /// Corridor, curve and widths along the lattice path found by the search (parents in `ws`).
+#[allow(clippy::too_many_arguments)] // the search's result, the terminals and the tube storage
 fn fit_path<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
@@ -267,6 +286,7 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
     [start_m, goal_m]: [Vec2; 2],
     [r_start, r_goal]: [f32; 2],
     [first, last]: [usize; 2],
+    check: &mut Tube<DEFAULT_SAMPLES>,
 ) -> Result<PlannedTube, PlanError> {
     let need = params.need_half_width_m;
     let mut path = Path { ws, lat, start: start_m, goal: goal_m, r_start, r_goal, first, last, len: 0 };
@@ -302,8 +322,8 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
                     out.push(Waypoint { pos_m: *p, w_left_m: *w, w_right_m: *w })
                         .map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
                 }
-                let tube = Tube::<DEFAULT_SAMPLES>::from_waypoints(&out)?;
-                let bottleneck = bottleneck_of(&tube);
+                check.rebuild(&out)?;
+                let bottleneck = bottleneck_of(check);
                 return Ok(PlannedTube { waypoints: out, discs, bottleneck, lattice_m: lat.spacing_m });
             }
             Fit::Strays { piece, at_m, fold: true } => {

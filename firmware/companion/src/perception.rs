@@ -166,14 +166,16 @@ impl PlannerSpace {
     /// and the planner (`vt_plan::plan`), on this space alone. The expensive part of a re-plan
     /// (docs/benchmarks.md).
     ///
+    /// `check` is the planner's tube storage: on success it holds the planned tube.
+    ///
     /// # Errors
     /// The planner's: no route, a start inside an obstacle.
-    pub fn plan(&mut self, p: &Prepared) -> Result<PlannedTube, PlanError> {
+    pub fn plan(&mut self, p: &Prepared, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
         let cells = self.plan_cells.get_mut(..p.width * p.height).ok_or(PlanError::BadParams { field: "plan cells" })?;
         vt_plan::distance_transform_squares(cells, p.width, p.height, &mut self.line, &mut self.envelope, &mut self.breaks)?;
         let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
         let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
-        vt_plan::plan(&grid, p.start_m, p.goal_m, &p.params, &mut ws)
+        vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check)
     }
 }
 
@@ -340,12 +342,13 @@ impl Perception {
 
     /// Re-plans from the team's current section of `tube` (the load at `load_m`) to the goal
     /// on the map as seen so far. The schedule restarts and the trigger clears whatever the
-    /// outcome (a failed plan is retried on schedule).
+    /// outcome (a failed plan is retried on schedule). The planned tube is built in `check`
+    /// ([`PlannerSpace::plan`]).
     ///
     /// # Errors
     /// The planner's: no route (the team holds), a start inside an obstacle.
-    pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32, space: &mut PlannerSpace) -> Result<PlannedTube, PlanError> {
-        self.replan_from(tube, load_m, BACKOFF_M, now_ms, space)
+    pub fn replan(&mut self, tube: &CompanionTube, load_m: &Vec3, now_ms: u32, space: &mut PlannerSpace, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
+        self.replan_from(tube, load_m, BACKOFF_M, now_ms, space, check)
     }
 
     /// [`Self::replan`] from `backoff_m` behind the load along `tube` (0: from the load's
@@ -353,9 +356,9 @@ impl Perception {
     ///
     /// # Errors
     /// As [`Self::replan`].
-    pub fn replan_from(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32, space: &mut PlannerSpace) -> Result<PlannedTube, PlanError> {
+    pub fn replan_from(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32, space: &mut PlannerSpace, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
         let p = self.prepare(tube, load_m, backoff_m, now_ms, space)?;
-        space.plan(&p)
+        space.plan(&p, check)
     }
 
     /// The first part of [`Self::replan_from`], on the map: the schedule restarts and the

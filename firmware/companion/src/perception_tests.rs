@@ -102,7 +102,7 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     assert!(!p.must_stop(f32::NAN, stop), "no section, no stop decision from the map");
     assert_eq!(stop_distance_m(f32::NAN, -1.0), STOP_MARGIN_M, "bad inputs count as 0");
     assert!(p.replan_due(0));
-    let planned = p.replan(&tube, &load, 0, &mut Box::new(PlannerSpace::zeroed())).unwrap();
+    let planned = p.replan(&tube, &load, 0, &mut Box::new(PlannerSpace::zeroed()), &mut Box::new(CompanionTube::placeholder())).unwrap();
     assert!(p.must_stop(s_rock - 1.0, stop), "a re-plan alone does not clear the block: the tube is still the old one");
     assert!(!p.blocked() && !p.replan_due(999) && p.replan_due(1000), "the schedule restarts");
     assert_eq!(p.replans(), 1);
@@ -139,7 +139,7 @@ fn no_route_is_an_error_not_a_tube() {
         p.integrate(&scan(V2::new(18.0, y), &wall), Some(&tube), 15.0);
     }
     assert!(p.blocked());
-    let r = p.replan(&tube, &Vec3::new(18.0, 10.0, 3.0), 0, &mut Box::new(PlannerSpace::zeroed()));
+    let r = p.replan(&tube, &Vec3::new(18.0, 10.0, 3.0), 0, &mut Box::new(PlannerSpace::zeroed()), &mut Box::new(CompanionTube::placeholder()));
     assert!(matches!(r, Err(PlanError::TooNarrow { .. })), "{r:?}");
 }
 

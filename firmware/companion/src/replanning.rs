@@ -163,7 +163,7 @@ impl Searched {
 /// the plan's waypoints on the wire grid, and its tube built in `check` (the tube tables: the
 /// other large cost, kept out of the control loop with the search).
 pub fn search(space: &mut PlannerSpace, check: &mut CompanionTube, p: &Prepared) -> Searched {
-    let result = space.plan(p);
+    let result = space.plan(p, check);
     let mut offer = heapless::Vec::new();
     let mut check_built = false;
     if let Ok(t) = &result {
