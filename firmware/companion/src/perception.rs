@@ -137,8 +137,9 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The planner's work space (about 245 KiB): the distance field, its line buffers and the
-/// lattice search's arrays. Apart from the map, so a board can lend it to a task of lower
+/// The planner's work space (about 150 KiB): the distance field (two bytes a cell,
+/// `vt_plan::distance_transform_squares`), its line buffers and the lattice search's arrays
+/// (three `f32` and three `u16` a node). Apart from the map, so a board can lend it to a task of lower
 /// priority while the map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
     plan_cells: [u16; PLAN_CELLS],
@@ -222,9 +223,9 @@ impl Perception {
 
     /// Storage for the perception state before it is configured: a map of no cells, every scan
     /// ignored, every re-plan an error. `const` and every byte zero, so firmware keeps it in a
-    /// `static` in `.bss`, with no image in flash (about 270 KiB: built on the stack and moved,
+    /// `static` in `.bss`, with no image in flash (about 33 KiB: built on the stack and moved,
     /// as [`Perception::new`]'s result is, it would need that much stack; a single non-zero
-    /// word put all of it in `.data`, 278 kB of flash), and [`Perception::configure`] gives it
+    /// word would put all of it in `.data`, in flash), and [`Perception::configure`] gives it
     /// its world and figures in place.
     pub const fn placeholder() -> Self {
         Self {

@@ -65,7 +65,7 @@ pub fn hold_margin_m(r_safe_m: f32, v_max_mps: f32) -> f32 {
 
 /// What one companion's re-planning keeps between periods: its map, where offers are built,
 /// and the planner's check of its own plans. The storage is borrowed, as the companion's tube
-/// is (about 270 KiB of map and planner work space, two tubes of about 9 KiB).
+/// is (about 33 KiB of map, 150 KiB of planner work space, two tubes of about 8 KiB).
 pub struct Replanning<'t, 'p> {
     map: &'p mut Perception,
     /// The planner's work space (`None` while lent to a [`PlanJob`]).
