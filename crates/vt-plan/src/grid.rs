@@ -635,13 +635,13 @@ mod tests {
         let mut exact: Vec<f32> = words.iter().map(|_| f32::INFINITY).collect();
         exact[0] = 0.0;
         edt(&mut exact, w, h);
-        for k in 0..w * h {
+        for (k, &e) in exact.iter().enumerate() {
             let back = words[..].distance_cells(k).unwrap();
-            if exact[k] < 127.99 {
-                assert_eq!(back.to_bits(), exact[k].to_bits(), "cell {k}");
+            if e < 127.99 {
+                assert_eq!(back.to_bits(), e.to_bits(), "cell {k}");
             } else {
                 assert_eq!(words[k], SQUARES_FAR, "cell {k}");
-                assert!(back <= exact[k] && back > 127.99, "cell {k}: {back} against {}", exact[k]);
+                assert!(back <= e && back > 127.99, "cell {k}: {back} against {e}");
             }
         }
         let mut empty = vec![1u16; 6];
@@ -707,9 +707,9 @@ mod tests {
             let n = w.max(h);
             let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
             distance_transform_squares(&mut words, w, h, &mut line, &mut v, &mut z).unwrap();
-            for k in 0..w * h {
+            for (k, e) in exact.iter().enumerate() {
                 let back = words[..].distance_cells(k).unwrap();
-                prop_assert_eq!(back.to_bits(), exact[k].to_bits(), "cell {} exact {} read {}", k, exact[k], back);
+                prop_assert_eq!(back.to_bits(), e.to_bits(), "cell {} exact {} read {}", k, e, back);
             }
             let res = 0.5f32;
             let ge = GridMap { dist_cells: &exact[..], width: w, height: h, resolution_m: res, origin_m: Vec2::zeros() };
