@@ -96,28 +96,9 @@ pub fn distance_transform_eighths(
     z: &mut [f32],
 ) -> Result<(), PlanError> {
     let n = check_sizes(cells.len(), width, height, line, v, z)?;
-    // Columns, by rows (contiguous): whole cells to the nearest occupied cell of the column,
-    // up then down; `u8::MAX` for none within 254 (no row pass can use more: the result is
-    // capped below that).
-    for c in cells[..width].iter_mut() {
-        *c = if *c == 0 { 0 } else { u8::MAX };
-    }
-    for j in 1..height {
-        let (done, rest) = cells.split_at_mut(j * width);
-        let above = &done[(j - 1) * width..];
-        for (c, &a) in rest[..width].iter_mut().zip(above) {
-            *c = if *c == 0 { 0 } else { a.saturating_add(1) };
-        }
-    }
-    for j in (0..height - 1).rev() {
-        let (upto, below) = cells.split_at_mut((j + 1) * width);
-        for (c, &b) in upto[j * width..].iter_mut().zip(&below[..width]) {
-            let b = b.saturating_add(1);
-            if b < *c {
-                *c = b;
-            }
-        }
-    }
+    // Columns: `u8::MAX` for none within 254 (no row pass can use more: the result is capped
+    // below that).
+    column_counts(cells, width, height);
     let (f, rest) = line.split_at_mut(n);
     let (d, h) = rest.split_at_mut(n);
     // Rows: the column distance `m` (whole cells) is `(m - 1/2)^2` to the square, squared.
@@ -191,27 +172,8 @@ pub fn distance_transform_squares(
     if height >= usize::from(u16::MAX) {
         return Err(PlanError::BadParams { field: "cells" });
     }
-    // Columns, by rows (contiguous): whole cells to the nearest occupied cell of the column,
-    // up then down; `u16::MAX` for none (below 65,535 rows no count saturates).
-    for c in cells[..width].iter_mut() {
-        *c = if *c == 0 { 0 } else { u16::MAX };
-    }
-    for j in 1..height {
-        let (done, rest) = cells.split_at_mut(j * width);
-        let above = &done[(j - 1) * width..];
-        for (c, &a) in rest[..width].iter_mut().zip(above) {
-            *c = if *c == 0 { 0 } else { a.saturating_add(1) };
-        }
-    }
-    for j in (0..height - 1).rev() {
-        let (upto, below) = cells.split_at_mut((j + 1) * width);
-        for (c, &b) in upto[j * width..].iter_mut().zip(&below[..width]) {
-            let b = b.saturating_add(1);
-            if b < *c {
-                *c = b;
-            }
-        }
-    }
+    // Columns: `u16::MAX` for none (below 65,535 rows no count saturates).
+    column_counts(cells, width, height);
     let (f, rest) = line.split_at_mut(n);
     let (d, h) = rest.split_at_mut(n);
     // Rows: the column distance `m` (whole cells) is `(m - 1/2)^2` to the square, squared,
@@ -252,6 +214,57 @@ fn quarter_squares(d2: f32) -> u16 {
         SQUARES_FAR
     } else {
         SQUARES_NONE
+    }
+}
+
+/// A compact field's cell while its columns are counted: whole cells, saturating.
+trait ColumnCount: Copy + Ord {
+    /// The occupied cell's count, and the input's mark of an occupied cell.
+    const ZERO: Self;
+    /// No occupied cell within the type's range.
+    const NONE: Self;
+    /// One cell farther, saturating at [`Self::NONE`].
+    fn next(self) -> Self;
+}
+
+impl ColumnCount for u8 {
+    const ZERO: Self = 0;
+    const NONE: Self = u8::MAX;
+    fn next(self) -> Self {
+        self.saturating_add(1)
+    }
+}
+
+impl ColumnCount for u16 {
+    const ZERO: Self = 0;
+    const NONE: Self = u16::MAX;
+    fn next(self) -> Self {
+        self.saturating_add(1)
+    }
+}
+
+/// The compact transforms' column pass, in place, by rows (contiguous): each cell becomes the
+/// whole cells to the nearest occupied cell (input `ZERO`) of its column, up then down,
+/// [`ColumnCount::NONE`] for none within the type's range.
+fn column_counts<T: ColumnCount>(cells: &mut [T], width: usize, height: usize) {
+    for c in cells[..width].iter_mut() {
+        *c = if *c == T::ZERO { T::ZERO } else { T::NONE };
+    }
+    for j in 1..height {
+        let (done, rest) = cells.split_at_mut(j * width);
+        let above = &done[(j - 1) * width..];
+        for (c, &a) in rest[..width].iter_mut().zip(above) {
+            *c = if *c == T::ZERO { T::ZERO } else { a.next() };
+        }
+    }
+    for j in (0..height - 1).rev() {
+        let (upto, below) = cells.split_at_mut((j + 1) * width);
+        for (c, &b) in upto[j * width..].iter_mut().zip(&below[..width]) {
+            let b = b.next();
+            if b < *c {
+                *c = b;
+            }
+        }
     }
 }
 
