@@ -168,13 +168,14 @@ pub fn plan<M: ClearanceMap, I: NodeIndex>(
     params: &PlanParams,
     ws: &mut Workspace<'_, I>,
 ) -> Result<PlannedTube, PlanError> {
-    plan_in(map, start_m, goal_m, params, ws, &mut Tube::<DEFAULT_SAMPLES>::placeholder())
+    plan_in(map, start_m, goal_m, params, ws, &mut Tube::<DEFAULT_SAMPLES>::placeholder(), |x| x)
 }
 
 /// [`plan`], building the tube that checks the result in `check` (the tube tables, about
-/// 8 KiB at the default size, so a flight MCU keeps them in a `static` and not on the stack).
-/// On success `check` holds the planned tube; otherwise its contents are unspecified (rebuild
-/// it before use).
+/// 8 KiB at the default size, so a flight MCU keeps them in a `static` and not on the stack),
+/// from waypoints whose coordinates `snap` has put on a grid (a link's, m -> m; the identity for
+/// none): the tube checked is then the tube a receiver of those waypoints builds. On success
+/// `check` holds it; otherwise its contents are unspecified (rebuild it before use).
 ///
 /// # Errors
 /// As [`plan`].
@@ -185,6 +186,7 @@ pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
     params: &PlanParams,
     ws: &mut Workspace<'_, I>,
     check: &mut Tube<DEFAULT_SAMPLES>,
+    snap: fn(f32) -> f32,
 ) -> Result<PlannedTube, PlanError> {
     params.validate()?;
     for (which, p) in [("start", start_m), ("goal", goal_m)] {
@@ -262,7 +264,7 @@ pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
             }
             continue;
         }
-        match fit_path(map, &lat, ws, params, [start_m, goal_m], [r_start, r_goal], [first, last], check) {
+        match fit_path(map, &lat, ws, params, [start_m, goal_m], [r_start, r_goal], [first, last], (check, snap)) {
             Ok(t) => return Ok(t),
             // The smooth curve could not hold the width: the passage is too narrow for it there.
             Err(PlanError::CurveLeavesCorridor { x_m, y_m }) => {
@@ -277,7 +279,7 @@ pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
 }
 
 /// Corridor, curve and widths along the lattice path found by the search (parents in `ws`).
-#[allow(clippy::too_many_arguments)] // the search's result, the terminals and the tube storage
+#[allow(clippy::too_many_arguments)] // the search's result, the terminals and the tube's storage and grid
 fn fit_path<M: ClearanceMap, I: NodeIndex>(
     map: &M,
     lat: &Lattice,
@@ -286,7 +288,7 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
     [start_m, goal_m]: [Vec2; 2],
     [r_start, r_goal]: [f32; 2],
     [first, last]: [usize; 2],
-    check: &mut Tube<DEFAULT_SAMPLES>,
+    (check, snap): (&mut Tube<DEFAULT_SAMPLES>, fn(f32) -> f32),
 ) -> Result<PlannedTube, PlanError> {
     let need = params.need_half_width_m;
     let mut path = Path { ws, lat, start: start_m, goal: goal_m, r_start, r_goal, first, last, len: 0 };
@@ -319,7 +321,7 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
             Fit::Widths(widths) => {
                 let mut out: heapless::Vec<Waypoint, MAX_WAYPOINTS> = heapless::Vec::new();
                 for ((p, _), w) in wps.iter().zip(widths.iter()) {
-                    out.push(Waypoint { pos_m: *p, w_left_m: *w, w_right_m: *w })
+                    out.push(Waypoint { pos_m: Vec2::new(snap(p.x), snap(p.y)), w_left_m: *w, w_right_m: *w })
                         .map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
                 }
                 check.rebuild(&out)?;

@@ -168,7 +168,8 @@ impl PlannerSpace {
     /// and the planner (`vt_plan::plan`), on this space alone. The expensive part of a re-plan
     /// (docs/benchmarks.md).
     ///
-    /// `check` is the planner's tube storage: on success it holds the planned tube.
+    /// `check` is the planner's tube storage: on success it holds the planned tube, built from
+    /// its waypoints on the mission protocol's grid (what a member builds from the offer).
     ///
     /// # Errors
     /// The planner's: no route, a start inside an obstacle.
@@ -177,7 +178,7 @@ impl PlannerSpace {
         vt_plan::distance_transform_squares(cells, p.width, p.height, &mut self.line, &mut self.envelope, &mut self.breaks)?;
         let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
         let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
-        vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check)
+        vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
     }
 }
 

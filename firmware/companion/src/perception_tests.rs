@@ -102,11 +102,20 @@ fn an_obstacle_seen_in_the_tube_triggers_a_replan_that_goes_around_it() {
     assert!(!p.must_stop(f32::NAN, stop), "no section, no stop decision from the map");
     assert_eq!(stop_distance_m(f32::NAN, -1.0), STOP_MARGIN_M, "bad inputs count as 0");
     assert!(p.replan_due(0));
-    let planned = p.replan(&tube, &load, 0, &mut Box::new(PlannerSpace::zeroed()), &mut Box::new(CompanionTube::placeholder())).unwrap();
+    let mut check = Box::new(CompanionTube::placeholder());
+    let planned = p.replan(&tube, &load, 0, &mut Box::new(PlannerSpace::zeroed()), &mut check).unwrap();
     assert!(p.must_stop(s_rock - 1.0, stop), "a re-plan alone does not clear the block: the tube is still the old one");
     assert!(!p.blocked() && !p.replan_due(999) && p.replan_due(1000), "the schedule restarts");
     assert_eq!(p.replans(), 1);
     let new = CompanionTube::from_waypoints(&planned.waypoints).unwrap();
+    // The plan's waypoints are on the mission protocol's grid, and the planner's check tube is
+    // the tube a member builds from them, bit for bit.
+    for w in &planned.waypoints {
+        let on_grid = |m: f32| crate::mission::on_wire_grid_m(m).to_bits() == m.to_bits();
+        assert!(on_grid(w.pos_m.x) && on_grid(w.pos_m.y), "{w:?} off the wire grid");
+    }
+    assert_eq!(check.samples(), new.samples(), "the check tube is the offered one");
+    assert_eq!(check.length_m().to_bits(), new.length_m().to_bits());
     // Starts at the team's section, 4 m behind the load, and ends at the goal.
     let first = planned.waypoints[0].pos_m;
     assert!((first - V2::new(10.0, 10.0)).norm() < 0.3, "{first:?}");

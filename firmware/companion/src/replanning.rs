@@ -163,17 +163,11 @@ impl Searched {
 /// the plan's waypoints on the wire grid, and its tube built in `check` (the tube tables: the
 /// other large cost, kept out of the control loop with the search).
 pub fn search(space: &mut PlannerSpace, check: &mut CompanionTube, p: &Prepared) -> Searched {
+    // The plan's waypoints are on the wire grid already, and its tube is built from them in
+    // `check`: what every member builds from the offer.
     let result = space.plan(p, check);
-    let mut offer = heapless::Vec::new();
-    let mut check_built = false;
-    if let Ok(t) = &result {
-        for w in &t.waypoints {
-            let on_grid = Waypoint::new(crate::mission::on_wire_grid_m(w.pos_m.x), crate::mission::on_wire_grid_m(w.pos_m.y), w.w_left_m, w.w_right_m);
-            // Both hold MAX_WAYPOINTS.
-            let _ = offer.push(on_grid);
-        }
-        check_built = check.rebuild(&offer).is_ok();
-    }
+    let offer = result.as_ref().map_or_else(|_| heapless::Vec::new(), |t| t.waypoints.clone());
+    let check_built = result.is_ok();
     Searched { result, offer, check_built }
 }
 
