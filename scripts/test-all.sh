@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
 # Each stage's heading carries the time since the start, so a CI log shows where the time goes.
-stage() { stage "$* [$((SECONDS / 60)) min $((SECONDS % 60)) s]"; }
+stage() { echo "== $* [$((SECONDS / 60)) min $((SECONDS % 60)) s]"; }
 
 stage "toolchain: thumbv7em-none-eabihf target and clippy"
 rustup target list --installed | grep -qx thumbv7em-none-eabihf || rustup target add thumbv7em-none-eabihf
