@@ -224,7 +224,7 @@ fn lean_cos(r_m: f32, lambda: f32, h_m: f32) -> f32 {
 
 /// UAV position relative to the load at scale `lambda` (see the module docs), m.
 #[inline]
-fn uav_rel(d: Vec2, len_m: f32, lambda: f32, h_m: f32) -> Vec3 {
+pub(crate) fn uav_rel(d: Vec2, len_m: f32, lambda: f32, h_m: f32) -> Vec3 {
     let x = d * lambda;
     let k = len_m / vt_fpu::sqrt(x.norm_squared() + h_m * h_m);
     Vec3::new(x.x * k, x.y * k, h_m * k)
@@ -430,6 +430,16 @@ impl FormationScale {
     /// The law off: scale 1 and full progress whatever the load does.
     pub const NEUTRAL: Self =
         Self { scale_min: 1.0, scale_target: 1.0, scale: 1.0, rate_per_s: 0.0, sag_start_m: f32::MAX, sag_full_m: f32::MAX, overload: 0.0 };
+
+    /// `lambda_min`: the smallest scale the law may fly (the separation floor's).
+    pub fn scale_min(&self) -> f32 {
+        self.scale_min
+    }
+
+    /// `lambda*`: the scale the law aims for without an overload.
+    pub fn scale_target(&self) -> f32 {
+        self.scale_target
+    }
 
     /// Current scale `lambda`.
     pub fn scale(&self) -> f32 {

@@ -15,7 +15,7 @@
 use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
-use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, stadium_point, ShapeParams, QUANTA};
+use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, QUANTA};
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
@@ -212,6 +212,18 @@ pub struct DissipativeController<const N: usize> {
     shape: Option<TubeShape<N>>,
 }
 
+/// What the tube-shaped formation needs to keep the capacity-aware formation's separation
+/// floor (shape.rs, [`separated_half_length_m`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ShapeSeparation<'a> {
+    /// Each UAV's taut cable length at take-off, m.
+    pub lengths_m: &'a [f32],
+    /// Distance every pair of UAVs keeps where they fly, m (`CapacityParams::separation_m`).
+    pub separation_m: f32,
+    /// The capacity law's need `(1 + rho) W / f` on `sum_i cos theta_i` (0: no declared load).
+    pub min_cos_sum: f32,
+}
+
 /// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
 /// lives in every companion's `Flight`, which the mission's start builds on the stack.
 #[derive(Debug, Clone)]
@@ -225,6 +237,12 @@ struct TubeShape<const N: usize> {
     centre_m: Vec2,
     /// The ring's node radius, the largest node distance from the centre, m.
     radius_m: f32,
+    /// Each UAV's taut cable length at take-off, m (the separation check; 0 without one).
+    lengths_m: [f32; N],
+    /// What bounds the stadium's length (shape.rs; separation 0: as long as the ring).
+    limits: StadiumLimits,
+    /// The stadium's half-length flown, m (node space, before the capacity-aware scale).
+    half_length_m: f32,
     /// The tube's direction at the load at the first look: node angles are taken from it.
     frame: Option<Vec2>,
     /// The quantum flown.
@@ -241,6 +259,7 @@ impl<const N: usize> TubeShape<N> {
     fn write_rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize, scale: f32, rest: &mut RestLengths<N>) {
         let normal = Vec2::new(-frame.y, frame.x);
         let b = self.radius_m * q as f32 / QUANTA as f32;
+        let a = self.half_length_m;
         let ring = q >= QUANTA;
         // A node's place: the take-off node itself (the ring), or its stadium point about the centre.
         let place = |p: &Vec2| {
@@ -248,7 +267,7 @@ impl<const N: usize> TubeShape<N> {
                 *p
             } else {
                 let o = p - self.centre_m;
-                stadium_point(vt_fpu::atan2(o.dot(&normal), o.dot(&frame)), self.radius_m, b)
+                stadium_point(vt_fpu::atan2(o.dot(&normal), o.dot(&frame)), a, b)
             }
         };
         let (centre, load) = if ring {
@@ -265,6 +284,33 @@ impl<const N: usize> TubeShape<N> {
         }
         rest.own_load_m = vt_fpu::norm(&(own - load)) * scale;
         rest.own_center_m = vt_fpu::norm(&(own - centre)) * scale;
+    }
+}
+
+impl<const N: usize> TubeShape<N> {
+    /// The half-length of the stadium of quantum `q` (shape.rs, [`separated_half_length_m`]):
+    /// the ring's radius, or longer where the pairs of UAVs would otherwise come closer than
+    /// the separation floor where they fly (the tray's projection puts a UAV below its node,
+    /// `L / sqrt(d^2 + H^2)` of its node's offset).
+    #[inline(never)]
+    fn half_length_for(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32) -> f32 {
+        if q >= QUANTA || self.limits.separation_m <= 0.0 {
+            return self.radius_m;
+        }
+        let normal = Vec2::new(-frame.y, frame.x);
+        let mut angles = [0.0f32; N];
+        for (a, p) in angles.iter_mut().zip(self.nodes_m.iter()).take(n) {
+            let o = p - self.centre_m;
+            *a = vt_fpu::atan2(o.dot(&normal), o.dot(&frame));
+        }
+        let o = self.load_node_m - self.centre_m;
+        let team = StadiumTeam {
+            angles_rad: angles.get(..n).unwrap_or(&[]),
+            lengths_m: self.lengths_m.get(..n).unwrap_or(&[]),
+            load_m: Vec2::new(o.dot(&frame), o.dot(&normal)),
+            tray_height_m,
+        };
+        separated_half_length_m(&team, &self.limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
     }
 }
 
@@ -381,8 +427,22 @@ impl<const N: usize> DissipativeController<N> {
     ///
     /// # Errors
     /// Invalid `params`.
-    pub fn set_shape(&mut self, params: ShapeParams, formation: &Formation<N>) -> Result<(), ControlError> {
+    pub fn set_shape(&mut self, params: ShapeParams, formation: &Formation<N>, separation: Option<ShapeSeparation<'_>>) -> Result<(), ControlError> {
         params.validate()?;
+        let mut lengths_m = [0.0f32; N];
+        let mut limits = StadiumLimits { separation_m: 0.0, separation_scale: 1.0, min_cos_sum: 0.0, capacity_scale: 1.0 };
+        if let Some(sep) = separation {
+            let finite_pos = |x: f32| x.is_finite() && x > 0.0;
+            if sep.lengths_m.len() < self.n || !(finite_pos(sep.separation_m) && sep.min_cos_sum.is_finite() && sep.min_cos_sum >= 0.0) || sep.lengths_m.iter().take(self.n).any(|l| !finite_pos(*l)) {
+                return Err(ControlError::InvalidParameter("shape.separation"));
+            }
+            for (d, l) in lengths_m.iter_mut().zip(sep.lengths_m.iter()).take(self.n) {
+                *d = *l;
+            }
+            // The floor at the smallest scale the capacity-aware formation may fly, the
+            // capacity at the scale it aims for (capacity.rs).
+            limits = StadiumLimits { separation_m: sep.separation_m, separation_scale: self.scale.scale_min(), min_cos_sum: sep.min_cos_sum, capacity_scale: self.scale.scale_target() };
+        }
         let centre_m = formation.node_m(NodeId::Center);
         let mut nodes_m = [Vec2::zeros(); N];
         let mut radius_m: f32 = 0.0;
@@ -391,7 +451,7 @@ impl<const N: usize> DissipativeController<N> {
             radius_m = vt_fpu::max(radius_m, vt_fpu::norm(&(*p - centre_m)));
         }
         let load_node_m = formation.node_m(NodeId::Load);
-        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, frame: None, quantum: QUANTA });
+        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_m, limits, half_length_m: radius_m, frame: None, quantum: QUANTA });
         Ok(())
     }
 
@@ -416,6 +476,7 @@ impl<const N: usize> DissipativeController<N> {
             return;
         }
         shape.quantum = q;
+        shape.half_length_m = shape.half_length_for(q, frame, self.n, self.params.tray.height_above_load_m);
         shape.write_rest_lengths(self.id, q, frame, self.n, self.rest_scale, &mut self.rest);
     }
 

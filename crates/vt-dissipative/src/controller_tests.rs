@@ -3,7 +3,7 @@
 use super::*;
 use approx::assert_relative_eq;
 use proptest::prelude::*;
-use crate::shape::ShapeParams;
+use crate::shape::{ShapeParams, StadiumTeam, QUANTA};
 use vt_tube::Waypoint;
 
 const N: usize = 16;
@@ -195,7 +195,7 @@ fn fly_team(n: usize, steps: usize, hold: core::ops::Range<usize>, shaped: bool)
     if shaped {
         let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
         for c in ctl.iter_mut() {
-            c.set_shape(ShapeParams::default(), &f).unwrap();
+            c.set_shape(ShapeParams::default(), &f, None).unwrap();
         }
     }
     let (mut min_dt, mut min_sep) = (f32::MAX, f32::MAX);
@@ -349,6 +349,70 @@ fn a_shaped_formation_passes_a_narrowing_further_from_the_boundary() {
     assert!(s_end > tube().length_m() - 3.0, "load only reached s = {s_end}");
 }
 
+/// With bodies, the stadium lengthens until every pair of UAVs keeps the separation floor where
+/// they fly (below their nodes, on their cables: shape.rs), and no further than the capacity
+/// allows; the springs still agree at both ends, and the ring comes back bit for bit.
+#[test]
+fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
+    let n = 10;
+    let t = tube();
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let lengths: Vec<f32> = uavs.iter().map(|u| (u - load).norm()).collect();
+    let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
+    let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
+    // The take-off ring keeps 1.42 m between neighbours where they fly; a 1.3 m floor.
+    let sep = ShapeSeparation { lengths_m: &lengths, separation_m: 1.3, min_cos_sum: 0.0 };
+    let mut ctl = team(n, &uavs, &load);
+    let ring: Vec<_> = ctl.iter().map(|c| c.rest).collect();
+    let mut short = team(n, &uavs, &load);
+    for (c, s) in ctl.iter_mut().zip(short.iter_mut()) {
+        c.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+        s.set_shape(ShapeParams::default(), &f, None).unwrap();
+        c.shape_to_tube(&t, &narrow);
+        s.shape_to_tube(&t, &narrow);
+        assert!(c.shape_fraction() < 0.6 && c.shape_fraction() == s.shape_fraction());
+    }
+    let shape = ctl[0].shape.as_ref().unwrap();
+    let (r, a) = (shape.radius_m, shape.half_length_m);
+    let b = r * shape.quantum as f32 / QUANTA as f32;
+    assert!(a > r && a <= 2.0 * r - b + 1e-4, "lengthened within 2r - b: {a} (r {r}, b {b})");
+    // Where the UAVs fly, the floor holds at the chosen length and not at the ring's radius.
+    let frame = shape.frame.unwrap();
+    let normal = Vec2::new(-frame.y, frame.x);
+    let angles: Vec<f32> = shape.nodes_m.iter().take(n).map(|p| {
+        let o = p - shape.centre_m;
+        vt_fpu::atan2(o.dot(&normal), o.dot(&frame))
+    }).collect();
+    let o = shape.load_node_m - shape.centre_m;
+    let st = StadiumTeam { angles_rad: &angles, lengths_m: &lengths, load_m: Vec2::new(o.dot(&frame), o.dot(&normal)), tray_height_m: params().tray.height_above_load_m };
+    assert!(st.min_distance_m(r, b, 1.0) < 1.3, "the short stadium breaks the floor: {}", st.min_distance_m(r, b, 1.0));
+    assert!(st.min_distance_m(a, b, 1.0) >= 1.3, "{}", st.min_distance_m(a, b, 1.0));
+    // Longer front to back than the short stadium; the springs agree at both ends.
+    let (front, back) = (0, n / 2);
+    assert!(ctl[front].rest.own_m[back] > short[front].rest.own_m[back] + 0.1);
+    for i in 0..n {
+        for j in 0..n {
+            assert_eq!(ctl[i].rest.own_m[j], ctl[j].rest.own_m[i], "spring {i}-{j}");
+        }
+        assert_eq!(ctl[i].rest.center_m, ctl[0].rest.center_m);
+    }
+    for (c, rg) in ctl.iter_mut().zip(ring.iter()) {
+        c.shape_to_tube(&t, &wide);
+        assert_eq!((c.rest.own_m, c.rest.center_m, c.rest.own_load_m), (rg.own_m, rg.center_m, rg.own_load_m), "the ring, bit for bit");
+    }
+    // A capacity need that the ring itself barely meets: no step longer than the ring.
+    let tight = ShapeSeparation { min_cos_sum: st.cos_sum(r, b, 1.0), ..sep };
+    let mut c = team(n, &uavs, &load).remove(0);
+    c.set_shape(ShapeParams::default(), &f, Some(tight)).unwrap();
+    c.shape_to_tube(&t, &narrow);
+    assert_eq!(c.shape.as_ref().unwrap().half_length_m, r, "capacity first");
+    // Bad lengths or floors are refused.
+    for bad in [ShapeSeparation { separation_m: f32::NAN, ..sep }, ShapeSeparation { lengths_m: &lengths[..3], ..sep }, ShapeSeparation { min_cos_sum: -1.0, ..sep }] {
+        assert!(team(n, &uavs, &load).remove(0).set_shape(ShapeParams::default(), &f, Some(bad)).is_err());
+    }
+}
+
 /// Every UAV derives the same stadium: each spring's rest length is the same at both ends,
 /// the tray centre's are the same in every replica; the wide tube leaves the ring bit for bit,
 /// and without `set_shape` a look changes nothing.
@@ -362,7 +426,7 @@ fn shaped_rest_lengths_agree_at_both_ends() {
     let ring: Vec<_> = ctl.iter().map(|c| c.rest).collect();
     let mut plain = ctl[0].clone();
     for c in ctl.iter_mut() {
-        c.set_shape(ShapeParams::default(), &f).unwrap();
+        c.set_shape(ShapeParams::default(), &f, None).unwrap();
     }
     let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
     let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();

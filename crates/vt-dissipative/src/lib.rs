@@ -49,7 +49,7 @@ pub mod wind;
 pub use baseline::{BaselineController, BaselineParams};
 pub use capacity::{CapacityParams, CapacityPlan, FormationScale};
 pub use calibration::{calibrate, Calibration, CalibrationError, CalibrationParams};
-pub use controller::{Command, DissipativeController, DissipativeParams, Measurements};
+pub use controller::{Command, DissipativeController, DissipativeParams, Measurements, ShapeSeparation};
 pub use error::ControlError;
 pub use phases::{Abort, Phase, PhaseParams, PhaseProfile};
 pub use shape::ShapeParams;

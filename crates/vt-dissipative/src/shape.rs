@@ -18,7 +18,7 @@
 //! Prop. 1 holds unchanged. Every UAV derives the same shape from shared data (the tube, the
 //! load's section, the take-off formation), so each spring's rest length is the same at both ends.
 
-use crate::{ControlError, Vec2};
+use crate::{ControlError, Vec2, Vec3};
 use core::f32::consts::{FRAC_PI_2, PI, TAU};
 use vt_tube::Tube;
 
@@ -99,6 +99,109 @@ pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
     }
     u -= side;
     on_cap(c, -FRAC_PI_2, u)
+}
+
+/// Steps of the stadium's half-length between the ring's radius and its longest, `2 r - b`
+/// ([`separated_half_length_m`]).
+pub const LENGTH_STEPS: i32 = 8;
+
+/// The team as the stadium's separation check needs it: each node's take-off angle about the
+/// tray centre (from the tube's direction, rad), its taut cable length (m), the load node about
+/// the centre (stadium frame, m) and the tray height `H` (m).
+#[derive(Debug, Clone, Copy)]
+pub struct StadiumTeam<'a> {
+    /// Take-off angle of each node about the tray centre, rad.
+    pub angles_rad: &'a [f32],
+    /// Taut cable length of each UAV, m.
+    pub lengths_m: &'a [f32],
+    /// The load node about the tray centre in the stadium's frame, m.
+    pub load_m: Vec2,
+    /// Tray height above the load `H`, m.
+    pub tray_height_m: f32,
+}
+
+/// What bounds the stadium's length (capacity-aware formation, capacity.rs): the distance every
+/// pair of UAVs keeps where they fly at the smallest scale the law may fly, and the team's
+/// vertical capacity at the scale it flies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StadiumLimits {
+    /// Separation floor, m (the capacity-aware formation's `separation_m`); 0: the stadium is
+    /// as long as the ring.
+    pub separation_m: f32,
+    /// The scale the floor is checked at (`lambda_min`).
+    pub separation_scale: f32,
+    /// Least `sum_i cos theta_i` (the capacity law's `(1 + rho) W / f`); 0: no declared load.
+    pub min_cos_sum: f32,
+    /// The scale the capacity is checked at (`lambda*`).
+    pub capacity_scale: f32,
+}
+
+impl<'a> StadiumTeam<'a> {
+    /// Node `k`'s offset from the load node on the stadium of half-length `a_m` and half-width
+    /// `b_m` (node space, m).
+    fn offset(&self, k: usize, a_m: f32, b_m: f32) -> Option<Vec2> {
+        self.angles_rad.get(k).map(|&th| stadium_point(th, a_m, b_m) - self.load_m)
+    }
+
+    /// The smallest distance between two UAVs (m, 3-D) where they fly at scale `lambda`: UAV
+    /// `i` at `P_i = L_i (lambda d_i, H) / sqrt(lambda^2 |d_i|^2 + H^2)` about the load, `d_i`
+    /// its node's offset from the load node (as the capacity-aware formation's separation floor
+    /// measures it: the tray projection puts a UAV below its node), with the nodes on the
+    /// stadium of half-length `a_m` and half-width `b_m`; infinity for fewer than two UAVs.
+    pub fn min_distance_m(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
+        let mut best2 = f32::INFINITY;
+        let n = self.angles_rad.len().min(self.lengths_m.len());
+        let at = |k: usize| -> Option<Vec3> {
+            let d = self.offset(k, a_m, b_m)?;
+            Some(crate::capacity::uav_rel(d, *self.lengths_m.get(k)?, lambda, self.tray_height_m))
+        };
+        for i in 0..n {
+            let Some(pi) = at(i) else { break };
+            for j in i + 1..n {
+                let Some(pj) = at(j) else { break };
+                best2 = vt_fpu::min(best2, (pi - pj).norm_squared());
+            }
+        }
+        vt_fpu::sqrt(best2)
+    }
+
+    /// `sum_i cos theta_i` with the nodes on the stadium at scale `lambda` (the team's vertical
+    /// capacity over one UAV's, capacity.rs: `cos theta = H / sqrt(H^2 + lambda^2 |d|^2)`).
+    pub fn cos_sum(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
+        let h = self.tray_height_m;
+        (0..self.angles_rad.len()).filter_map(|k| self.offset(k, a_m, b_m)).fold(0.0, |s, d| {
+            let x = lambda * vt_fpu::norm(&d);
+            s + h / vt_fpu::sqrt(h * h + x * x)
+        })
+    }
+}
+
+/// The stadium's half-length for half-width `b_m` (both m, node space): the ring's radius
+/// `r_m` when every pair of UAVs keeps the separation floor where they fly
+/// ([`StadiumTeam::min_distance_m`] at `limits.separation_scale`), else the shortest of
+/// [`LENGTH_STEPS`] equal steps up to `2 r - b` (it lengthens by at most what it narrows) that
+/// keeps it. A node farther from the centre than on the ring leans its cable more, so no step
+/// is taken that brings the team's vertical capacity below the capacity law's need
+/// ([`StadiumTeam::cos_sum`] at `limits.capacity_scale`): the last step before that one, or
+/// the longest, when the floor is not reached (docs/design.md, "A formation shaped to the
+/// tube").
+pub fn separated_half_length_m(team: &StadiumTeam<'_>, limits: &StadiumLimits, r_m: f32, b_m: f32) -> f32 {
+    if !(limits.separation_m > 0.0 && b_m < r_m && b_m > 0.0) {
+        return r_m;
+    }
+    let step = (r_m - b_m) * (1.0 / LENGTH_STEPS as f32);
+    let mut a = r_m;
+    for k in 0..=LENGTH_STEPS {
+        let next = r_m + step * k as f32;
+        if k > 0 && team.cos_sum(next, b_m, limits.capacity_scale) < limits.min_cos_sum {
+            return a;
+        }
+        a = next;
+        if team.min_distance_m(a, b_m, limits.separation_scale) >= limits.separation_m {
+            return a;
+        }
+    }
+    a
 }
 
 /// The point of the circle of radius `b_m` about `(centre_x_m, 0)` at angle `a_rad`, m.
@@ -224,6 +327,42 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The separated length: the ring's radius when no floor is asked or the ring's radius
+    /// keeps it; otherwise the shortest step that keeps it, within `[r, 2 r - b]`, never past
+    /// the capacity's need; the longest when nothing keeps it.
+    #[test]
+    fn the_stadium_lengthens_to_the_first_length_that_keeps_the_floor() {
+        let n = 10;
+        let angles: Vec<f32> = (0..n).map(|k| TAU * k as f32 / n as f32 + 0.3).collect();
+        let lengths = [8.3f32, 7.0, 8.6, 8.8, 8.3, 8.5, 8.4, 7.7, 8.3, 7.3]; // the paper's cables
+        let team = StadiumTeam { angles_rad: &angles, lengths_m: &lengths, load_m: Vec2::new(0.1, -0.05), tray_height_m: 10.0 };
+        let (r, b) = (3.0f32, 3.0 * 17.0 / 32.0);
+        let lim = |sep: f32, cos: f32| StadiumLimits { separation_m: sep, separation_scale: 0.77, min_cos_sum: cos, capacity_scale: 0.8 };
+        assert_eq!(separated_half_length_m(&team, &lim(0.0, 0.0), r, b), r, "no floor");
+        assert_eq!(separated_half_length_m(&team, &lim(1.09, 0.0), r, r), r, "the ring");
+        let step = (r - b) / LENGTH_STEPS as f32;
+        for sep in [0.5f32, 0.9, 1.0, 1.05, 1.09, 1.12, 5.0] {
+            let a = separated_half_length_m(&team, &lim(sep, 0.0), r, b);
+            assert!(a >= r && a <= 2.0 * r - b + 1e-4, "{sep}: {a}");
+            let k = libm::roundf((a - r) / step) as i32;
+            assert!(((r + step * k as f32) - a).abs() < 1e-5, "a step: {a}");
+            let kept = team.min_distance_m(a, b, 0.77) >= sep;
+            assert!(kept || k == LENGTH_STEPS, "{sep}: {a} neither keeps it nor is the longest");
+            for shorter in 0..k {
+                assert!(team.min_distance_m(r + step * shorter as f32, b, 0.77) < sep, "{sep}: step {shorter} kept it already");
+            }
+        }
+        // Capacity first: a need met by the ring's radius and one step only.
+        let need = team.cos_sum(r + step, b, 0.8);
+        assert!(team.cos_sum(r + 2.0 * step, b, 0.8) < need, "longer leans more");
+        assert_eq!(separated_half_length_m(&team, &lim(5.0, need), r, b), r + step);
+        assert_eq!(separated_half_length_m(&team, &lim(5.0, team.cos_sum(r, b, 0.8) + 1.0), r, b), r);
+        // Two UAVs at the same place where they fly: zero; one UAV: no pair.
+        assert!(team.min_distance_m(r, b, 0.77).is_finite());
+        let one = StadiumTeam { angles_rad: &angles[..1], ..team };
+        assert_eq!(one.min_distance_m(r, b, 1.0), f32::INFINITY);
     }
 
     #[test]

@@ -30,7 +30,7 @@
 use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
 use vt_dissipative::{
-    capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements,
+    capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, ShapeSeparation,
     landing::LandDetector, phases::{HoldWatch, OverloadWatch}, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 
@@ -718,7 +718,17 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
         let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         high.set_capacity(FormationScale::new(&plan, &cap));
         if let Some(shape) = params.shape() {
-            high.set_shape(shape, &formation).map_err(StartError::Controller)?;
+            // With bodies declared (`VT_BODY_R`), the stadium keeps the capacity-aware
+            // formation's separation floor, `2 VT_BODY_R + VT_CLR_MIN` or more, where the UAVs
+            // fly: from their taut cable lengths at take-off (vt_dissipative::shape). Without,
+            // it is as long as the ring (the generated campaign's teams; docs/design.md).
+            let mut lengths = [0.0f32; MAX_UAVS];
+            for (l, p) in lengths.iter_mut().zip(takeoff.iter()).take(n) {
+                *l = vt_fpu::norm(&(p - load_pos_m));
+            }
+            let min_cos_sum = (1.0 + cap.margin) * cap.weight_n() / cap.uav_capacity_n;
+            let sep = (params.separation_m() > 0.0).then(|| ShapeSeparation { lengths_m: lengths.get(..n).unwrap_or(&[]), separation_m: cap.separation_m, min_cos_sum });
+            high.set_shape(shape, &formation, sep).map_err(StartError::Controller)?;
         }
         HighLevel::Dissipative(high)
     })
