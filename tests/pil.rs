@@ -281,6 +281,20 @@ fn pil_shaped_formation_bit_exact() {
     assert_ne!(comparable(&r.summary), comparable(&plain.summary), "the shape changed nothing in 20 s");
 }
 
+/// The paper's team with 0.445 m bodies and the formation shaped to the tube: in the first
+/// passage's approach the stadium lengthens to keep the separation floor where the UAVs fly
+/// (`vt_dissipative::shape`, its search over lengths and the team's geometry aboard), bit for
+/// bit in QEMU, the twin and the crates.
+#[test]
+fn pil_separated_stadium_bit_exact() {
+    let Some(elf) = firmware() else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/paper-10uav.toml");
+    let mut ls = scenario::load(Some(&path)).expect("paper scenario");
+    ls.scenario.controller.shape.enabled = true;
+    ls.scenario.uavs.body_radius_m = Some(0.445);
+    pil_same_as_sil(&ls, elf, "separated", Some(6.0));
+}
+
 /// The paper's own mission (scenarios/paper-10uav.toml, default plant: rigid-body quadrotors
 /// behind the PX4-style autopilot, elastic cables), each of its ten UAVs in its own QEMU, the
 /// whole flight: every command bit for bit the twin's and the crates', and the mission succeeds

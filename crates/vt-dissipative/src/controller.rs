@@ -216,8 +216,10 @@ pub struct DissipativeController<const N: usize> {
 /// floor (shape.rs, [`separated_half_length_m`]).
 #[derive(Debug, Clone, Copy)]
 pub struct ShapeSeparation<'a> {
-    /// Each UAV's taut cable length at take-off, m.
-    pub lengths_m: &'a [f32],
+    /// Every UAV's position at take-off, its cable taut, m.
+    pub takeoff_m: &'a [Vec3],
+    /// The load's position at take-off, m.
+    pub load_m: Vec3,
     /// Distance every pair of UAVs keeps where they fly, m (`CapacityParams::separation_m`).
     pub separation_m: f32,
     /// The capacity law's need `(1 + rho) W / f` on `sum_i cos theta_i` (0: no declared load).
@@ -237,10 +239,12 @@ struct TubeShape<const N: usize> {
     centre_m: Vec2,
     /// The ring's node radius, the largest node distance from the centre, m.
     radius_m: f32,
-    /// Each UAV's taut cable length at take-off, m (the separation check; 0 without one).
-    lengths_m: [f32; N],
-    /// What bounds the stadium's length (shape.rs; separation 0: as long as the ring).
-    limits: StadiumLimits,
+    /// Each UAV's taut cable length at take-off, mm (the separation check; 0 without one).
+    lengths_mm: [u16; N],
+    /// Distance every pair of UAVs keeps where they fly, m (0: the stadium as long as the ring).
+    separation_m: f32,
+    /// The capacity law's need on `sum_i cos theta_i` (shape.rs, [`StadiumLimits`]).
+    min_cos_sum: f32,
     /// The stadium's half-length flown, m (node space, before the capacity-aware scale).
     half_length_m: f32,
     /// The tube's direction at the load at the first look: node angles are taken from it.
@@ -293,8 +297,8 @@ impl<const N: usize> TubeShape<N> {
     /// the separation floor where they fly (the tray's projection puts a UAV below its node,
     /// `L / sqrt(d^2 + H^2)` of its node's offset).
     #[inline(never)]
-    fn half_length_for(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32) -> f32 {
-        if q >= QUANTA || self.limits.separation_m <= 0.0 {
+    fn half_length_for(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
+        if q >= QUANTA || self.separation_m <= 0.0 {
             return self.radius_m;
         }
         let normal = Vec2::new(-frame.y, frame.x);
@@ -306,11 +310,14 @@ impl<const N: usize> TubeShape<N> {
         let o = self.load_node_m - self.centre_m;
         let team = StadiumTeam {
             angles_rad: angles.get(..n).unwrap_or(&[]),
-            lengths_m: self.lengths_m.get(..n).unwrap_or(&[]),
+            lengths_mm: self.lengths_mm.get(..n).unwrap_or(&[]),
             load_m: Vec2::new(o.dot(&frame), o.dot(&normal)),
             tray_height_m,
         };
-        separated_half_length_m(&team, &self.limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
+        // The floor at the smallest scale the capacity-aware formation may fly, the capacity at
+        // the scale it aims for (capacity.rs).
+        let limits = StadiumLimits { separation_m: self.separation_m, separation_scale: scale.scale_min(), min_cos_sum: self.min_cos_sum, capacity_scale: scale.scale_target() };
+        separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
     }
 }
 
@@ -429,19 +436,21 @@ impl<const N: usize> DissipativeController<N> {
     /// Invalid `params`.
     pub fn set_shape(&mut self, params: ShapeParams, formation: &Formation<N>, separation: Option<ShapeSeparation<'_>>) -> Result<(), ControlError> {
         params.validate()?;
-        let mut lengths_m = [0.0f32; N];
-        let mut limits = StadiumLimits { separation_m: 0.0, separation_scale: 1.0, min_cos_sum: 0.0, capacity_scale: 1.0 };
+        let mut lengths_mm = [0u16; N];
+        let (mut separation_m, mut min_cos_sum) = (0.0, 0.0);
         if let Some(sep) = separation {
-            let finite_pos = |x: f32| x.is_finite() && x > 0.0;
-            if sep.lengths_m.len() < self.n || !(finite_pos(sep.separation_m) && sep.min_cos_sum.is_finite() && sep.min_cos_sum >= 0.0) || sep.lengths_m.iter().take(self.n).any(|l| !finite_pos(*l)) {
+            let ok = sep.takeoff_m.len() >= self.n && sep.separation_m.is_finite() && sep.separation_m > 0.0 && sep.min_cos_sum.is_finite() && sep.min_cos_sum >= 0.0;
+            if !ok {
                 return Err(ControlError::InvalidParameter("shape.separation"));
             }
-            for (d, l) in lengths_m.iter_mut().zip(sep.lengths_m.iter()).take(self.n) {
-                *d = *l;
+            for (d, p) in lengths_mm.iter_mut().zip(sep.takeoff_m.iter()).take(self.n) {
+                let mm = vt_fpu::norm(&(p - sep.load_m)) * 1e3;
+                if !(mm.is_finite() && mm >= 1.0 && mm <= f32::from(u16::MAX)) {
+                    return Err(ControlError::InvalidParameter("shape.separation"));
+                }
+                *d = libm::roundf(mm) as u16;
             }
-            // The floor at the smallest scale the capacity-aware formation may fly, the
-            // capacity at the scale it aims for (capacity.rs).
-            limits = StadiumLimits { separation_m: sep.separation_m, separation_scale: self.scale.scale_min(), min_cos_sum: sep.min_cos_sum, capacity_scale: self.scale.scale_target() };
+            (separation_m, min_cos_sum) = (sep.separation_m, sep.min_cos_sum);
         }
         let centre_m = formation.node_m(NodeId::Center);
         let mut nodes_m = [Vec2::zeros(); N];
@@ -451,7 +460,7 @@ impl<const N: usize> DissipativeController<N> {
             radius_m = vt_fpu::max(radius_m, vt_fpu::norm(&(*p - centre_m)));
         }
         let load_node_m = formation.node_m(NodeId::Load);
-        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_m, limits, half_length_m: radius_m, frame: None, quantum: QUANTA });
+        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_mm, separation_m, min_cos_sum, half_length_m: radius_m, frame: None, quantum: QUANTA });
         Ok(())
     }
 
@@ -476,7 +485,7 @@ impl<const N: usize> DissipativeController<N> {
             return;
         }
         shape.quantum = q;
-        shape.half_length_m = shape.half_length_for(q, frame, self.n, self.params.tray.height_above_load_m);
+        shape.half_length_m = shape.half_length_for(q, frame, self.n, self.params.tray.height_above_load_m, &self.scale);
         shape.write_rest_lengths(self.id, q, frame, self.n, self.rest_scale, &mut self.rest);
     }
 

@@ -358,11 +358,11 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
     let t = tube();
     let (uavs, load) = takeoff(n, 4.0);
     let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
-    let lengths: Vec<f32> = uavs.iter().map(|u| (u - load).norm()).collect();
+    let lengths: Vec<u16> = uavs.iter().map(|u| ((u - load).norm() * 1e3).round() as u16).collect();
     let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
     let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
     // The take-off ring keeps 1.42 m between neighbours where they fly; a 1.3 m floor.
-    let sep = ShapeSeparation { lengths_m: &lengths, separation_m: 1.3, min_cos_sum: 0.0 };
+    let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
     let mut ctl = team(n, &uavs, &load);
     let ring: Vec<_> = ctl.iter().map(|c| c.rest).collect();
     let mut short = team(n, &uavs, &load);
@@ -385,7 +385,7 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
         vt_fpu::atan2(o.dot(&normal), o.dot(&frame))
     }).collect();
     let o = shape.load_node_m - shape.centre_m;
-    let st = StadiumTeam { angles_rad: &angles, lengths_m: &lengths, load_m: Vec2::new(o.dot(&frame), o.dot(&normal)), tray_height_m: params().tray.height_above_load_m };
+    let st = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: Vec2::new(o.dot(&frame), o.dot(&normal)), tray_height_m: params().tray.height_above_load_m };
     assert!(st.min_distance_m(r, b, 1.0) < 1.3, "the short stadium breaks the floor: {}", st.min_distance_m(r, b, 1.0));
     assert!(st.min_distance_m(a, b, 1.0) >= 1.3, "{}", st.min_distance_m(a, b, 1.0));
     // Longer front to back than the short stadium; the springs agree at both ends.
@@ -408,7 +408,7 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
     c.shape_to_tube(&t, &narrow);
     assert_eq!(c.shape.as_ref().unwrap().half_length_m, r, "capacity first");
     // Bad lengths or floors are refused.
-    for bad in [ShapeSeparation { separation_m: f32::NAN, ..sep }, ShapeSeparation { lengths_m: &lengths[..3], ..sep }, ShapeSeparation { min_cos_sum: -1.0, ..sep }] {
+    for bad in [ShapeSeparation { separation_m: f32::NAN, ..sep }, ShapeSeparation { takeoff_m: &uavs[..3], ..sep }, ShapeSeparation { load_m: uavs[0], ..sep }, ShapeSeparation { min_cos_sum: -1.0, ..sep }] {
         assert!(team(n, &uavs, &load).remove(0).set_shape(ShapeParams::default(), &f, Some(bad)).is_err());
     }
 }

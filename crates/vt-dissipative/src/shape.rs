@@ -106,14 +106,14 @@ pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
 pub const LENGTH_STEPS: i32 = 8;
 
 /// The team as the stadium's separation check needs it: each node's take-off angle about the
-/// tray centre (from the tube's direction, rad), its taut cable length (m), the load node about
+/// tray centre (from the tube's direction, rad), its taut cable length (mm), the load node about
 /// the centre (stadium frame, m) and the tray height `H` (m).
 #[derive(Debug, Clone, Copy)]
 pub struct StadiumTeam<'a> {
     /// Take-off angle of each node about the tray centre, rad.
     pub angles_rad: &'a [f32],
-    /// Taut cable length of each UAV, m.
-    pub lengths_m: &'a [f32],
+    /// Taut cable length of each UAV, mm (kept in two bytes a UAV: the MCU's stack).
+    pub lengths_mm: &'a [u16],
     /// The load node about the tray centre in the stadium's frame, m.
     pub load_m: Vec2,
     /// Tray height above the load `H`, m.
@@ -150,10 +150,11 @@ impl<'a> StadiumTeam<'a> {
     /// stadium of half-length `a_m` and half-width `b_m`; infinity for fewer than two UAVs.
     pub fn min_distance_m(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
         let mut best2 = f32::INFINITY;
-        let n = self.angles_rad.len().min(self.lengths_m.len());
+        let n = self.angles_rad.len().min(self.lengths_mm.len());
         let at = |k: usize| -> Option<Vec3> {
             let d = self.offset(k, a_m, b_m)?;
-            Some(crate::capacity::uav_rel(d, *self.lengths_m.get(k)?, lambda, self.tray_height_m))
+            let len_m = f32::from(*self.lengths_mm.get(k)?) * 1e-3;
+            Some(crate::capacity::uav_rel(d, len_m, lambda, self.tray_height_m))
         };
         for i in 0..n {
             let Some(pi) = at(i) else { break };
@@ -336,8 +337,8 @@ mod tests {
     fn the_stadium_lengthens_to_the_first_length_that_keeps_the_floor() {
         let n = 10;
         let angles: Vec<f32> = (0..n).map(|k| TAU * k as f32 / n as f32 + 0.3).collect();
-        let lengths = [8.3f32, 7.0, 8.6, 8.8, 8.3, 8.5, 8.4, 7.7, 8.3, 7.3]; // the paper's cables
-        let team = StadiumTeam { angles_rad: &angles, lengths_m: &lengths, load_m: Vec2::new(0.1, -0.05), tray_height_m: 10.0 };
+        let lengths = [8300u16, 7000, 8600, 8800, 8300, 8500, 8400, 7700, 8300, 7300]; // the paper's cables
+        let team = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: Vec2::new(0.1, -0.05), tray_height_m: 10.0 };
         let (r, b) = (3.0f32, 3.0 * 17.0 / 32.0);
         let lim = |sep: f32, cos: f32| StadiumLimits { separation_m: sep, separation_scale: 0.77, min_cos_sum: cos, capacity_scale: 0.8 };
         assert_eq!(separated_half_length_m(&team, &lim(0.0, 0.0), r, b), r, "no floor");
