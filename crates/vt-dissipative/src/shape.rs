@@ -65,7 +65,8 @@ impl ShapeParams {
 /// `b_m` and half-length `r_m` (long axis along `+x`, centred on the origin), m: the point at the
 /// fraction `theta / 2 pi` of its perimeter `2 pi b + 4 (r - b)`, walked from the front `(r, 0)`.
 /// With `b >= r` it is the circle's `r (cos theta, sin theta)`. Non-finite or non-positive sizes
-/// give the origin.
+/// give the origin. Out of line: the rest lengths and the separation check call it (flash).
+#[inline(never)]
 pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
     if !(r_m.is_finite() && r_m > 0.0 && b_m.is_finite() && b_m > 0.0 && theta_rad.is_finite()) {
         return Vec2::zeros();
@@ -151,19 +152,22 @@ impl<'a> StadiumTeam<'a> {
     pub fn min_distance_m(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
         let mut best2 = f32::INFINITY;
         let n = self.angles_rad.len().min(self.lengths_mm.len());
-        let at = |k: usize| -> Option<Vec3> {
-            let d = self.offset(k, a_m, b_m)?;
-            let len_m = f32::from(*self.lengths_mm.get(k)?) * 1e-3;
-            Some(crate::capacity::uav_rel(d, len_m, lambda, self.tray_height_m))
-        };
         for i in 0..n {
-            let Some(pi) = at(i) else { break };
+            let Some(pi) = self.position(i, a_m, b_m, lambda) else { break };
             for j in i + 1..n {
-                let Some(pj) = at(j) else { break };
+                let Some(pj) = self.position(j, a_m, b_m, lambda) else { break };
                 best2 = vt_fpu::min(best2, (pi - pj).norm_squared());
             }
         }
         vt_fpu::sqrt(best2)
+    }
+
+    /// UAV `k` where it flies about the load at scale `lambda`, m (module docs of capacity.rs).
+    #[inline(never)]
+    fn position(&self, k: usize, a_m: f32, b_m: f32, lambda: f32) -> Option<Vec3> {
+        let d = self.offset(k, a_m, b_m)?;
+        let len_m = f32::from(*self.lengths_mm.get(k)?) * 1e-3;
+        Some(crate::capacity::uav_rel(d, len_m, lambda, self.tray_height_m))
     }
 
     /// `sum_i cos theta_i` with the nodes on the stadium at scale `lambda` (the team's vertical
