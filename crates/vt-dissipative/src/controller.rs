@@ -430,10 +430,13 @@ impl<const N: usize> DissipativeController<N> {
 
     /// Turns on the formation shaped to the tube ahead (extension; shape.rs, docs/design.md "A
     /// formation shaped to the tube") for the take-off `formation` this controller was built
-    /// from. Until [`Self::shape_to_tube`] narrows it, the formation is the ring.
+    /// from. Until [`Self::shape_to_tube`] narrows it, the formation is the ring. With
+    /// `separation` (bodies declared), the stadium lengthens to keep its floor where the UAVs
+    /// fly ([`separated_half_length_m`]); `None`: as long as the ring.
     ///
     /// # Errors
-    /// Invalid `params`.
+    /// Invalid `params`; a `separation` with fewer take-off positions than UAVs, a floor that is
+    /// not finite and positive, a negative need, or a cable length not in `[1 mm, 65.5 m]`.
     pub fn set_shape(&mut self, params: ShapeParams, formation: &Formation<N>, separation: Option<ShapeSeparation<'_>>) -> Result<(), ControlError> {
         params.validate()?;
         let mut lengths_mm = [0u16; N];
