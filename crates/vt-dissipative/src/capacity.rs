@@ -116,6 +116,11 @@ impl CapacityParams {
     pub fn weight_n(&self) -> f32 {
         self.load_mass_kg * GRAVITY_MPS2
     }
+
+    /// The law's need on `sum_i cos theta_i`: `(1 + rho) W / f` (0 without a declared load).
+    pub fn need_cos_sum(&self) -> f32 {
+        (1.0 + self.margin) * self.weight_n() / self.uav_capacity_n
+    }
 }
 
 /// What the law chose for a team and its declared load.
@@ -217,7 +222,7 @@ impl Team for Takeoff<'_> {
 /// Cosine of cable lean for a node offset of length `r` at scale `lambda` (tray `h` above the
 /// load): `H / sqrt(H^2 + lambda^2 r^2)`.
 #[inline]
-fn lean_cos(r_m: f32, lambda: f32, h_m: f32) -> f32 {
+pub(crate) fn lean_cos(r_m: f32, lambda: f32, h_m: f32) -> f32 {
     let x = lambda * r_m;
     h_m / vt_fpu::sqrt(h_m * h_m + x * x)
 }
@@ -301,7 +306,7 @@ fn plan_team(t: &dyn Team, h_m: f32, p: &CapacityParams) -> Result<CapacityPlan,
     };
     // lambda*: the widest formation (C decreasing in lambda) that meets the margin.
     let weight_n = p.weight_n();
-    let need = (1.0 + p.margin) * weight_n / p.uav_capacity_n;
+    let need = p.need_cos_sum();
     let scale = if weight_n <= 0.0 || capacity_sum(t, 1.0, h_m).0 >= need {
         1.0
     } else if capacity_sum(t, scale_min, h_m).0 < need {

@@ -261,25 +261,12 @@ impl<const N: usize> TubeShape<N> {
     /// `r q / QUANTA` (shape.rs).
     #[inline(never)]
     fn write_rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize, scale: f32, rest: &mut RestLengths<N>) {
-        let normal = Vec2::new(-frame.y, frame.x);
         let b = self.radius_m * q as f32 / QUANTA as f32;
         let a = self.half_length_m;
         let ring = q >= QUANTA;
         // A node's place: the take-off node itself (the ring), or its stadium point about the centre.
-        let place = |p: &Vec2| {
-            if ring {
-                *p
-            } else {
-                let o = p - self.centre_m;
-                stadium_point(vt_fpu::atan2(o.dot(&normal), o.dot(&frame)), a, b)
-            }
-        };
-        let (centre, load) = if ring {
-            (self.centre_m, self.load_node_m)
-        } else {
-            let o = self.load_node_m - self.centre_m;
-            (Vec2::zeros(), Vec2::new(o.dot(&frame), o.dot(&normal)))
-        };
+        let place = |p: &Vec2| if ring { *p } else { stadium_point(self.angle_rad(p, frame), a, b) };
+        let (centre, load) = if ring { (self.centre_m, self.load_node_m) } else { (Vec2::zeros(), self.in_frame(&self.load_node_m, frame)) };
         let own = self.nodes_m.get(id).map_or(centre, place);
         for ((o, c), node) in rest.own_m.iter_mut().zip(rest.center_m.iter_mut()).zip(self.nodes_m.iter()).take(n) {
             let e = place(node);
@@ -289,9 +276,20 @@ impl<const N: usize> TubeShape<N> {
         rest.own_load_m = vt_fpu::norm(&(own - load)) * scale;
         rest.own_center_m = vt_fpu::norm(&(own - centre)) * scale;
     }
-}
 
-impl<const N: usize> TubeShape<N> {
+    /// A take-off node `p` about the tray centre in the stadium's frame (`frame` the tube's
+    /// direction at the first look), m.
+    fn in_frame(&self, p: &Vec2, frame: Vec2) -> Vec2 {
+        let o = p - self.centre_m;
+        Vec2::new(o.dot(&frame), o.dot(&Vec2::new(-frame.y, frame.x)))
+    }
+
+    /// A take-off node's angle about the tray centre from `frame`, rad: its place on the stadium.
+    fn angle_rad(&self, p: &Vec2, frame: Vec2) -> f32 {
+        let o = self.in_frame(p, frame);
+        vt_fpu::atan2(o.y, o.x)
+    }
+
     /// The half-length of the stadium of quantum `q` (shape.rs, [`separated_half_length_m`]):
     /// the ring's radius, or longer where the pairs of UAVs would otherwise come closer than
     /// the separation floor where they fly (the tray's projection puts a UAV below its node,
@@ -301,17 +299,14 @@ impl<const N: usize> TubeShape<N> {
         if q >= QUANTA || self.separation_m <= 0.0 {
             return self.radius_m;
         }
-        let normal = Vec2::new(-frame.y, frame.x);
         let mut angles = [0.0f32; N];
         for (a, p) in angles.iter_mut().zip(self.nodes_m.iter()).take(n) {
-            let o = p - self.centre_m;
-            *a = vt_fpu::atan2(o.dot(&normal), o.dot(&frame));
+            *a = self.angle_rad(p, frame);
         }
-        let o = self.load_node_m - self.centre_m;
         let team = StadiumTeam {
             angles_rad: angles.get(..n).unwrap_or(&[]),
             lengths_mm: self.lengths_mm.get(..n).unwrap_or(&[]),
-            load_m: Vec2::new(o.dot(&frame), o.dot(&normal)),
+            load_m: self.in_frame(&self.load_node_m, frame),
             tray_height_m,
         };
         // The floor at the smallest scale the capacity-aware formation may fly, the capacity at

@@ -173,11 +173,7 @@ impl<'a> StadiumTeam<'a> {
     /// `sum_i cos theta_i` with the nodes on the stadium at scale `lambda` (the team's vertical
     /// capacity over one UAV's, capacity.rs: `cos theta = H / sqrt(H^2 + lambda^2 |d|^2)`).
     pub fn cos_sum(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
-        let h = self.tray_height_m;
-        (0..self.angles_rad.len()).filter_map(|k| self.offset(k, a_m, b_m)).fold(0.0, |s, d| {
-            let x = lambda * vt_fpu::norm(&d);
-            s + h / vt_fpu::sqrt(h * h + x * x)
-        })
+        (0..self.angles_rad.len()).filter_map(|k| self.offset(k, a_m, b_m)).fold(0.0, |s, d| s + crate::capacity::lean_cos(vt_fpu::norm(&d), lambda, self.tray_height_m))
     }
 }
 

@@ -722,8 +722,7 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
             // formation's separation floor, `2 VT_BODY_R + VT_CLR_MIN` or more, where the UAVs
             // fly: from their taut cable lengths at take-off (vt_dissipative::shape). Without,
             // it is as long as the ring (the generated campaign's teams; docs/design.md).
-            let min_cos_sum = (1.0 + cap.margin) * cap.weight_n() / cap.uav_capacity_n;
-            let sep = (params.separation_m() > 0.0).then_some(ShapeSeparation { takeoff_m: takeoff, load_m: *load_pos_m, separation_m: cap.separation_m, min_cos_sum });
+            let sep = (params.separation_m() > 0.0).then_some(ShapeSeparation { takeoff_m: takeoff, load_m: *load_pos_m, separation_m: cap.separation_m, min_cos_sum: cap.need_cos_sum() });
             high.set_shape(shape, &formation, sep).map_err(StartError::Controller)?;
         }
         HighLevel::Dissipative(high)
