@@ -23,6 +23,15 @@ const DEFAULT_INTEGRAL_LIMIT_MPS2: f32 = 2.0;
 /// "Team failsafe": the mean over a few seconds carries the cable force, the wind and the
 /// integral's trim without the observer's fast swings; 3 s measured best of 0.5-8 s).
 pub const BLIND_HOLD_TAU_S: f32 = 3.0;
+/// Observer bandwidth while the cable carries no load, rad/s ([`VelocityLoop::set_bandwidth_cap`];
+/// docs/design.md, "The observer of a free UAV"). Behind an attitude autopilot the horizontal
+/// thrust lags the command by the attitude loop, longer than the observer's first-order model:
+/// with a taut, loaded cable the load's coupling damps what that mismatch feeds back, but a free
+/// UAV at the rigid-body default `mu = 15 rad/s` limit-cycles at about 2 Hz and 0.5-0.8 m/s on
+/// any position noise (measured: 1 cm suffices). With no cable force to cancel, the observer
+/// only tracks wind and drag, which change over seconds: 5 rad/s holds the free UAV
+/// (0.003 m/s), 10 rad/s leaves 0.05 m/s.
+pub const UNLOADED_BANDWIDTH_RAD_S: f32 = 5.0;
 
 /// Diagonal PID gains of eq:2-3, per axis (x east, y north, z up).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -316,6 +325,8 @@ pub struct VelocityLoop {
     history: ThrustHistory,
     /// What the last step predicted.
     prediction: Prediction,
+    /// Cap on the observer's bandwidth, rad/s (`f32::INFINITY`: none; [`Self::set_bandwidth_cap`]).
+    bandwidth_cap_rad_s: f32,
     status: Status,
 }
 
@@ -336,8 +347,31 @@ impl VelocityLoop {
             v_blind_mps: None,
             history: ThrustHistory::new(hover_vector_n(&params)),
             prediction: Prediction::undelayed(Vector3::zeros()),
+            bandwidth_cap_rad_s: f32::INFINITY,
             status: Status::Ok,
         }
+    }
+
+    /// Caps the observer's bandwidth at `cap_rad_s` (rad/s) from now on, under the configured
+    /// `mu` and the delay's schedule ([`crate::prediction`]); `f32::INFINITY`, or any
+    /// non-finite or non-positive value, lifts the cap. The observer's state is kept. An
+    /// unchanged cap costs one comparison. Used with [`UNLOADED_BANDWIDTH_RAD_S`] while the
+    /// cable carries no load.
+    pub fn set_bandwidth_cap(&mut self, cap_rad_s: f32) {
+        let cap = if cap_rad_s.is_finite() && cap_rad_s > 0.0 { cap_rad_s } else { f32::INFINITY };
+        if cap == self.bandwidth_cap_rad_s {
+            return;
+        }
+        self.bandwidth_cap_rad_s = cap;
+        let p = &self.params.cfo;
+        let scheduled = scheduled_bandwidth_rad_s(p.bandwidth_rad_s(), self.prediction.delay_steps, p.period_s());
+        self.cfo.set_bandwidth(scheduled.min(cap));
+    }
+
+    /// The cap on the observer's bandwidth, rad/s (`f32::INFINITY`: none).
+    #[must_use]
+    pub fn bandwidth_cap_rad_s(&self) -> f32 {
+        self.bandwidth_cap_rad_s
     }
 
     /// The parameters.
@@ -430,7 +464,7 @@ impl VelocityLoop {
             let k = delay_steps(age_s, dt_s);
             if k != self.prediction.delay_steps {
                 // Observer bandwidth scheduled from the delay (crate::prediction).
-                self.cfo.set_bandwidth(scheduled_bandwidth_rad_s(p.cfo.bandwidth_rad_s(), k, dt_s));
+                self.cfo.set_bandwidth(scheduled_bandwidth_rad_s(p.cfo.bandwidth_rad_s(), k, dt_s).min(self.bandwidth_cap_rad_s));
             }
             // The thrust applied over the step that ended at the sample time (k = 0: the last
             // step's, `thrust_applied_n`).

@@ -246,6 +246,68 @@ fn reset_clears_integral_and_observer() {
     assert_eq!(ctl, VelocityLoop::new(p));
 }
 
+/// The bandwidth cap (a free UAV's observer): it lowers the observer's bandwidth at once, under
+/// the delay's schedule too, lifting it restores the schedule, and a loop whose cap was never
+/// set or was lifted flies the same bits as one without.
+#[test]
+fn bandwidth_cap_lowers_the_observer_and_lifting_it_restores_the_schedule() {
+    let p = VelocityLoopParams::default(); // mu = 15 rad/s
+    let mut capped = VelocityLoop::new(p);
+    let mut plain = VelocityLoop::new(p);
+    assert_eq!(capped.bandwidth_cap_rad_s(), f32::INFINITY);
+    capped.set_bandwidth_cap(f32::INFINITY); // unchanged: no effect at all
+    assert_eq!(capped, plain);
+    capped.set_bandwidth_cap(UNLOADED_BANDWIDTH_RAD_S);
+    assert_eq!(capped.observer().bandwidth_rad_s(), UNLOADED_BANDWIDTH_RAD_S);
+    // A delay whose schedule is above the cap keeps the cap: 4 steps of 2 ms, 0.5 / 0.008 = 62.5.
+    capped.update_delayed(Vector3::zeros(), Vector3::zeros(), 4.0 * DT_S, DT_S);
+    assert_eq!(capped.observer().bandwidth_rad_s(), UNLOADED_BANDWIDTH_RAD_S);
+    // A cap above the configured mu changes nothing; NaN and 0 lift it.
+    capped.set_bandwidth_cap(100.0);
+    assert_eq!(capped.observer().bandwidth_rad_s(), 15.0);
+    for lift in [f32::NAN, 0.0, -1.0] {
+        capped.set_bandwidth_cap(UNLOADED_BANDWIDTH_RAD_S);
+        capped.set_bandwidth_cap(lift);
+        assert_eq!(capped.bandwidth_cap_rad_s(), f32::INFINITY);
+        assert_eq!(capped.observer().bandwidth_rad_s(), 15.0);
+    }
+    // Lifted, the loop flies what one never capped flies (same state, same outputs).
+    let mut again = VelocityLoop::new(p);
+    again.set_bandwidth_cap(UNLOADED_BANDWIDTH_RAD_S);
+    again.set_bandwidth_cap(f32::INFINITY);
+    for k in 0..200 {
+        let v = Vector3::new(0.01 * k as f32, -0.02, 0.0);
+        assert_eq!(again.update(Vector3::new(0.5, 0.0, 0.0), v, DT_S), plain.update(Vector3::new(0.5, 0.0, 0.0), v, DT_S));
+    }
+}
+
+/// The capped observer converges more slowly to a constant force, at the rate its bandwidth
+/// says: after 0.3 s (1.5 / mu at 5 rad/s, 4.5 / mu at 15 rad/s) the capped estimate is about
+/// three times further off (0.34 against 0.12 N of 3 N).
+#[test]
+fn capped_observer_tracks_a_force_at_its_lower_bandwidth() {
+    let p = VelocityLoopParams::default();
+    let (m, f) = (p.mass_kg(), Vector3::new(3.0, 0.0, 0.0));
+    let mut err = [0.0f32; 2];
+    for (slot, cap) in err.iter_mut().zip([f32::INFINITY, UNLOADED_BANDWIDTH_RAD_S]) {
+        let mut ctl = VelocityLoop::new(p);
+        ctl.set_bandwidth_cap(cap);
+        let mut v = Vector3::zeros();
+        for _ in 0..150 {
+            let out = ctl.update(Vector3::zeros(), v, DT_S);
+            v = plant_step(v, out.thrust_n, f, m);
+        }
+        *slot = (ctl.observer().estimate_n() - f).norm();
+        // Converged in the end, either way.
+        for _ in 0..5_000 {
+            let out = ctl.update(Vector3::zeros(), v, DT_S);
+            v = plant_step(v, out.thrust_n, f, m);
+        }
+        assert_relative_eq!(ctl.observer().estimate_n(), f, epsilon = 0.01);
+    }
+    assert!(err[1] > 2.0 * err[0], "capped {} N against {} N after 0.3 s", err[1], err[0]);
+}
+
 /// Any f32 including NaN, infinities and huge values.
 #[test]
 fn command_filter_rejects_a_bad_time_constant() {

@@ -212,6 +212,13 @@ impl Phase {
     pub fn sharing(self) -> bool {
         matches!(self, Self::Climb | Self::Transport)
     }
+
+    /// True while the cable carries none of the load's weight (it rests on the ground): the
+    /// velocity loop's observer then runs at `vt_cfo::UNLOADED_BANDWIDTH_RAD_S` (docs/design.md,
+    /// "The observer of a free UAV").
+    pub fn unloaded(self) -> bool {
+        matches!(self, Self::Takeoff | Self::Tension | Self::Slack | Self::Released)
+    }
 }
 
 /// Why the lift was abandoned (the team slackens its cables with the load on the ground).

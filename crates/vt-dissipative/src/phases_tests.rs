@@ -322,6 +322,10 @@ fn tension_law_climbs_holds_and_backs_off() {
         }
     }
     assert_eq!(Phase::ALL.iter().filter(|p| p.passing_off()).count(), 7);
+    // The cable carries the load from the lift to the touchdown; never while it is shared.
+    let unloaded: Vec<Phase> = Phase::ALL.iter().copied().filter(|p| p.unloaded()).collect();
+    assert_eq!(unloaded, [Phase::Takeoff, Phase::Tension, Phase::Slack, Phase::Released]);
+    assert!(Phase::ALL.iter().all(|p| !(p.unloaded() && p.sharing())));
 }
 
 #[test]

@@ -28,7 +28,7 @@
 //! `HEARTBEAT.custom_mode` ([`HoldReasons`]).
 
 use nalgebra::{Unit, UnitQuaternion, Vector2};
-use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop};
+use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop, UNLOADED_BANDWIDTH_RAD_S};
 use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, ShapeSeparation,
     landing::LandDetector, phases::{HoldWatch, OverloadWatch}, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
@@ -462,6 +462,9 @@ impl Flight {
             let holding = self.team_mode.is_holding();
             self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding);
             let phase = self.phase();
+            // The observer of a free UAV (vt_cfo::UNLOADED_BANDWIDTH_RAD_S): one comparison
+            // while the phase keeps its cable loaded or unloaded.
+            self.low.set_bandwidth_cap(if phase.unloaded() { UNLOADED_BANDWIDTH_RAD_S } else { f32::INFINITY });
             if phase == Phase::Released {
                 // The release (a delivery, a set-down, a refusal on the ground): land in place.
                 self.vel_cmd_mps = self.landing_command(tube, own.pos_m, view.get(..self.n).unwrap_or(&[]));
