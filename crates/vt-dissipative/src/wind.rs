@@ -206,6 +206,55 @@ pub fn wind_from_observer(f_hat_n: &crate::Vec3, cable_dir: &crate::Vec3, quad: 
     v.is_finite().then_some(v)
 }
 
+/// Gust sigmas the hover's gust margin covers: the declared convention of the campaigns and the
+/// scenario files (`[mission] gust_margin_mps`: a forecast's mean plus two gust standard
+/// deviations).
+pub const SEEN_GUST_SIGMAS: f32 = 2.0;
+
+/// The gusts a hovering UAV's observer sees (issue 29; docs/design.md, "The gusts the hover
+/// sees"): the airspeed of every sample of the survey ([`wind_from_observer`] on that sample's
+/// force estimate and cable direction), summed with its square, so that the arming checks the
+/// seen mean wind plus [`SEEN_GUST_SIGMAS`] standard deviations of it. Fixed size, no
+/// allocation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GustSurvey {
+    sum_mps: f32,
+    sum_sq: f32,
+    samples: u32,
+}
+
+impl GustSurvey {
+    /// One sample: the observer's force estimate (N, ENU) and the cable's direction (unit,
+    /// load to UAV) now, the drag model `quad`, `lin` (as [`wind_from_observer`]); a sample the
+    /// split rejects is skipped.
+    pub fn push(&mut self, f_hat_n: &crate::Vec3, cable_dir: &crate::Vec3, quad: f32, lin: f32) {
+        if let Some(v) = wind_from_observer(f_hat_n, cable_dir, quad, lin) {
+            self.sum_mps += v;
+            self.sum_sq += v * v;
+            self.samples = self.samples.saturating_add(1);
+        }
+    }
+
+    /// Samples taken.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// The gust margin, m/s: [`SEEN_GUST_SIGMAS`] times the samples' standard deviation
+    /// (`None` below two samples).
+    pub fn margin_mps(&self) -> Option<f32> {
+        if self.samples < 2 {
+            return None;
+        }
+        let n = self.samples as f32;
+        let mean = self.sum_mps / n;
+        // Population variance; rounding can leave it a hair below zero.
+        let var = (self.sum_sq / n - mean * mean).max(0.0);
+        let m = SEEN_GUST_SIGMAS * vt_fpu::sqrt(var);
+        m.is_finite().then_some(m)
+    }
+}
+
 /// The pre-flight wind check: steady wind `wind_mps` plus `gust_margin_mps` against the
 /// capacity.
 ///
@@ -230,6 +279,32 @@ pub fn check(p: &WindParams, wind_mps: f32, gust_margin_mps: f32) -> Result<Wind
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The survey's margin is two standard deviations of the airspeeds it saw: a steady wind
+    /// gives none, a wind alternating between two speeds gives their difference.
+    #[test]
+    fn the_gust_survey_measures_two_sigma_of_the_seen_airspeed() {
+        let (quad, lin) = (0.0103, 0.74);
+        let up = crate::Vec3::z();
+        let drag = |v: f32| crate::Vec3::new(quad * v * v + lin * v, 0.0, 20.0);
+        let mut steady = GustSurvey::default();
+        assert_eq!(steady.margin_mps(), None);
+        for _ in 0..100 {
+            steady.push(&drag(6.0), &up, quad, lin);
+        }
+        assert_eq!(steady.samples(), 100);
+        assert!(steady.margin_mps().unwrap() < 1e-3);
+        let mut gusty = GustSurvey::default();
+        for k in 0..100 {
+            gusty.push(&drag(if k % 2 == 0 { 4.0 } else { 8.0 }), &up, quad, lin);
+        }
+        // sigma = 2 m/s: the margin 4 m/s.
+        assert!((gusty.margin_mps().unwrap() - 4.0).abs() < 0.01, "{:?}", gusty.margin_mps());
+        // A sample the split rejects (a flat cable, NaN) is not counted.
+        gusty.push(&drag(30.0), &crate::Vec3::x(), quad, lin);
+        gusty.push(&crate::Vec3::repeat(f32::NAN), &up, quad, lin);
+        assert_eq!(gusty.samples(), 100);
+    }
 
     #[test]
     fn the_observer_split_recovers_the_airspeed_of_a_known_drag() {

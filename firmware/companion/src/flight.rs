@@ -33,6 +33,7 @@ use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, ShapeSeparation,
     landing::LandDetector, phases::{HoldWatch, OverloadWatch}, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
+use vt_dissipative::wind::GustSurvey;
 
 use crate::frames::{finite3, ned_frd_quaternion};
 use crate::params::{Param, Params};
@@ -358,7 +359,7 @@ impl Flight {
             // Ground start (docs/design.md, "Lift-off and set-down"): the arming waits for taut
             // cables, at the end of the tension build-up.
             let profile = PhaseProfile::ground(params.phases(load_pos_m.z).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
-            let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX), f_hat_sum_n: Vec3::zeros(), f_hat_samples: 0 };
+            let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX), f_hat_sum_n: Vec3::zeros(), f_hat_samples: 0, gusts: GustSurvey::default() };
             (None, Some(profile), Some(pending))
         } else {
             let high = arm(params, id, n, takeoff, &load_pos_m, None)?;
@@ -684,16 +685,18 @@ impl Flight {
 /// The arming: the cable calibration from the positions of every UAV and the load
 /// (`vt_dissipative::calibrate`), the pre-flight check at the measured lean
 /// (`vt_dissipative::feasibility::check`), the declared wind's check, the take-off formation
-/// (eq:2-7), then the high-level law (`VT_CTRL`).
+/// (eq:2-7), then the high-level law (`VT_CTRL`). `seen_wind_mps`: a ground start's hover's
+/// mean wind and gust margin (m/s, `vt_dissipative::wind::GustSurvey`).
 #[inline(never)] // its frame is large: it must not merge into the high-level step's
-fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3, seen_wind_mps: Option<f32>) -> Result<HighLevel, StartError> {
+fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3, seen_wind_mps: Option<(f32, f32)>) -> Result<HighLevel, StartError> {
     let cal = vt_dissipative::calibrate(id, takeoff, load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
     vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
-    // The declared wind, and the wind a ground start's hover saw: the larger is checked.
+    // The declared wind and gust margin, and those a ground start's hover saw: the larger of
+    // each is checked.
     let declared = params.declared_wind_mps();
     let wind = match (declared, seen_wind_mps) {
-        (Some((w, g)), seen) => Some((seen.map_or(w, |s| s.max(w)), g)),
-        (None, Some(seen)) => Some((seen, params.get(Param::WindGust))),
+        (Some((w, g)), seen) => Some(seen.map_or((w, g), |(s, sg)| (s.max(w), sg.max(g)))),
+        (None, Some((seen, gust))) => Some((seen, gust.max(params.get(Param::WindGust)))),
         (None, None) => None,
     };
     if let Some((wind_mps, gust_mps)) = wind {

@@ -6,7 +6,7 @@ use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, place_inside_tube, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
-use vt_dissipative::wind::wind_from_observer;
+use vt_dissipative::wind::{wind_from_observer, GustSurvey};
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
 use super::{arm, Flight, HighLevel, StartError};
@@ -96,6 +96,10 @@ impl Flight {
                 if finite3(&self.f_hat_n) {
                     pending.f_hat_sum_n += self.f_hat_n;
                     pending.f_hat_samples = pending.f_hat_samples.saturating_add(1);
+                    // The gusts the hover sees: each sample's airspeed on its own cable line.
+                    if let Some(u) = (own_m - load_m).try_normalize(1e-6) {
+                        pending.gusts.push(&self.f_hat_n, &u, pending.params.get(Param::DragQ), pending.params.get(Param::DragL));
+                    }
                 }
                 for (j, v) in view.iter().enumerate().take(self.n) {
                     if let (true, Some(p)) = (j != self.id, v) {
@@ -122,6 +126,7 @@ impl Flight {
                     (Some(u), k) if k > 0 => wind_from_observer(&(pending.f_hat_sum_n / k as f32), &u, p.get(Param::DragQ), p.get(Param::DragL)),
                     _ => None,
                 };
+                let seen_wind = seen_wind.map(|w| (w, pending.gusts.margin_mps().unwrap_or(0.0)));
                 let armed = if complete { arm(p, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load, seen_wind) } else { Err(StartError::StaleData) };
                 match armed {
                     Ok(high) => {
@@ -241,5 +246,7 @@ pub(super) struct Pending {
     /// estimate of the hover, `vt_dissipative::wind::wind_from_observer`).
     pub(super) f_hat_sum_n: Vec3,
     pub(super) f_hat_samples: u32,
+    /// The airspeeds the survey's samples saw (their gust margin).
+    pub(super) gusts: GustSurvey,
 }
 
