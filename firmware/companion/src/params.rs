@@ -179,7 +179,7 @@ params! {
     CalN => int("VT_CAL_N", 100.0, 1.0, 100000.0), "Take-off survey: take-off positions averaged over this many samples per source before `MISSION_START` (1: the last sample; docs/design.md, \"Take-off survey\").";
     CableL => real("VT_CABLE_L", 3.0, 0.0, LENGTH_MAX_M), "Nominal length of this UAV's cable, m (derives `VT_Z_MIN` and `VT_CABLE_LMAX`; the calibration measures the true one).";
     WindDecl => derived("VT_WIND_DECL", 0.0, 100.0), "Declared steady wind at the site for the mission, m/s (forecast or measured; -1: none declared, no wind check at the start). Refused at `MISSION_START` above the team's wind capacity (`vt_dissipative::wind`).";
-    WindGust => real("VT_WIND_GUST", 0.0, 0.0, 100.0), "Gust margin added to `VT_WIND_DECL` in the start check, m/s.";
+    WindGust => real("VT_WIND_GUST", 0.0, 0.0, 100.0), "Gust margin added to `VT_WIND_DECL` in the start check, m/s (a ground start also measures one over its hover, two standard deviations of the airspeed its observer saw: the larger is checked; docs/design.md, \"The gusts the hover sees\").";
     WindVp => real("VT_WIND_VP", 0.3, 0.0, 50.0), "Ground speed the team must keep into the wind to make progress, m/s (the wind check's `v_p`).";
     DragQ => real("VL_DRAG_Q", 0.0103, 0.0, 100.0), "Quadratic horizontal body drag of this UAV `c_q`, N/(m/s)^2 (`rho C_dA / 2`; default: the 1.47 kg experiment airframe, docs/plant.md).";
     DragL => real("VL_DRAG_L", 0.74, 0.0, 1.0e3), "Linear horizontal rotor drag of this UAV at loaded hover `c_l`, N/(m/s) (default: the 1.47 kg experiment airframe carrying its share of 3.06 kg).";
