@@ -363,9 +363,13 @@ impl VelocityLoop {
             return;
         }
         self.bandwidth_cap_rad_s = cap;
-        let p = &self.params.cfo;
-        let scheduled = scheduled_bandwidth_rad_s(p.bandwidth_rad_s(), self.prediction.delay_steps, p.period_s());
-        self.cfo.set_bandwidth(scheduled.min(cap));
+        self.cfo.set_bandwidth(self.observer_bandwidth_rad_s(self.prediction.delay_steps, self.params.cfo.period_s()));
+    }
+
+    /// The observer's bandwidth for a delay of `k` steps of `period_s`, rad/s: the delay's
+    /// schedule ([`crate::prediction`]) under the cap.
+    fn observer_bandwidth_rad_s(&self, k: usize, period_s: f32) -> f32 {
+        scheduled_bandwidth_rad_s(self.params.cfo.bandwidth_rad_s(), k, period_s).min(self.bandwidth_cap_rad_s)
     }
 
     /// The cap on the observer's bandwidth, rad/s (`f32::INFINITY`: none).
@@ -463,8 +467,8 @@ impl VelocityLoop {
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
             let k = delay_steps(age_s, dt_s);
             if k != self.prediction.delay_steps {
-                // Observer bandwidth scheduled from the delay (crate::prediction).
-                self.cfo.set_bandwidth(scheduled_bandwidth_rad_s(p.cfo.bandwidth_rad_s(), k, dt_s).min(self.bandwidth_cap_rad_s));
+                // Observer bandwidth scheduled from the delay (crate::prediction), under the cap.
+                self.cfo.set_bandwidth(self.observer_bandwidth_rad_s(k, dt_s));
             }
             // The thrust applied over the step that ended at the sample time (k = 0: the last
             // step's, `thrust_applied_n`).
