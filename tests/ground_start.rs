@@ -123,11 +123,12 @@ fn an_air_start_has_no_ground_figures() {
 /// Issue 29 with the ground start: the experiment team (capacity 7.63 m/s, tilt-bound,
 /// docs/design.md "Wind capacity") from the ground in a headwind along its first legs.
 /// - At 0.9 x the capacity it flies.
-/// - A steady 1.11 x is seen by the hover's observers before the lift and refused on the ground
-///   (code 8), no declaration needed. At 1.18 x the UAVs cannot hold their places in the
-///   take-off (drifted past `STATION_DRIFT_ABORT_M`): refused at once (code 10), they land where
-///   they are, the load never lifted.
-/// - The same winds arriving as a gust front after the lift (onset 22 s, 5 s build-up): the team
+/// - A steady 1.11 x, 1.18 x or 1.57 x is seen by the hover's observers before the lift and
+///   refused on the ground (code 8), no declaration needed. (Before the wind was sheared near
+///   the ground, 1.18 x blew the UAVs off their places in the take-off, code 10; in the gusts of
+///   the next test some still are.)
+/// - 9 and 10 m/s arriving as a gust front after the lift (onset 22 s, 5 s build-up; 8.5 m/s is
+///   now flown, the load 3 m up meeting 86 % of it and the capacity law counting all): the team
 ///   cannot hold the tube and the companions set the load down where it is (the load carried
 ///   back 2 m, or within 0.5 m of the boundary): outcome `set_down`, the load and every UAV
 ///   inside the tube, a gentle touchdown. (The air start sets down too: tests/wind.rs.)
@@ -136,7 +137,7 @@ fn a_wind_the_team_cannot_hold_is_refused_on_the_ground_or_sets_the_load_down_in
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
     let exp = ground(&std::fs::read_to_string(path).expect("experiment scenario"));
     for (wind, onset, outcome, code) in
-        [(6.87, None, "flown", 0), (8.5, None, "refused", 8), (9.0, None, "refused", 10), (8.5, Some(22.0), "set_down", 0), (9.0, Some(22.0), "set_down", 0)]
+        [(6.87, None, "flown", 0), (8.5, None, "refused", 8), (9.0, None, "refused", 8), (12.0, None, "refused", 8), (9.0, Some(22.0), "set_down", 0), (10.0, Some(22.0), "set_down", 0)]
     {
         let front = onset.map_or(String::new(), |t| format!("wind_onset_s = {t}\n"));
         let text = format!("{exp}\n[disturbances]\nwind_mean_mps = [-{wind}, 0.0, 0.0]\n{front}");
@@ -169,14 +170,15 @@ fn a_wind_the_team_cannot_hold_is_refused_on_the_ground_or_sets_the_load_down_in
     }
 }
 
-/// Issue 29, a wind no UAV of the team can hover in (the experiment's 1.47 kg / 30 N airframes at
-/// three times the nominal campaign's disturbances: 9 m/s mean, 3 m/s gusts), undeclared: every
-/// start is refused on the ground before any lift, by a UAV blown more than
-/// `STATION_DRIFT_ABORT_M` off its place (code 10) within the first seconds, and the whole team
-/// lands: at the end every UAV rests on the ground, no cable is broken, and the load was never
-/// lifted. (How far the wind still carries them: docs/design.md, "Landing".)
+/// Issue 29, a wind the team cannot fight (the experiment's 1.47 kg / 30 N airframes at three
+/// times the nominal campaign's disturbances: 9 m/s mean, 3 m/s gusts at 20 ft), undeclared:
+/// every start is refused on the ground before any lift, by the hover's wind check (code 8) or
+/// by a UAV blown more than `STATION_DRIFT_ABORT_M` off its place (code 10), and the whole team
+/// lands: at the end every UAV rests on the ground inside the tube, no cable is broken, and the
+/// load was never lifted and never moved (it rests in the weak wind near the ground: before the
+/// wind was sheared, it slid up to 7 m out of the tube; docs/design.md, "Wind near the ground").
 #[test]
-fn a_wind_no_uav_can_hold_refuses_at_once_and_the_team_lands() {
+fn a_wind_the_team_cannot_fight_is_refused_on_the_ground_and_the_team_lands() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/experiment-3uav.toml");
     let exp = ground(&std::fs::read_to_string(path).expect("experiment scenario"));
     let text = format!(
@@ -188,18 +190,23 @@ fn a_wind_no_uav_can_hold_refuses_at_once_and_the_team_lands() {
         let (s, rec) = (out.summary, out.record);
         println!("seed {seed}: {} {:?} phases {:?} at {:.1} s", s.outcome, s.failures.first(), names(&s), s.sim_time_s);
         assert_eq!(s.outcome, "refused", "seed {seed}: {:?}", s.failures);
-        assert!(s.failures[0].contains("(refusal code 10)"), "seed {seed}: {:?}", s.failures);
+        assert!(s.failures[0].contains("(refusal code 10)") || s.failures[0].contains("(refusal code 8)"), "seed {seed}: {:?}", s.failures);
         // The drifting UAV goes straight from the take-off or the tension to the landing (its
-        // held team follows through the slack after `LIFT_HOLD_ABORT_S`).
+        // held team follows through the slack after `LIFT_HOLD_ABORT_S`); a refused arming
+        // slackens first.
         let first_release = names(&s).iter().position(|n| *n == "released");
-        assert!(first_release.is_some_and(|k| k <= 2), "seed {seed}: landing at once, {:?}", names(&s));
+        assert!(first_release.is_some_and(|k| k <= 3), "seed {seed}: landing at once, {:?}", names(&s));
         assert!(!names(&s).contains(&"lift"), "seed {seed}: never lifted");
+        assert!(s.min_load_boundary_m > 0.0 && s.min_uav_boundary_m > 0.0, "seed {seed}: inside the tube");
+        let (first, end) = (rec.load_pos_m.first().expect("a record"), rec.load_pos_m.last().expect("a record"));
+        let moved = ((end[0] - first[0]).powi(2) + (end[1] - first[1]).powi(2)).sqrt();
+        assert!(moved < 0.05, "seed {seed}: the load stays where it rests ({moved:.3} m)");
         assert_eq!(s.cables_broken, 0, "seed {seed}");
         let last = rec.uav_pos_m.last().expect("a record");
         // The record's last frame is up to one record period (50 ms, 3.5 cm at 0.7 m/s) before
         // the end, which waits for every UAV to rest on the ground.
         assert!(last.iter().all(|p| p[2] <= 0.05), "seed {seed}: every UAV down at the end: {last:?}");
-        assert!(s.sim_time_s < 30.0, "seed {seed}: the mission ends once all are down ({:.1} s)", s.sim_time_s);
+        assert!(s.sim_time_s < 60.0, "seed {seed}: the mission ends once all are down ({:.1} s)", s.sim_time_s);
     }
 }
 

@@ -242,6 +242,21 @@ class Wind:
         return self.mean + np.array([self.gust[0], self.gust[1], 0.0])
 
 
+# Height of the scenario's wind, m: 20 ft, MIL-F-8785C's W20 (host-sim `disturbance::WIND_REFERENCE_HEIGHT_M`).
+WIND_REFERENCE_HEIGHT_M = 20.0 * 0.3048
+
+
+def shear_factor(height_m, roughness_m):
+    """The share of the scenario's wind blowing at `height_m` (host-sim `disturbance::shear_factor`):
+    MIL-F-8785C's log law below 20 ft, 0 at and below the roughness length, 1 above; 1 everywhere
+    with no roughness."""
+    if not (0.0 < roughness_m < WIND_REFERENCE_HEIGHT_M) or height_m >= WIND_REFERENCE_HEIGHT_M:
+        return 1.0
+    if not height_m > roughness_m:
+        return 0.0
+    return min(1.0, max(0.0, math.log(height_m / roughness_m) / math.log(WIND_REFERENCE_HEIGHT_M / roughness_m)))
+
+
 class Plant:
     def __init__(self, cfg):
         self.cfg = cfg
@@ -268,6 +283,7 @@ class Plant:
         self.load_area = cfg["load"]["drag_area_m2"]
         self.breaking = c["breaking_n"]
         self.wind = Wind(cfg["wind"])
+        self.roughness = cfg["wind"].get("surface_roughness_m", 0.0)
         self.wind_now = np.zeros(3)
         self.tensions = np.zeros(len(self.uavs))
         # Hover: every rotor carries a quarter of the UAV's weight and of its cable's pull.
@@ -293,14 +309,14 @@ class Plant:
         self.wind_now = self.wind.step(dt)
         for u, s, cmd in zip(self.uavs, self.states, self.commands):
             u.load_x, u.load_v = self.load_x, self.load_v
-            s["wind"] = self.wind_now
+            s["wind"] = self.wind_now * shear_factor(float(s["x"][2]), self.roughness)
             new = u.step(s, cmd, dt)
             s.update(new)
         force = self.update_tensions()
         for u, t in zip(self.uavs, self.tensions):
             if t > self.breaking:
                 u.broken = True
-        rel = self.wind_now - self.load_v
+        rel = self.wind_now * shear_factor(float(self.load_x[2]), self.roughness) - self.load_v
         drag = rel * (0.5 * AIR_DENSITY * self.load_area * float(np.linalg.norm(rel)))
         acc = (force + drag) / self.load_m + np.array([0.0, 0.0, -G])
         # Semi-implicit Euler for the load (velocity first), over the UAVs' new states.

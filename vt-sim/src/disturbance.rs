@@ -98,6 +98,26 @@ impl Wind {
     }
 }
 
+/// Height of the scenario's wind, m: `wind_mean_mps` and the gusts are the wind at 20 ft, the
+/// `W20` of MIL-F-8785C's low-altitude model (§3.7.2.4), and the wind at and above it.
+pub const WIND_REFERENCE_HEIGHT_M: f64 = 20.0 * 0.3048;
+
+/// The share of the reference wind blowing at `height_m` above the ground over terrain of
+/// roughness length `roughness_m`: MIL-F-8785C's wind shear (the surface layer's log law),
+/// `ln(h / z0) / ln(h_20 / z0)`, 0 at and below `z0`, held at 1 from 20 ft up (the scenario's
+/// wind is the strongest a body meets; docs/plant.md, "Wind near the ground"). A roughness of
+/// 0 (or not finite) gives the uniform wind: 1 everywhere.
+#[must_use]
+pub fn shear_factor(height_m: f64, roughness_m: f64) -> f64 {
+    if !(roughness_m > 0.0 && roughness_m < WIND_REFERENCE_HEIGHT_M) || height_m >= WIND_REFERENCE_HEIGHT_M {
+        return 1.0;
+    }
+    if !(height_m > roughness_m) {
+        return 0.0;
+    }
+    ((height_m / roughness_m).ln() / (WIND_REFERENCE_HEIGHT_M / roughness_m).ln()).clamp(0.0, 1.0)
+}
+
 /// Quadratic drag `1/2 rho C_d A |v_rel| v_rel`, `v_rel = wind - v`, N.
 pub fn drag_n(wind_mps: &V3, vel_mps: &V3, drag_area_m2: f64) -> V3 {
     let rel = wind_mps - vel_mps;
@@ -226,6 +246,30 @@ impl ParameterDraw {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// MIL-F-8785C's shear by hand (0.15 ft roughness): 0.2560 at 0.16 m, 0.8550 at 3 m; 1 from
+    /// 20 ft up, 0 at and below the roughness, growing in between; uniform with no roughness.
+    #[test]
+    fn the_shear_follows_the_log_law_below_20_ft() {
+        let z0 = 0.15 * 0.3048;
+        assert!((shear_factor(0.16, z0) - 0.2560).abs() < 1e-4, "{}", shear_factor(0.16, z0));
+        assert!((shear_factor(3.0, z0) - 0.8550).abs() < 1e-4, "{}", shear_factor(3.0, z0));
+        assert_eq!(shear_factor(WIND_REFERENCE_HEIGHT_M, z0), 1.0);
+        assert_eq!(shear_factor(40.0, z0), 1.0);
+        assert_eq!(shear_factor(z0, z0), 0.0);
+        assert_eq!(shear_factor(-1.0, z0), 0.0);
+        assert_eq!(shear_factor(f64::NAN, z0), 0.0);
+        let mut last = 0.0;
+        for k in 0..=60 {
+            let f = shear_factor(0.1 * f64::from(k) + 0.05, z0);
+            assert!(f >= last && f <= 1.0, "{k}: {f}");
+            last = f;
+        }
+        for h in [0.0, 0.16, 3.0, 100.0] {
+            assert_eq!(shear_factor(h, 0.0), 1.0);
+            assert_eq!(shear_factor(h, f64::NAN), 1.0);
+        }
+    }
 
     #[test]
     fn gaussian_draws_have_unit_variance_and_are_seeded() {

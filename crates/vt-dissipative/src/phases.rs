@@ -298,6 +298,10 @@ impl PhaseParams {
     }
 }
 
+/// How long the take-off flies before its wind survey starts, s: five time constants of the
+/// free UAV's observer (`UNLOADED_BANDWIDTH_RAD_S` = 5 rad/s), which starts from nothing.
+pub const WIND_SURVEY_SETTLE_S: f32 = 1.0;
+
 /// The ground sequence of one UAV: the phase, the load altitude reference and the timers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PhaseProfile {
@@ -361,6 +365,13 @@ impl PhaseProfile {
     /// True in the last `settle_s` of the tension phase (the survey the arming calibrates from).
     pub fn surveying(&self) -> bool {
         self.phase == Phase::Tension && self.timer_s >= self.p.tension_s() - self.p.settle_s
+    }
+
+    /// True while the UAV surveys the wind (`wind::GustSurvey`): the whole take-off but its
+    /// first [`WIND_SURVEY_SETTLE_S`] (the observer converging from nothing) and the whole
+    /// tension phase, many gust correlation times rather than one.
+    pub fn wind_surveying(&self) -> bool {
+        (self.phase == Phase::Takeoff && self.timer_s >= WIND_SURVEY_SETTLE_S) || self.phase == Phase::Tension
     }
 
     /// True when the tension phase is over: the caller arms ([`Self::armed`]) or refuses

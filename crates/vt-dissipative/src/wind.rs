@@ -206,16 +206,47 @@ pub fn wind_from_observer(f_hat_n: &crate::Vec3, cable_dir: &crate::Vec3, quad: 
     v.is_finite().then_some(v)
 }
 
+/// Height of the wind the team checks, m: 20 ft, the `W20` of MIL-F-8785C's low-altitude model
+/// (§3.7.2.4), the wind the team meets in transport (host-sim's scenario wind is the same).
+pub const REFERENCE_HEIGHT_M: f32 = 6.096;
+
+/// Roughness length the team assumes for the ground, m: MIL-F-8785C's for the terminal flight
+/// phases (Category C), 0.15 ft, short grass. A rougher site slows the wind near the ground
+/// more, and the hover's wind scaled by [`reference_scale`] comes out high: the safe side.
+pub const SURFACE_ROUGHNESS_M: f32 = 0.045_72;
+
+/// Largest factor [`reference_scale`] applies, reached about 0.4 m above the ground: a lower
+/// hover is not scaled further (the log law's slope makes its estimate fragile there).
+pub const MAX_REFERENCE_SCALE: f32 = 2.2;
+
+/// What the wind measured at `height_m` above the ground is multiplied by to give the wind at
+/// [`REFERENCE_HEIGHT_M`] (issue 29; docs/design.md, "Wind near the ground"): the inverse of
+/// MIL-F-8785C's wind shear, `ln(h_20 / z0) / ln(h / z0)` with `z0` =
+/// [`SURFACE_ROUGHNESS_M`], 1 from 20 ft up, at most [`MAX_REFERENCE_SCALE`]. A non-finite
+/// height gives the largest factor.
+pub fn reference_scale(height_m: f32) -> f32 {
+    if height_m >= REFERENCE_HEIGHT_M {
+        return 1.0;
+    }
+    let r = libm::logf(REFERENCE_HEIGHT_M / SURFACE_ROUGHNESS_M) / libm::logf(height_m.max(SURFACE_ROUGHNESS_M) / SURFACE_ROUGHNESS_M);
+    // `!(r <= max)` also takes NaN and infinity (a height at or below the roughness) to the cap.
+    if !(r <= MAX_REFERENCE_SCALE) {
+        MAX_REFERENCE_SCALE
+    } else {
+        r.max(1.0)
+    }
+}
+
 /// Gust sigmas the hover's gust margin covers: the declared convention of the campaigns and the
 /// scenario files (`[mission] gust_margin_mps`: a forecast's mean plus two gust standard
 /// deviations).
 pub const SEEN_GUST_SIGMAS: f32 = 2.0;
 
-/// The gusts a hovering UAV's observer sees (issue 29; docs/design.md, "The gusts the hover
-/// sees"): the airspeed of every sample of the survey ([`wind_from_observer`] on that sample's
-/// force estimate and cable direction), summed with its square, so that the arming checks the
-/// seen mean wind plus [`SEEN_GUST_SIGMAS`] standard deviations of it. Fixed size, no
-/// allocation.
+/// The wind a UAV's observer sees before the lift (issue 29; docs/design.md, "The gusts the
+/// hover sees" and "Wind near the ground"): the airspeed of every sample of the take-off and
+/// tension hover ([`wind_from_observer`] on that sample's force estimate and cable direction),
+/// scaled to the transport's height ([`reference_scale`] at the sample's height), summed with
+/// its square. The arming checks the mean plus a gust margin. Fixed size, no allocation.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GustSurvey {
     sum_mps: f32,
@@ -225,10 +256,11 @@ pub struct GustSurvey {
 
 impl GustSurvey {
     /// One sample: the observer's force estimate (N, ENU) and the cable's direction (unit,
-    /// load to UAV) now, the drag model `quad`, `lin` (as [`wind_from_observer`]); a sample the
-    /// split rejects is skipped.
-    pub fn push(&mut self, f_hat_n: &crate::Vec3, cable_dir: &crate::Vec3, quad: f32, lin: f32) {
+    /// load to UAV) now, the UAV's height above the ground (m), the drag model `quad`, `lin`
+    /// (as [`wind_from_observer`]); a sample the split rejects is skipped.
+    pub fn push(&mut self, f_hat_n: &crate::Vec3, cable_dir: &crate::Vec3, height_m: f32, quad: f32, lin: f32) {
         if let Some(v) = wind_from_observer(f_hat_n, cable_dir, quad, lin) {
+            let v = v * reference_scale(height_m);
             self.sum_mps += v;
             self.sum_sq += v * v;
             self.samples = self.samples.saturating_add(1);
@@ -240,14 +272,20 @@ impl GustSurvey {
         self.samples
     }
 
+    /// The mean wind at the transport's height, m/s (`None` before a sample).
+    pub fn mean_mps(&self) -> Option<f32> {
+        let m = self.sum_mps / self.samples as f32;
+        (self.samples > 0 && m.is_finite()).then_some(m)
+    }
+
     /// The gust margin, m/s: [`SEEN_GUST_SIGMAS`] times the samples' standard deviation
     /// (`None` below two samples).
     pub fn margin_mps(&self) -> Option<f32> {
         if self.samples < 2 {
             return None;
         }
+        let mean = self.mean_mps()?;
         let n = self.samples as f32;
-        let mean = self.sum_mps / n;
         // Population variance; rounding can leave it a hair below zero.
         let var = (self.sum_sq / n - mean * mean).max(0.0);
         let m = SEEN_GUST_SIGMAS * vt_fpu::sqrt(var);
@@ -280,30 +318,58 @@ pub fn check(p: &WindParams, wind_mps: f32, gust_margin_mps: f32) -> Result<Wind
 mod tests {
     use super::*;
 
+    /// The hover's wind scaled to 20 ft: 1 at and above it, the log law's inverse below (by hand:
+    /// at 3 m, `ln(6.096 / 0.04572) / ln(3 / 0.04572)` = 4.893 / 4.184 = 1.1694), growing as the
+    /// hover gets lower, capped near the ground and for degenerate heights.
+    #[test]
+    fn the_hover_wind_is_scaled_to_the_reference_height() {
+        assert_eq!(reference_scale(REFERENCE_HEIGHT_M), 1.0);
+        assert_eq!(reference_scale(15.0), 1.0);
+        assert!((reference_scale(3.0) - 1.1694).abs() < 1e-3, "{}", reference_scale(3.0));
+        let mut last = 1.0;
+        for k in 1..=60 {
+            let h = REFERENCE_HEIGHT_M - 0.1 * k as f32;
+            let r = reference_scale(h);
+            assert!(r >= last && r <= MAX_REFERENCE_SCALE, "h {h}: {r} after {last}");
+            last = r;
+        }
+        for h in [0.0, -1.0, SURFACE_ROUGHNESS_M, f32::NAN, f32::NEG_INFINITY] {
+            assert_eq!(reference_scale(h), MAX_REFERENCE_SCALE, "h {h}");
+        }
+        assert_eq!(reference_scale(f32::INFINITY), 1.0);
+    }
+
     /// The survey's margin is two standard deviations of the airspeeds it saw: a steady wind
-    /// gives none, a wind alternating between two speeds gives their difference.
+    /// gives none, a wind alternating between two speeds gives their difference; samples below
+    /// 20 ft are scaled up by the log law.
     #[test]
     fn the_gust_survey_measures_two_sigma_of_the_seen_airspeed() {
         let (quad, lin) = (0.0103, 0.74);
         let up = crate::Vec3::z();
+        let high = REFERENCE_HEIGHT_M + 1.0;
         let drag = |v: f32| crate::Vec3::new(quad * v * v + lin * v, 0.0, 20.0);
         let mut steady = GustSurvey::default();
-        assert_eq!(steady.margin_mps(), None);
+        assert_eq!((steady.mean_mps(), steady.margin_mps()), (None, None));
         for _ in 0..100 {
-            steady.push(&drag(6.0), &up, quad, lin);
+            steady.push(&drag(6.0), &up, high, quad, lin);
         }
         assert_eq!(steady.samples(), 100);
-        assert!(steady.margin_mps().unwrap() < 1e-3);
+        assert!((steady.mean_mps().unwrap() - 6.0).abs() < 1e-3);
+        assert!(steady.margin_mps().unwrap() < 1e-3, "{:?}", steady.margin_mps());
         let mut gusty = GustSurvey::default();
         for k in 0..100 {
-            gusty.push(&drag(if k % 2 == 0 { 4.0 } else { 8.0 }), &up, quad, lin);
+            gusty.push(&drag(if k % 2 == 0 { 4.0 } else { 8.0 }), &up, high, quad, lin);
         }
         // sigma = 2 m/s: the margin 4 m/s.
         assert!((gusty.margin_mps().unwrap() - 4.0).abs() < 0.01, "{:?}", gusty.margin_mps());
         // A sample the split rejects (a flat cable, NaN) is not counted.
-        gusty.push(&drag(30.0), &crate::Vec3::x(), quad, lin);
-        gusty.push(&crate::Vec3::repeat(f32::NAN), &up, quad, lin);
+        gusty.push(&drag(30.0), &crate::Vec3::x(), high, quad, lin);
+        gusty.push(&crate::Vec3::repeat(f32::NAN), &up, high, quad, lin);
         assert_eq!(gusty.samples(), 100);
+        // At 3 m the same drag is a stronger wind aloft.
+        let mut low = GustSurvey::default();
+        low.push(&drag(6.0), &up, 3.0, quad, lin);
+        assert!((low.mean_mps().unwrap() - 6.0 * reference_scale(3.0)).abs() < 1e-3);
     }
 
     #[test]

@@ -150,6 +150,7 @@ impl<'a> World<'a> {
         // The load rests on its envelope (docs/plant.md, "Ground contact").
         let rest_z = s.load.envelope_radius_m();
         plant.set_load_rest_z(rest_z);
+        plant.set_surface_roughness(dist.surface_roughness_m);
         let ground_start = s.mission.start == crate::scenario::MissionStart::Ground;
         let phases = crate::phases::PhaseRecord::new(rest_z, !ground_start);
 

@@ -16,7 +16,7 @@ use core::fmt;
 use nalgebra::Vector3;
 
 use crate::cable::{cable_force, CableForce, CableParams};
-use crate::disturbance::drag_n;
+use crate::disturbance::{drag_n, shear_factor};
 use vt_companion::flight::Setpoint;
 
 pub mod command;
@@ -208,6 +208,8 @@ pub struct Plant {
     rigid_setpoints: Vec<Option<Setpoint>>,
     /// Altitude of the load's centre resting on the ground, m ([`Plant::set_load_rest_z`]).
     load_rest_z_m: f64,
+    /// Roughness length of the ground, m ([`Plant::set_surface_roughness`]; 0: uniform wind).
+    roughness_m: f64,
 }
 
 /// Coulomb friction coefficient of the load on the ground (a crate on dry soil or grass,
@@ -342,6 +344,7 @@ impl Plant {
             thrust_built_n: Vec::new(),
             gusts_mps: Vec::new(),
             load_rest_z_m: 0.0,
+            roughness_m: 0.0,
         };
         plant.thrust_built_n = plant.uav_params.iter().map(|p| p.thrust_max_n).collect();
         plant.last_forces = plant.cable_forces();
@@ -371,6 +374,22 @@ impl Plant {
     pub fn set_gusts(&mut self, gusts_mps: &[Vector3<f64>]) {
         self.gusts_mps.clear();
         self.gusts_mps.extend(gusts_mps.iter().map(|g| if finite3(g) { *g } else { Vector3::zeros() }));
+    }
+
+    /// The ground's roughness length, m: the wind passed to [`Plant::step_setpoints`] is the
+    /// wind at 20 ft and above, and each body meets [`shear_factor`] of it at its height (the
+    /// turbulent gusts of [`Plant::set_gusts`] are added unscaled). 0 (the default) blows the
+    /// same wind at every height; a negative or non-finite value is ignored.
+    pub fn set_surface_roughness(&mut self, roughness_m: f64) {
+        if roughness_m.is_finite() && roughness_m >= 0.0 {
+            self.roughness_m = roughness_m;
+        }
+    }
+
+    /// The wind body `index` (UAVs `0..n`, the load `n`) meets at `height_m`: the sheared
+    /// uniform wind plus its turbulent gust, m/s.
+    fn body_wind(&self, wind_mps: &Vector3<f64>, height_m: f64, index: usize) -> Vector3<f64> {
+        wind_mps * shear_factor(height_m, self.roughness_m) + self.gust(index)
     }
 
     /// The gust of body `index` (UAVs `0..n`, the load `n`), m/s.
@@ -617,9 +636,9 @@ impl Plant {
         let mut ext = std::mem::take(&mut self.ext_buf);
         ext.clear();
         if !calm {
-            ext.extend(self.uavs.iter().enumerate().map(|(i, u)| drag_n(&(wind_mps + self.gust(i)), &u.vel_mps, uav_drag_area_m2)));
+            ext.extend(self.uavs.iter().enumerate().map(|(i, u)| drag_n(&self.body_wind(wind_mps, u.pos_m.z, i), &u.vel_mps, uav_drag_area_m2)));
         }
-        let load_wind = wind_mps + self.gust(self.uavs.len());
+        let load_wind = self.body_wind(wind_mps, self.load.pos_m.z, self.uavs.len());
         let ext_load = if calm { Vector3::zeros() } else { drag_n(&load_wind, &self.load.vel_mps, load_drag_area_m2) };
         self.step(&thrust, &ext, ext_load, dt_s);
         self.thrust_buf = thrust;

@@ -633,3 +633,57 @@ fn a_dropped_load_lands_without_bouncing() {
     assert!((v - expected).abs() < 0.05, "impact {v} m/s, expected {expected}");
     assert!((p.load.pos_m.z - rest_z).abs() < 1e-12 && p.load.vel_mps.z.abs() < 1e-12, "at rest on the ground, no bounce");
 }
+
+/// Near the ground the wind falls off along MIL-F-8785C's log law (`shear_factor`): a body at
+/// 20 ft or above meets the whole wind, the load resting 0.16 m up a quarter of it, and a
+/// turbulent gust comes on top unscaled; with roughness 0 (the plant's default) every height
+/// meets the whole wind.
+#[test]
+fn the_wind_falls_off_near_the_ground() {
+    let s = setup(3, K_N_PER_M, B_NS_PER_M, f64::INFINITY, 0.0);
+    let mut p = plant(&s, Vector3::zeros(), 1);
+    let w = Vector3::new(9.0, 0.0, 0.0);
+    assert_eq!(p.body_wind(&w, 10.0, 0), w);
+    assert_eq!(p.body_wind(&w, 0.16, 3), w);
+    let z0 = 0.15 * 0.3048;
+    p.set_surface_roughness(z0);
+    assert_eq!(p.body_wind(&w, crate::disturbance::WIND_REFERENCE_HEIGHT_M, 0), w);
+    assert_eq!(p.body_wind(&w, 15.0, 0), w);
+    let by_hand = 9.0 * (0.16_f64 / z0).ln() / (6.096_f64 / z0).ln();
+    assert!((by_hand - 2.304).abs() < 1e-3, "{by_hand}");
+    assert!((p.body_wind(&w, 0.16, 3) - Vector3::new(by_hand, 0.0, 0.0)).norm() < 1e-12);
+    assert_eq!(p.body_wind(&w, 0.0, 0), Vector3::zeros(), "a landed UAV is out of the wind");
+    let gust = Vector3::new(0.0, 1.0, 0.5);
+    p.set_gusts(&[Vector3::zeros(), Vector3::zeros(), Vector3::zeros(), gust]);
+    assert!((p.body_wind(&w, 0.16, 3) - Vector3::new(by_hand, 1.0, 0.5)).norm() < 1e-12);
+}
+
+/// A light crate on the ground (3 kg, drag area 0.3 m^2, friction 0.5: it holds 14.7 N) in a
+/// 12 m/s wind: the uniform wind (26 N of drag) slides it away, the wind near the ground (a
+/// quarter of it, 1.7 N) leaves it where it is. A UAV landed beside it, rotors off, its
+/// cable slack.
+#[test]
+fn a_crate_on_the_ground_stays_in_the_wind_near_the_ground() {
+    let slide = |roughness_m: f64| {
+        let uav = UavParams { mass_kg: UAV_MASS_KG, thrust_max_n: 50.0, thrust_lag_s: 0.0 };
+        let cable = CableParams { rest_length_m: 3.0, stiffness_n_per_m: K_N_PER_M, damping_ns_per_m: B_NS_PER_M, f_max_n: f64::INFINITY };
+        let rest_z = 0.16;
+        let mut p = match Plant::new(vec![uav], vec![cable], LoadParams { mass_kg: 3.0 }, &[Vector3::new(1.0, 0.0, 0.0)], Vector3::new(0.0, 0.0, rest_z), 1) {
+            Ok(p) => p,
+            Err(e) => panic!("setup rejected: {e}"),
+        };
+        p.set_load_rest_z(rest_z);
+        p.set_surface_roughness(roughness_m);
+        let off = [Setpoint { q_ned: [1.0, 0.0, 0.0, 0.0], thrust: 0.0 }];
+        for _ in 0..1000 {
+            p.step_setpoints(&off, &[true], &Vector3::new(12.0, 0.0, 0.0), 0.05, 0.3, DT_S);
+            p.ground_contact();
+        }
+        p.load.pos_m.x
+    };
+    let uniform = slide(0.0);
+    let sheared = slide(0.15 * 0.3048);
+    assert!(uniform > 1.0, "the uniform wind slides the crate: {uniform} m in 1 s");
+    // Friction acts after each step's integration: the crate creeps by `a dt^2` a step (0.6 mm in 1 s).
+    assert!(sheared.abs() < 1e-3, "the wind near the ground does not: {sheared} m");
+}

@@ -35,6 +35,11 @@ pub struct DisturbanceSpec {
     /// [`WIND_ONSET_RAMP_S`] (a gust front; absent: blowing from the start).
     #[serde(default)]
     pub wind_onset_s: Option<f64>,
+    /// Roughness length of the ground, m: below 20 ft the wind (mean and gusts) falls off along
+    /// MIL-F-8785C's log law to nothing at this height ([`crate::disturbance::shear_factor`]);
+    /// 0 blows the same wind down to the ground.
+    #[serde(default = "default_roughness")]
+    pub surface_roughness_m: f64,
     /// Drag area C_d A of each UAV, m^2.
     #[serde(default = "default_uav_drag")]
     pub uav_drag_area_m2: f64,
@@ -77,6 +82,7 @@ impl Default for DisturbanceSpec {
             gust_std_mps: 0.0,
             gust_tau_s: default_gust_tau(),
             wind_onset_s: None,
+            surface_roughness_m: default_roughness(),
             uav_drag_area_m2: default_uav_drag(),
             load_drag_area_m2: default_load_drag(),
             cable_length_error: 0.0,
@@ -92,6 +98,11 @@ impl Default for DisturbanceSpec {
 
 fn default_gust_tau() -> f64 {
     2.0
+}
+/// MIL-F-8785C's roughness length for the terminal flight phases (Category C), 0.15 ft:
+/// short grass (WMO open terrain is 0.03 m).
+fn default_roughness() -> f64 {
+    0.15 * 0.3048
 }
 fn default_uav_drag() -> f64 {
     0.05

@@ -301,6 +301,10 @@ impl Validator<'_> {
             return Err(self.err("disturbances", "turbulence", format!("turbulence x intensity must be in [0, 3] (got {})", d.turbulence * d.intensity)));
         }
         self.positive("disturbances", "gust_tau_s", d.gust_tau_s)?;
+        let z0_max = crate::disturbance::WIND_REFERENCE_HEIGHT_M / 10.0;
+        if !(d.surface_roughness_m.is_finite() && (0.0..=z0_max).contains(&d.surface_roughness_m)) {
+            return Err(self.err("disturbances", "surface_roughness_m", format!("must be in [0, {z0_max:.2}] m (got {}): 0 for a uniform wind, 0.03 open grass, 0.5 scattered buildings", d.surface_roughness_m)));
+        }
         if let Some(t) = d.wind_onset_s {
             self.non_negative("disturbances", "wind_onset_s", t)?;
         }

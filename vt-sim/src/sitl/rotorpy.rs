@@ -137,6 +137,7 @@ fn config(ls: &LoadedScenario, rated_n: f64, trajectory: &Path) -> serde_json::V
             "mean_mps": [d.wind_mean_mps[0] * d.intensity, d.wind_mean_mps[1] * d.intensity, d.wind_mean_mps[2] * d.intensity],
             "gust_std_mps": d.gust_std_mps * d.intensity,
             "gust_tau_s": d.gust_tau_s,
+            "surface_roughness_m": d.surface_roughness_m,
             "seed": s.seed,
         },
         "start": { "uav_pos_m": com, "load_pos_m": [to.load_pos_m.x, to.load_pos_m.y, to.load_pos_m.z] },

@@ -6,7 +6,7 @@ use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, place_inside_tube, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
-use vt_dissipative::wind::{wind_from_observer, GustSurvey};
+use vt_dissipative::wind::GustSurvey;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
 use super::{arm, Flight, HighLevel, StartError};
@@ -90,17 +90,17 @@ impl Flight {
                     return;
                 }
             }
+            if profile.wind_surveying() && !holding && finite3(&self.f_hat_n) {
+                // The wind the hover sees: each sample's airspeed on its own cable line, scaled
+                // from its height above the load's centre (a little low: the safe side) to the
+                // transport's, over the take-off and the tension phase (vt_dissipative::wind).
+                if let Some(u) = (own_m - load_m).try_normalize(1e-6) {
+                    pending.gusts.push(&self.f_hat_n, &u, own_m.z - load_m.z, pending.params.get(Param::DragQ), pending.params.get(Param::DragL));
+                }
+            }
             if profile.surveying() && !holding {
                 pending.survey.push_own(own_m);
                 pending.survey.push_load(load_m);
-                if finite3(&self.f_hat_n) {
-                    pending.f_hat_sum_n += self.f_hat_n;
-                    pending.f_hat_samples = pending.f_hat_samples.saturating_add(1);
-                    // The gusts the hover sees: each sample's airspeed on its own cable line.
-                    if let Some(u) = (own_m - load_m).try_normalize(1e-6) {
-                        pending.gusts.push(&self.f_hat_n, &u, pending.params.get(Param::DragQ), pending.params.get(Param::DragL));
-                    }
-                }
                 for (j, v) in view.iter().enumerate().take(self.n) {
                     if let (true, Some(p)) = (j != self.id, v) {
                         pending.survey.push_member(j, p);
@@ -118,16 +118,9 @@ impl Flight {
                     *slot = pos.unwrap_or(*own_m);
                 }
                 let ground_load = pending.survey.load().unwrap_or(*load_m);
-                // The wind the hover's observer saw (issue 29), with the survey's geometry.
-                let own_mean = takeoff.get(self.id).copied().unwrap_or(*own_m);
-                let dir = (own_mean - ground_load).try_normalize(1e-6);
-                let p = &pending.params;
-                let seen_wind = match (dir, pending.f_hat_samples) {
-                    (Some(u), k) if k > 0 => wind_from_observer(&(pending.f_hat_sum_n / k as f32), &u, p.get(Param::DragQ), p.get(Param::DragL)),
-                    _ => None,
-                };
-                let seen_wind = seen_wind.map(|w| (w, pending.gusts.margin_mps().unwrap_or(0.0)));
-                let armed = if complete { arm(p, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load, seen_wind) } else { Err(StartError::StaleData) };
+                // The wind the hover's observer saw (issue 29) and its gust margin.
+                let seen_wind = pending.gusts.mean_mps().map(|w| (w, pending.gusts.margin_mps().unwrap_or(0.0)));
+                let armed = if complete { arm(&pending.params, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load, seen_wind) } else { Err(StartError::StaleData) };
                 match armed {
                     Ok(high) => {
                         self.high = Some(high);
@@ -242,11 +235,7 @@ pub(super) struct Pending {
     pub(super) vertical: VerticalParams,
     /// The survey of the tension phase's last `settle_s` (the arming calibrates from it).
     pub(super) survey: TakeoffSurvey<MAX_UAVS>,
-    /// The observer's force estimate summed over the survey, N, and its samples (the wind
-    /// estimate of the hover, `vt_dissipative::wind::wind_from_observer`).
-    pub(super) f_hat_sum_n: Vec3,
-    pub(super) f_hat_samples: u32,
-    /// The airspeeds the survey's samples saw (their gust margin).
+    /// The wind the take-off and tension hover saw (`vt_dissipative::wind::GustSurvey`).
     pub(super) gusts: GustSurvey,
 }
 
