@@ -112,7 +112,7 @@ pub fn shear_factor(height_m: f64, roughness_m: f64) -> f64 {
     if !(roughness_m > 0.0 && roughness_m < WIND_REFERENCE_HEIGHT_M) || height_m >= WIND_REFERENCE_HEIGHT_M {
         return 1.0;
     }
-    if !(height_m > roughness_m) {
+    if height_m.is_nan() || height_m <= roughness_m {
         return 0.0;
     }
     ((height_m / roughness_m).ln() / (WIND_REFERENCE_HEIGHT_M / roughness_m).ln()).clamp(0.0, 1.0)
