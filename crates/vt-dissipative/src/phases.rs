@@ -511,7 +511,11 @@ impl PhaseProfile {
             Phase::Descent => {
                 // A set-down in a wind the team cannot hold slows down only in the last
                 // [`SET_DOWN_TOUCHDOWN_BAND_M`]: on the ground, friction holds the load.
-                let band = if self.set_down_early { SET_DOWN_TOUCHDOWN_BAND_M.min(p.touchdown_band_m) } else { p.touchdown_band_m };
+                // A ground start's delivery set down after its arrival (carried past the end in
+                // the seconds before its descent) only descends early: it keeps the delivery's
+                // band, and touches down as gently.
+                let delivery = self.descend_at_end && self.arrived;
+                let band = if self.set_down_early && !delivery { SET_DOWN_TOUCHDOWN_BAND_M.min(p.touchdown_band_m) } else { p.touchdown_band_m };
                 let v = if self.z_ref_m > p.ground_z_m + band { p.climb_vz_mps } else { p.lift_vz_mps };
                 self.z_ref_m = (self.z_ref_m - v * dt).max(p.ground_z_m);
                 if self.z_ref_m <= p.ground_z_m {

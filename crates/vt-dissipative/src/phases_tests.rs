@@ -337,3 +337,47 @@ fn bad_parameters_are_named() {
     p.lift_vz_mps = f32::NAN;
     assert_eq!(PhaseProfile::ground(p).err(), Some(ControlError::InvalidParameter("phases.lift_vz_mps")));
 }
+
+/// Where the descent's reference first slows to the lift speed: a set-down before arrival (either
+/// start) and an air start's after arrival slow in the short set-down band, a ground start's
+/// delivery set down after its arrival (carried past the end before its descent) in the
+/// delivery's own band.
+#[test]
+fn a_delivery_set_down_after_arrival_keeps_the_delivery_band() {
+    let p = params();
+    let band_entry = |mut pr: PhaseProfile| {
+        assert_eq!(pr.phase(), Phase::Descent);
+        loop {
+            let before = pr.load_altitude_ref_m();
+            let z = pr.step(0.02, Some(before.max(p.ground_z_m)), false, false);
+            if before - z < 0.5 * p.climb_vz_mps * 0.02 {
+                return before - p.ground_z_m;
+            }
+        }
+    };
+    let in_transport = |ground: bool| {
+        let mut pr = if ground { PhaseProfile::ground(p).unwrap() } else { PhaseProfile::air(p).unwrap() };
+        for _ in 0..100_000 {
+            if pr.phase() == Phase::Transport {
+                break;
+            }
+            if pr.ready_to_arm() {
+                pr.armed(p.ground_z_m);
+            }
+            let z = pr.load_altitude_ref_m();
+            pr.step(0.02, Some(z.max(p.ground_z_m)), false, false);
+        }
+        pr
+    };
+    let short = SET_DOWN_TOUCHDOWN_BAND_M.min(p.touchdown_band_m);
+    for ground in [false, true] {
+        let mut pr = in_transport(ground);
+        pr.set_down_now();
+        assert!((band_entry(pr) - short).abs() < 0.011, "ground {ground}: set down before arrival");
+        let mut pr = in_transport(ground);
+        pr.step(0.02, Some(p.transport_z_m), true, false);
+        pr.set_down_now();
+        let band = if ground { p.touchdown_band_m } else { short };
+        assert!((band_entry(pr) - band).abs() < 0.011, "ground {ground}: set down after arrival");
+    }
+}
