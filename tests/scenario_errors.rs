@@ -316,3 +316,14 @@ fn an_air_start_with_the_load_in_the_ground_is_rejected() {
     let text = paper().replacen("altitude_m = 6.0", "altitude_m = 0.2", 1);
     expect_error(&text, "buried.toml", &["load.altitude_m", &format!(":{}:", line_of("altitude_m = 6.0")), "resting altitude"]);
 }
+
+/// The ground's roughness length (the wind's shear below 20 ft) must lie in [0, 0.61] m: a
+/// negative, a NaN or a city-centre value is named with its line.
+#[test]
+fn a_bad_surface_roughness_is_named_with_its_line() {
+    for bad in ["-0.1", "nan", "2.0"] {
+        let text = format!("{}\n[disturbances]\nwind_mean_mps = [3.0, 0.0, 0.0]\nsurface_roughness_m = {bad}\n", paper());
+        let line = text.lines().position(|l| l.starts_with("surface_roughness_m")).expect("present") + 1;
+        expect_error(&text, "roughness.toml", &["disturbances.surface_roughness_m", &format!(":{line}:")]);
+    }
+}
