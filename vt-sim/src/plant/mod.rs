@@ -221,6 +221,13 @@ fn finite3(v: &Vector3<f64>) -> bool {
     v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
 }
 
+/// The wind body `index` (UAVs `0..n`, the load `n`) meets at `height_m` above the ground,
+/// m/s: the uniform wind `wind_mps` sheared over ground of roughness `roughness_m`
+/// ([`shear_factor`]) plus the body's turbulent gust from `gusts_mps` (none when missing).
+fn body_wind(wind_mps: &Vector3<f64>, height_m: f64, roughness_m: f64, gusts_mps: &[Vector3<f64>], index: usize) -> Vector3<f64> {
+    wind_mps * shear_factor(height_m, roughness_m) + gusts_mps.get(index).copied().unwrap_or_else(Vector3::zeros)
+}
+
 /// Scale `v` (N) down to magnitude `max_n` (N) if it is longer; direction kept.
 /// Robust to finite vectors whose norm overflows.
 /// A body's velocity after a ground contact (m/s): the velocity into the ground taken away (a
@@ -386,15 +393,10 @@ impl Plant {
         }
     }
 
-    /// The wind body `index` (UAVs `0..n`, the load `n`) meets at `height_m`: the sheared
-    /// uniform wind plus its turbulent gust, m/s.
+    /// The wind body `index` (UAVs `0..n`, the load `n`) meets at `height_m`, m/s
+    /// ([`body_wind`]).
     fn body_wind(&self, wind_mps: &Vector3<f64>, height_m: f64, index: usize) -> Vector3<f64> {
-        wind_mps * shear_factor(height_m, self.roughness_m) + self.gust(index)
-    }
-
-    /// The gust of body `index` (UAVs `0..n`, the load `n`), m/s.
-    fn gust(&self, index: usize) -> Vector3<f64> {
-        self.gusts_mps.get(index).copied().unwrap_or_else(Vector3::zeros)
+        body_wind(wind_mps, height_m, self.roughness_m, &self.gusts_mps, index)
     }
 
     /// Cuts cable `index` (fault injection): from now on it carries no force.

@@ -20,9 +20,9 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use vt_companion::flight::Setpoint;
 
-use super::{command, gravity_vec_mps2, Plant};
+use super::{body_wind, command, gravity_vec_mps2, Plant};
 use crate::cable::cable_force;
-use crate::disturbance::{drag_n, shear_factor};
+use crate::disturbance::drag_n;
 use crate::quadrotor::{AttitudeTarget, QuadError, Quadrotor};
 
 /// Trim iterations that place each quadrotor so that its (tilted) attachment point sits on the
@@ -120,7 +120,7 @@ impl Plant {
         self.last_forces.truncate(n);
         for _ in 0..self.substeps {
             let (load_pos, load_vel) = (self.load.pos_m, self.load.vel_mps);
-            let load_wind = wind * shear_factor(load_pos.z, self.roughness_m) + self.gusts_mps.get(n).copied().unwrap_or_else(Vector3::zeros);
+            let load_wind = self.body_wind(&wind, load_pos.z, n);
             let mut load_force = self.load_params.mass_kg * g + drag_n(&load_wind, &load_vel, load_drag_area_m2);
             for (i, ((q, c), target)) in self.quads.iter_mut().zip(&self.cables).zip(&self.rigid_targets).enumerate() {
                 let f = cable_force(q.attach_point_world_m(), q.attach_velocity_world_mps(), load_pos, load_vel, c);
@@ -128,8 +128,7 @@ impl Plant {
                 if f.tension_n > breaking {
                     self.breaks.push((i, f.tension_n, breaking));
                 }
-                let uav_wind = wind * shear_factor(q.pos_m().z, self.roughness_m) + self.gusts_mps.get(i).copied().unwrap_or_else(Vector3::zeros);
-                q.step(target, f.on_uav_n, uav_wind, h);
+                q.step(target, f.on_uav_n, body_wind(&wind, q.pos_m().z, self.roughness_m, &self.gusts_mps, i), h);
                 load_force += f.on_load_n;
                 if let Some(slot) = self.last_forces.get_mut(i) {
                     *slot = f;

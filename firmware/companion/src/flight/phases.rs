@@ -90,10 +90,11 @@ impl Flight {
                     return;
                 }
             }
-            if profile.wind_surveying() && !holding && finite3(&self.f_hat_n) {
+            if profile.wind_surveying() && !holding {
                 // The wind the hover sees: each sample's airspeed on its own cable line, scaled
                 // from its height above the load's centre (a little low: the safe side) to the
-                // transport's, over the take-off and the tension phase (vt_dissipative::wind).
+                // transport's, over the take-off and the tension phase (vt_dissipative::wind; a
+                // non-finite estimate is not counted).
                 if let Some(u) = (own_m - load_m).try_normalize(1e-6) {
                     pending.gusts.push(&self.f_hat_n, &u, own_m.z - load_m.z, pending.params.get(Param::DragQ), pending.params.get(Param::DragL));
                 }
