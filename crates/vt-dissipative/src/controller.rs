@@ -15,7 +15,11 @@
 use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
-use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, QUANTA};
+use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ShapeParams, QUANTA};
+
+mod tube_shape;
+pub use tube_shape::DRIFT_AVERAGE_S;
+use tube_shape::TubeShape;
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
@@ -192,6 +196,9 @@ pub struct DissipativeController<const N: usize> {
     rest: RestLengths<N>,
     /// The formation scale `rest` was computed for.
     rest_scale: f32,
+    /// The load altitude reference at the last update, m: a rising one is a ground start's
+    /// lift or climb ramp, whose tracking lag is not an overload.
+    last_ref_m: f32,
     center_m: Vec2,
     own_hint: usize,
     center_hint: usize,
@@ -226,95 +233,6 @@ pub struct ShapeSeparation<'a> {
     pub min_cos_sum: f32,
 }
 
-/// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
-/// lives in every companion's `Flight`, which the mission's start builds on the stack.
-#[derive(Debug, Clone)]
-struct TubeShape<const N: usize> {
-    params: ShapeParams,
-    /// The UAV nodes at take-off (eq:2-4), world, m.
-    nodes_m: [Vec2; N],
-    /// The load node at take-off, world, m.
-    load_node_m: Vec2,
-    /// The tray centre's node at take-off, world, m.
-    centre_m: Vec2,
-    /// The ring's node radius, the largest node distance from the centre, m.
-    radius_m: f32,
-    /// Each UAV's taut cable length at take-off, mm (the separation check; 0 without one).
-    lengths_mm: [u16; N],
-    /// Distance every pair of UAVs keeps where they fly, m (0: the stadium as long as the ring).
-    separation_m: f32,
-    /// The capacity law's need on `sum_i cos theta_i` (shape.rs, [`StadiumLimits`]).
-    min_cos_sum: f32,
-    /// The stadium's half-length flown, m (node space, before the capacity-aware scale).
-    half_length_m: f32,
-    /// The tube's direction at the load at the first look: node angles are taken from it.
-    frame: Option<Vec2>,
-    /// The quantum flown.
-    quantum: i32,
-}
-
-impl<const N: usize> TubeShape<N> {
-    /// UAV `id`'s rest lengths (and the tray centre's) written into `rest`, times `scale` (the
-    /// capacity-aware formation's): at quantum [`QUANTA`] the take-off ones (eq:2-7, computed
-    /// as `Formation::rest_length_m` does, so bit for bit), else the nodes at their take-off
-    /// angles from `frame` on the stadium of the ring's half-length and half-width
-    /// `r q / QUANTA` (shape.rs).
-    #[inline(never)]
-    fn write_rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize, scale: f32, rest: &mut RestLengths<N>) {
-        let b = self.radius_m * q as f32 / QUANTA as f32;
-        let a = self.half_length_m;
-        let ring = q >= QUANTA;
-        // A node's place: the take-off node itself (the ring), or its stadium point about the centre.
-        let place = |p: &Vec2| if ring { *p } else { stadium_point(self.angle_rad(p, frame), a, b) };
-        let (centre, load) = if ring { (self.centre_m, self.load_node_m) } else { (Vec2::zeros(), self.in_frame(&self.load_node_m, frame)) };
-        let own = self.nodes_m.get(id).map_or(centre, place);
-        for ((o, c), node) in rest.own_m.iter_mut().zip(rest.center_m.iter_mut()).zip(self.nodes_m.iter()).take(n) {
-            let e = place(node);
-            *o = vt_fpu::norm(&(own - e)) * scale;
-            *c = vt_fpu::norm(&(centre - e)) * scale;
-        }
-        rest.own_load_m = vt_fpu::norm(&(own - load)) * scale;
-        rest.own_center_m = vt_fpu::norm(&(own - centre)) * scale;
-    }
-
-    /// A take-off node `p` about the tray centre in the stadium's frame (`frame` the tube's
-    /// direction at the first look), m.
-    fn in_frame(&self, p: &Vec2, frame: Vec2) -> Vec2 {
-        let o = p - self.centre_m;
-        Vec2::new(o.dot(&frame), o.dot(&Vec2::new(-frame.y, frame.x)))
-    }
-
-    /// A take-off node's angle about the tray centre from `frame`, rad: its place on the stadium.
-    fn angle_rad(&self, p: &Vec2, frame: Vec2) -> f32 {
-        let o = self.in_frame(p, frame);
-        vt_fpu::atan2(o.y, o.x)
-    }
-
-    /// The half-length of the stadium of quantum `q` (shape.rs, [`separated_half_length_m`]):
-    /// the ring's radius, or longer where the pairs of UAVs would otherwise come closer than
-    /// the separation floor where they fly (the tray's projection puts a UAV below its node,
-    /// `L / sqrt(d^2 + H^2)` of its node's offset).
-    #[inline(never)]
-    fn half_length_for(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
-        if q >= QUANTA || self.separation_m <= 0.0 {
-            return self.radius_m;
-        }
-        let mut angles = [0.0f32; N];
-        for (a, p) in angles.iter_mut().zip(self.nodes_m.iter()).take(n) {
-            *a = self.angle_rad(p, frame);
-        }
-        let team = StadiumTeam {
-            angles_rad: angles.get(..n).unwrap_or(&[]),
-            lengths_mm: self.lengths_mm.get(..n).unwrap_or(&[]),
-            load_m: self.in_frame(&self.load_node_m, frame),
-            tray_height_m,
-        };
-        // The floor at the smallest scale the capacity-aware formation may fly, the capacity at
-        // the scale it aims for (capacity.rs).
-        let limits = StadiumLimits { separation_m: self.separation_m, separation_scale: scale.scale_min(), min_cos_sum: self.min_cos_sum, capacity_scale: scale.scale_target() };
-        separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
-    }
-}
 
 impl<const N: usize> DissipativeController<N> {
     /// Controller of UAV `id` with rest lengths from the take-off `formation` (eq:2-7); a team
@@ -350,6 +268,7 @@ impl<const N: usize> DissipativeController<N> {
             separation: separation_barrier(params.k3, params.separation_m),
             rest,
             rest_scale: 1.0,
+            last_ref_m: f32::INFINITY,
             center_m: formation.node_m(NodeId::Center),
             own_hint: 0,
             center_hint: 0,
@@ -458,7 +377,7 @@ impl<const N: usize> DissipativeController<N> {
             radius_m = vt_fpu::max(radius_m, vt_fpu::norm(&(*p - centre_m)));
         }
         let load_node_m = formation.node_m(NodeId::Load);
-        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_mm, separation_m, min_cos_sum, half_length_m: radius_m, frame: None, quantum: QUANTA });
+        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_mm, separation_m, min_cos_sum, half_length_m: radius_m, frame: None, drift: Vec2::new(1.0, 0.0), quantum: QUANTA });
         Ok(())
     }
 
@@ -473,7 +392,8 @@ impl<const N: usize> DissipativeController<N> {
         let Some(shape) = self.shape.as_mut() else {
             return;
         };
-        let frame = *shape.frame.get_or_insert(load_sec.tangent);
+        let turned = shape.turned_frame(&load_sec.tangent);
+        let frame = *shape.frame.get_or_insert(turned);
         let ring_m = shape.radius_m * self.rest_scale;
         let Some(w) = narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m) else {
             return;
@@ -539,7 +459,13 @@ impl<const N: usize> DissipativeController<N> {
         let (q_i, floored) = p.tray.project(&m.own_pos_m, &m.load_pos_m);
         status.projection_floored = floored;
         // Capacity-aware formation: rest lengths x lambda, passing x progress (capacity.rs).
-        let so = self.scale.update(m.load_pos_m.z, p.vertical.load_altitude_ref_m, dt_s);
+        // While the reference climbs (a ground start's lift and climb ramps) the load trails it
+        // by the altitude law's lag, which is no overload: the sag is not counted then (the
+        // lift's own overload watch and the transport's sag cover a load the team cannot lift).
+        let z_ref = p.vertical.load_altitude_ref_m;
+        let sag_ref = if z_ref > self.last_ref_m { vt_fpu::min(z_ref, m.load_pos_m.z) } else { z_ref };
+        self.last_ref_m = z_ref;
+        let so = self.scale.update(m.load_pos_m.z, sag_ref, dt_s);
         status.overload = so.overload > 0.0;
         if so.scale != self.rest_scale {
             self.rest = self.rest.scaled(so.scale / self.rest_scale, self.n);
@@ -559,6 +485,11 @@ impl<const N: usize> DissipativeController<N> {
             }
         }
 
+        if self.team_hold {
+            if let Some(shape) = self.shape.as_mut() {
+                shape.track_drift(&nodes, &load_xy, self.n, dt_s);
+            }
+        }
         // Own node: passing + springs + tube keeping (eq:2-16).
         let Some(sec) = tube.locate(q_i, self.own_hint) else {
             status.invalid_input = true;

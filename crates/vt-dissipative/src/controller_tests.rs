@@ -607,3 +607,96 @@ fn a_uav_outside_a_new_tube_joins_it_widened_and_the_widening_only_shrinks() {
     }
     assert!(done_at.iter().all(Option::is_some), "still joining after 15 s: {last:?}");
 }
+
+/// A ground start's lift and climb turn the ring about the load (nothing in the springs holds
+/// its rotation). Averaged while the team holds before the first look, the turn rotates the
+/// stadium's frame back, so each node keeps the place its angle in the turned ring gives it;
+/// every UAV that sees the same nodes derives the same frame, and without a hold before the
+/// first look the frame is the tube's direction, bit for bit.
+#[test]
+fn a_ring_turned_before_the_first_look_keeps_its_places_on_the_stadium() {
+    let n = 10;
+    let t = tube();
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let turn = 12f32.to_radians();
+    let (s, c) = turn.sin_cos();
+    let turned: Vec<Vec3> = uavs
+        .iter()
+        .map(|u| {
+            let d = u - load;
+            Vec3::new(load.x + c * d.x - s * d.y, load.y + s * d.x + c * d.y, u.z)
+        })
+        .collect();
+    let mut ctl = team(n, &uavs, &load);
+    let mut calm = team(n, &uavs, &load);
+    for x in ctl.iter_mut().chain(calm.iter_mut()) {
+        x.set_shape(ShapeParams::default(), &f, None).unwrap();
+    }
+    let nb = neighbours(&turned);
+    for _ in 0..(5.0 * DRIFT_AVERAGE_S / DT_S) as usize {
+        for (i, x) in ctl.iter_mut().enumerate() {
+            x.set_team_hold(true);
+            let m = Measurements { own_pos_m: turned[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+            x.update(&t, &m, DT_S);
+        }
+    }
+    let sec = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
+    let angle = |v: Vec2| v.y.atan2(v.x);
+    for x in ctl.iter_mut() {
+        x.shape_to_tube(&t, &sec);
+        let frame = x.shape.as_ref().unwrap().frame.unwrap();
+        // Averaged over five of its times: within e^-5 of the turn.
+        assert_relative_eq!(angle(sec.tangent) - angle(frame), turn, epsilon = 0.01 * turn);
+
+    }
+    for x in &ctl {
+        assert_eq!(ctl_frame(x), ctl_frame(&ctl[0]), "every UAV the same frame");
+    }
+    for x in calm.iter_mut() {
+        x.shape_to_tube(&t, &sec);
+        assert_eq!(x.shape.as_ref().unwrap().frame, Some(sec.tangent), "no hold, no turn: the tangent bit for bit");
+    }
+    // In the turned frame the turned ring's nodes have their take-off angles in the tangent's.
+    let sh = ctl[0].shape.as_ref().unwrap();
+    let frame = sh.frame.unwrap();
+    for (j, u) in turned.iter().enumerate() {
+        let now = params().tray.project(u, &load).0 - load.xy();
+        let then = sh.nodes_m[j] - sh.load_node_m;
+        let a_now = angle(now) - angle(sec.tangent);
+        let a_then = angle(then) - angle(frame);
+        let d = (a_now - a_then + core::f32::consts::PI).rem_euclid(core::f32::consts::TAU) - core::f32::consts::PI;
+        assert!(d.abs() < 0.01 * turn, "node {j}: {d}");
+    }
+}
+
+fn ctl_frame(c: &DissipativeController<N>) -> Vec2 {
+    c.shape.as_ref().unwrap().frame.unwrap()
+}
+
+/// A ground start's climb: the load trails the rising reference by the altitude law's lag.
+/// That is no overload, so the formation keeps its scale; the same sag under a reference that
+/// stands still is one, and the formation stands its cables up.
+#[test]
+fn the_climb_s_lag_is_no_overload() {
+    use crate::capacity::{CapacityParams, CapacityPlan, FormationScale};
+    let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 8.0, 8.0), Waypoint::new(2000.0, 0.0, 8.0, 8.0)]).unwrap();
+    let (uavs, load) = takeoff(6, 10.0);
+    let cap = CapacityParams { load_mass_kg: 10.0, ..CapacityParams::default() };
+    let plan = CapacityPlan { scale_min: 0.4, scale: 1.0, lean_cos_min: 1.0, capacity_n: 0.0, weight_n: 0.0 };
+    let fly = |rising: bool| {
+        let mut c = team(6, &uavs, &load).remove(0).with_capacity(FormationScale::new(&plan, &cap));
+        c.set_team_hold(true);
+        let nb = neighbours(&uavs);
+        for k in 0..200 {
+            // The load 0.6 m below the reference: past `sag_start`, towards `sag_full`.
+            let z_ref = if rising { LOAD_Z_M + 0.01 * k as f32 } else { LOAD_Z_M };
+            c.set_load_altitude_ref(z_ref, true);
+            let m = Measurements { own_pos_m: uavs[0], load_pos_m: Vec3::new(load.x, load.y, z_ref - 0.6), load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+            c.update(&t, &m, DT_S);
+        }
+        c.formation_scale()
+    };
+    assert_eq!(fly(true), 1.0);
+    assert!(fly(false) < 0.7, "{}", fly(false));
+}

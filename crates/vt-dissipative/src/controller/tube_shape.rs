@@ -1,0 +1,148 @@
+//! The take-off formation as the tube-shaped formation needs it (`crate::shape`; docs/design.md,
+//! "A formation shaped to the tube"): the stadium's rest lengths, its separated half-length, and
+//! the ring's drift before the first look.
+
+use super::RestLengths;
+use crate::capacity::FormationScale;
+use crate::shape::{separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, QUANTA};
+use crate::Vec2;
+
+/// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
+/// lives in every companion's `Flight`, which the mission's start builds on the stack.
+#[derive(Debug, Clone)]
+pub(super) struct TubeShape<const N: usize> {
+    pub(super) params: ShapeParams,
+    /// The UAV nodes at take-off (eq:2-4), world, m.
+    pub(super) nodes_m: [Vec2; N],
+    /// The load node at take-off, world, m.
+    pub(super) load_node_m: Vec2,
+    /// The tray centre's node at take-off, world, m.
+    pub(super) centre_m: Vec2,
+    /// The ring's node radius, the largest node distance from the centre, m.
+    pub(super) radius_m: f32,
+    /// Each UAV's taut cable length at take-off, mm (the separation check; 0 without one).
+    pub(super) lengths_mm: [u16; N],
+    /// Distance every pair of UAVs keeps where they fly, m (0: the stadium as long as the ring).
+    pub(super) separation_m: f32,
+    /// The capacity law's need on `sum_i cos theta_i` (shape.rs, [`StadiumLimits`]).
+    pub(super) min_cos_sum: f32,
+    /// The stadium's half-length flown, m (node space, before the capacity-aware scale).
+    pub(super) half_length_m: f32,
+    /// The tube's direction at the load at the first look: node angles are taken from it.
+    pub(super) frame: Option<Vec2>,
+    /// How far the formation has turned about the load since take-off, `(cos, sin)` averaged
+    /// over [`DRIFT_AVERAGE_S`] while the team holds before the first look ((1, 0): not at all).
+    pub(super) drift: Vec2,
+    /// The quantum flown.
+    pub(super) quantum: i32,
+}
+
+/// Averaging time of the formation's drift before the first look, s ([`TubeShape`]): long
+/// enough that every UAV's estimate from its own view of the nodes agrees (noise averaged
+/// over 50 high-level steps at 50 Hz), short against the climb's turn (several degrees in 10 s).
+pub const DRIFT_AVERAGE_S: f32 = 1.0;
+
+impl<const N: usize> TubeShape<N> {
+    /// UAV `id`'s rest lengths (and the tray centre's) written into `rest`, times `scale` (the
+    /// capacity-aware formation's): at quantum [`QUANTA`] the take-off ones (eq:2-7, computed
+    /// as `Formation::rest_length_m` does, so bit for bit), else the nodes at their take-off
+    /// angles from `frame` on the stadium of the ring's half-length and half-width
+    /// `r q / QUANTA` (shape.rs).
+    #[inline(never)]
+    pub(super) fn write_rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize, scale: f32, rest: &mut RestLengths<N>) {
+        let b = self.radius_m * q as f32 / QUANTA as f32;
+        let a = self.half_length_m;
+        let ring = q >= QUANTA;
+        // A node's place: the take-off node itself (the ring), or its stadium point about the centre.
+        let place = |p: &Vec2| if ring { *p } else { stadium_point(self.angle_rad(p, frame), a, b) };
+        let (centre, load) = if ring { (self.centre_m, self.load_node_m) } else { (Vec2::zeros(), self.in_frame(&self.load_node_m, frame)) };
+        let own = self.nodes_m.get(id).map_or(centre, place);
+        for ((o, c), node) in rest.own_m.iter_mut().zip(rest.center_m.iter_mut()).zip(self.nodes_m.iter()).take(n) {
+            let e = place(node);
+            *o = vt_fpu::norm(&(own - e)) * scale;
+            *c = vt_fpu::norm(&(centre - e)) * scale;
+        }
+        rest.own_load_m = vt_fpu::norm(&(own - load)) * scale;
+        rest.own_center_m = vt_fpu::norm(&(own - centre)) * scale;
+    }
+
+    /// Before the first look: the formation's turn about the load since take-off, from the
+    /// nodes seen now against the take-off ones (the load's node as the pivot), averaged into
+    /// `drift` over [`DRIFT_AVERAGE_S`]. A ground start's lift and climb turn the ring
+    /// (nothing in the springs holds its rotation); the stadium then starts from the turned ring.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn track_drift(&mut self, nodes: &[Option<Vec2>; N], load_xy: &Vec2, n: usize, dt_s: f32) {
+        if self.frame.is_some() || !(dt_s.is_finite() && dt_s > 0.0) {
+            return;
+        }
+        let (mut cos_sum, mut sin_sum) = (0.0f32, 0.0f32);
+        for (q, t) in nodes.iter().zip(self.nodes_m.iter()).take(n) {
+            if let Some(q) = q {
+                let (a, b) = (t - self.load_node_m, q - load_xy);
+                cos_sum += a.dot(&b);
+                sin_sum += a.x * b.y - a.y * b.x;
+            }
+        }
+        let now = Vec2::new(cos_sum, sin_sum);
+        let norm = vt_fpu::norm(&now);
+        if !(norm.is_finite() && norm > 0.0) {
+            return;
+        }
+        let k = vt_fpu::min(dt_s / DRIFT_AVERAGE_S, 1.0);
+        let next = self.drift + (now / norm - self.drift) * k;
+        if next.iter().all(|x| x.is_finite()) {
+            self.drift = next;
+        }
+    }
+
+    /// The stadium's frame at the first look: the tube's direction `tangent` turned back by the
+    /// formation's drift since take-off, so that every node keeps the place on the stadium its
+    /// angle in the turned ring gives it (the tangent itself without a drift).
+    pub(super) fn turned_frame(&self, tangent: &Vec2) -> Vec2 {
+        let norm = vt_fpu::norm(&self.drift);
+        if self.drift == Vec2::new(1.0, 0.0) || !(norm.is_finite() && norm > 0.0) {
+            return *tangent;
+        }
+        let (c, s) = (self.drift.x / norm, self.drift.y / norm);
+        Vec2::new(c * tangent.x + s * tangent.y, c * tangent.y - s * tangent.x)
+    }
+
+    /// A take-off node `p` about the tray centre in the stadium's frame (`frame` the tube's
+    /// direction at the first look), m.
+    fn in_frame(&self, p: &Vec2, frame: Vec2) -> Vec2 {
+        let o = p - self.centre_m;
+        Vec2::new(o.dot(&frame), o.dot(&Vec2::new(-frame.y, frame.x)))
+    }
+
+    /// A take-off node's angle about the tray centre from `frame`, rad: its place on the stadium.
+    fn angle_rad(&self, p: &Vec2, frame: Vec2) -> f32 {
+        let o = self.in_frame(p, frame);
+        vt_fpu::atan2(o.y, o.x)
+    }
+
+    /// The half-length of the stadium of quantum `q` (shape.rs, [`separated_half_length_m`]):
+    /// the ring's radius, or longer where the pairs of UAVs would otherwise come closer than
+    /// the separation floor where they fly (the tray's projection puts a UAV below its node,
+    /// `L / sqrt(d^2 + H^2)` of its node's offset).
+    #[inline(never)]
+    pub(super) fn half_length_for(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
+        if q >= QUANTA || self.separation_m <= 0.0 {
+            return self.radius_m;
+        }
+        let mut angles = [0.0f32; N];
+        for (a, p) in angles.iter_mut().zip(self.nodes_m.iter()).take(n) {
+            *a = self.angle_rad(p, frame);
+        }
+        let team = StadiumTeam {
+            angles_rad: angles.get(..n).unwrap_or(&[]),
+            lengths_mm: self.lengths_mm.get(..n).unwrap_or(&[]),
+            load_m: self.in_frame(&self.load_node_m, frame),
+            tray_height_m,
+        };
+        // The floor at the smallest scale the capacity-aware formation may fly, the capacity at
+        // the scale it aims for (capacity.rs).
+        let limits = StadiumLimits { separation_m: self.separation_m, separation_scale: scale.scale_min(), min_cos_sum: self.min_cos_sum, capacity_scale: scale.scale_target() };
+        separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
+    }
+}
