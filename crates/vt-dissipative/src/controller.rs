@@ -16,16 +16,16 @@ use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ShapeParams, QUANTA};
-
-mod tube_shape;
-pub use tube_shape::DRIFT_AVERAGE_S;
-use tube_shape::TubeShape;
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
+
+mod tube_shape;
+pub use tube_shape::DRIFT_AVERAGE_S;
+use tube_shape::TubeShape;
 
 /// Rate at which the widening of a tube being joined shrinks besides following the node,
 /// m/s ([`DissipativeController::join_tube`]): a tenth of the paper's `v_m` (3 m/s), so the
@@ -392,8 +392,15 @@ impl<const N: usize> DissipativeController<N> {
         let Some(shape) = self.shape.as_mut() else {
             return;
         };
-        let turned = shape.turned_frame(&load_sec.tangent);
-        let frame = *shape.frame.get_or_insert(turned);
+        // The frame is fixed at the first look (the ring's drift is measured only before it).
+        let frame = match shape.frame {
+            Some(f) => f,
+            None => {
+                let f = shape.turned_frame(&load_sec.tangent);
+                shape.frame = Some(f);
+                f
+            }
+        };
         let ring_m = shape.radius_m * self.rest_scale;
         let Some(w) = narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m) else {
             return;
