@@ -264,6 +264,22 @@ fn a_long_cable_that_takes_a_uav_off_outside_the_tube_is_refused() {
     expect_error(&long, "long.toml", &["long.toml", line.as_str(), "cables.lengths_m", "UAV 9", "beyond the tube at the start"]);
 }
 
+/// Issue 29: every take-off UAV and its node keep `r_safe` to the boundary at their *own*
+/// section (the tube barrier starts finite, Theorem 1's initial condition), not only at the
+/// load's. A tube narrowing to 1.8 m just ahead of the start passes the load-section checks and
+/// is refused naming the field, its line and the UAV (generated narrowings had started UAVs
+/// 0.17-0.40 m from the wall).
+#[test]
+fn a_tube_that_narrows_within_the_formation_s_reach_of_the_start_is_refused() {
+    let narrow = paper().replacen("[9.0, 1.5, 5.5, 5.5],", "[6.0, 0.9, 5.5, 5.5],\n  [8.0, 1.3, 1.8, 1.8],", 1);
+    let at = narrow.lines().position(|l| l.contains("formation_radius_m")).expect("the radius's line") + 1;
+    let line = format!(":{at}:");
+    expect_error(&narrow, "narrow-ahead.toml", &["narrow-ahead.toml", line.as_str(), "uavs.formation_radius_m", "UAV 1", "within r_safe 0.50 m"]);
+    // The same narrowing 3 m further on leaves the formation room: accepted.
+    let later = paper().replacen("[9.0, 1.5, 5.5, 5.5],", "[9.0, 1.5, 5.5, 5.5],\n  [11.0, 1.7, 1.8, 1.8],", 1);
+    host_sim::scenario::parse(&later, "narrow-later.toml").expect("the narrowing beyond the formation's reach is valid");
+}
+
 /// The take-off survey's settings (docs/design.md, "Take-off survey") name file, line and field.
 #[test]
 fn take_off_survey_settings_are_checked() {

@@ -555,6 +555,35 @@ impl Validator<'_> {
                     s.controller.r_safe_m)));
             }
         }
+        self.check_takeoff_places(s, tube)
+    }
+
+    /// Every UAV of the take-off formation, and its node, at its *own* section of the tube keeps
+    /// the flown `r_safe` to the boundary: the tube barrier (eq:2-15) then starts finite for
+    /// every node, the initial condition of the paper's Theorem 1. The checks above measure the
+    /// half-width at the load's section only; a tube that narrows within the formation's reach of
+    /// the start passed them with a UAV inside the barrier's safety radius from the first step
+    /// (generated narrowings: 0.17-0.40 m from the wall at t = 0; docs/design.md, "Take-off
+    /// places inside the tube").
+    fn check_takeoff_places(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
+        let r_safe = s.uavs.flown_r_safe_m(s.controller.r_safe_m, s.mission.clearance_floor());
+        let r_node = s.uavs.formation_radius_m * crate::sim::takeoff_scale(s, s.cables.rated_n);
+        let t = crate::sim::takeoff(s, tube, s.cables.rated_n);
+        let load = vt_tube::Vec2::new(t.load_pos_m.x as f32, t.load_pos_m.y as f32);
+        for (i, p) in t.uav_pos_m.iter().enumerate() {
+            let uav = vt_tube::Vec2::new(p.x as f32, p.y as f32);
+            let off = uav - load;
+            let len = off.norm();
+            let node = if len > 0.0 { load + off * (r_node as f32 / len) } else { uav };
+            let clear = |q: vt_tube::Vec2| tube.locate(q, 0).map_or(f32::NEG_INFINITY, |sec| sec.boundary_distance_m(q));
+            let (d_uav, d_node) = (clear(uav), clear(node));
+            let d = d_uav.min(d_node);
+            // `!(>=)`: a NaN distance is refused too.
+            if !(f64::from(d) >= r_safe) {
+                return Err(self.err("uavs", "formation_radius_m", format!(
+                    "UAV {i} takes off {d_uav:.2} m from the tube's boundary (its node {d_node:.2} m), within r_safe {r_safe:.2} m: the tube narrows within the take-off formation's reach of the start")));
+            }
+        }
         Ok(())
     }
 }
