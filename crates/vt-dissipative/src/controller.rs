@@ -455,8 +455,10 @@ impl<const N: usize> DissipativeController<N> {
     /// always finite and within `v_m` horizontally and `v_z,max` vertically.
     pub fn update<const S: usize>(&mut self, tube: &Tube<S>, m: &Measurements<'_>, dt_s: f32) -> Command {
         let mut status = Status::default();
+        // The passage speed (extension, shape.rs): slower while the separated stadium is
+        // narrower than the ring (1 otherwise: the same bits).
+        let v_max = self.params.v_max_mps * self.shape.as_ref().map_or(1.0, TubeShape::speed_fraction);
         let p = &self.params;
-        let v_max = self.params.v_max_mps;
         let inputs_ok = finite3(&m.own_pos_m) && finite3(&m.load_pos_m) && finite3(&m.load_vel_mps);
         if !inputs_ok {
             status.invalid_input = true;
@@ -515,7 +517,7 @@ impl<const N: usize> DissipativeController<N> {
         // (the anchor; see below): the missing springs no longer fix its place in the formation.
         let mut vbar = Vec2::zeros();
         if !self.team_hold {
-            vbar = passing_velocity(&sec, &q_i, p.k1, p.v_max_mps) * so.progress;
+            vbar = passing_velocity(&sec, &q_i, p.k1, v_max) * so.progress;
         } else {
             // Entering team hold: the tray-centre replica moves to the nodes' centroid, so the
             // team rests around where it is, not around where the replica had led it
@@ -547,7 +549,7 @@ impl<const N: usize> DissipativeController<N> {
         // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler; in
         // team hold it stands still (zero tray velocity: the anchor of the held formation).
         if dt_s.is_finite() && dt_s > 0.0 && !self.team_hold {
-            self.step_center(tube, &nodes, so.progress, dt_s, &mut status);
+            self.step_center(tube, &nodes, so.progress, v_max, dt_s, &mut status);
         }
 
         // Map back to the UAV (eq:2-20) and saturate (eq:2-21).
@@ -616,14 +618,14 @@ impl<const N: usize> DissipativeController<N> {
         }
     }
 
-    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, dt_s: f32, status: &mut Status) {
+    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, v_max: f32, dt_s: f32, status: &mut Status) {
         let p = &self.params;
         let q_u = self.center_m;
         let Some(sec) = tube.locate(q_u, self.center_hint) else {
             return;
         };
         self.center_hint = sec.segment;
-        let mut v = passing_velocity(&sec, &q_u, p.k1, p.v_max_mps) * progress;
+        let mut v = passing_velocity(&sec, &q_u, p.k1, v_max) * progress;
         for (q_j, rest) in nodes.iter().zip(self.rest.center_m.iter()).take(self.n) {
             if let Some(q_j) = q_j {
                 let (vs, c) = spring_velocity(&q_u, q_j, *rest, p.k2, false);
@@ -632,7 +634,7 @@ impl<const N: usize> DissipativeController<N> {
             }
         }
         v += keeping_velocity(&self.joining(&sec), &q_u, &self.barrier).0;
-        let next = q_u + sat(v, p.v_max_mps) * dt_s;
+        let next = q_u + sat(v, v_max) * dt_s;
         if next.x.is_finite() && next.y.is_finite() {
             self.center_m = next;
         }

@@ -700,3 +700,50 @@ fn the_climb_s_lag_is_no_overload() {
     assert_eq!(fly(true), 1.0);
     assert!(fly(false) < 0.7, "{}", fly(false));
 }
+
+/// The passage speed (shape.rs, `PASSAGE_SPEED_FRACTION`): while the separated stadium (bodies
+/// declared) is narrower than the ring, every command and the tray centre's replica keep to that
+/// fraction of `v_max`; the stadium without a separation floor keeps the whole limit, and back
+/// on the ring the command is the unshaped controller's, bit for bit.
+#[test]
+fn a_separated_stadium_flies_its_passage_slower() {
+    let n = 10;
+    let t = tube();
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
+    let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
+    let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
+    let nb = neighbours(&uavs);
+    // The team off its rest places and the load moving: commands at the limit.
+    let own = uavs[0] + Vec3::new(-1.5, 0.8, 0.0);
+    let m = Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::new(1.4, 0.0, 0.0), neighbours_m: &nb, own_cable_force_n: None };
+    let v_max = params().v_max_mps;
+    let slow = v_max * crate::shape::PASSAGE_SPEED_FRACTION;
+    let mut plain = team(n, &uavs, &load).remove(0);
+    let mut separated = team(n, &uavs, &load).remove(0);
+    let mut shaped = team(n, &uavs, &load).remove(0);
+    separated.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+    shaped.set_shape(ShapeParams::default(), &f, None).unwrap();
+    separated.shape_to_tube(&t, &narrow);
+    shaped.shape_to_tube(&t, &narrow);
+    assert!(separated.shape_fraction() < 1.0 && shaped.shape_fraction() < 1.0);
+    let full = plain.update(&t, &m, DT_S).vel_mps.xy().norm();
+    assert!(full > slow + 0.1, "the state asks for more than the passage speed: {full} m/s");
+    for _ in 0..50 {
+        let c = separated.update(&t, &m, DT_S);
+        assert!(c.vel_mps.xy().norm() <= slow * (1.0 + 1e-6), "{} m/s in the passage, limit {slow}", c.vel_mps.xy().norm());
+    }
+    let before = separated.tray_center_m();
+    separated.update(&t, &m, DT_S);
+    assert!((separated.tray_center_m() - before).norm() <= slow * DT_S * (1.0 + 1e-5), "the tray centre keeps the passage speed too");
+    assert!(shaped.update(&t, &m, DT_S).vel_mps.xy().norm() > slow + 0.1, "without bodies the stadium keeps v_max");
+    // Back on the ring: the whole limit again, bit for bit the unshaped law.
+    let mut fresh = team(n, &uavs, &load).remove(0);
+    let mut back = team(n, &uavs, &load).remove(0);
+    back.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+    back.shape_to_tube(&t, &narrow);
+    back.shape_to_tube(&t, &wide);
+    assert_eq!(back.shape_fraction(), 1.0);
+    assert_eq!(back.update(&t, &m, DT_S).vel_mps, fresh.update(&t, &m, DT_S).vel_mps);
+}

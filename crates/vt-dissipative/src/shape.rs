@@ -106,6 +106,15 @@ pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
 /// ([`separated_half_length_m`]).
 pub const LENGTH_STEPS: i32 = 8;
 
+/// The passage speed (extension, issue 27; docs/design.md, "The passage speed"): the fraction of
+/// `v_max` the formation flies at while the stadium is narrower than the ring *and* keeps a
+/// separation floor (bodies declared). There the stadium holds the pairs at the floor exactly,
+/// where the UAVs fly, so a pair's clearance above it is the team's tracking error, which grows
+/// with its speed (a velocity loop behind an attitude autopilot trails a moving command by
+/// about `v tau`). Measured on the paper's team with 0.445 m bodies and the 0.2 m floor: nominal
+/// disturbances from the ground 183 -> 200 of 200; the stock PX4 gains' world 30 -> 122 of 200.
+pub const PASSAGE_SPEED_FRACTION: f32 = 2.0 / 3.0;
+
 /// The team as the stadium's separation check needs it: each node's take-off angle about the
 /// tray centre (from the tube's direction, rad), its taut cable length (mm), the load node about
 /// the centre (stadium frame, m) and the tray height `H` (m).

@@ -4,7 +4,7 @@
 
 use super::RestLengths;
 use crate::capacity::FormationScale;
-use crate::shape::{separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, QUANTA};
+use crate::shape::{separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, PASSAGE_SPEED_FRACTION, QUANTA};
 use crate::Vec2;
 
 /// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
@@ -43,6 +43,16 @@ pub(super) struct TubeShape<const N: usize> {
 pub const DRIFT_AVERAGE_S: f32 = 1.0;
 
 impl<const N: usize> TubeShape<N> {
+    /// The fraction of `v_max` the formation flies at now: [`PASSAGE_SPEED_FRACTION`] while the
+    /// stadium keeps a separation floor (bodies declared) and is narrower than the ring, else 1.
+    pub(super) fn speed_fraction(&self) -> f32 {
+        if self.quantum < QUANTA && self.separation_m > 0.0 {
+            PASSAGE_SPEED_FRACTION
+        } else {
+            1.0
+        }
+    }
+
     /// UAV `id`'s rest lengths (and the tray centre's) written into `rest`, times `scale` (the
     /// capacity-aware formation's): at quantum [`QUANTA`] the take-off ones (eq:2-7, computed
     /// as `Formation::rest_length_m` does, so bit for bit), else the nodes at their take-off
