@@ -84,7 +84,9 @@ fn declared_bodies_keep_their_clearance_with_the_separation_barrier() {
 /// every surface keeps the 0.2 m floor and the mission succeeds (scenarios/campaigns/
 /// nominal-bodies.toml flies it under the nominal disturbances). Measured on 2026-11-29:
 /// 0.327 / 0.898 / 0.977 m, arrival 36.3 s; with the stadium as long as the ring, 0.035 m
-/// between two bodies (docs/design.md, "A formation shaped to the tube").
+/// between two bodies (docs/design.md, "A formation shaped to the tube"). Since 2026-12-01 the
+/// passages are flown at 2/3 of `v_max` (docs/design.md, "The passage speed"): 0.358 m between
+/// bodies, arrival 47.5 s.
 #[test]
 fn the_paper_team_with_bodies_keeps_the_floor_on_the_default_plant() {
     let mut t = PAPER_10UAV.replacen("[uavs]\n", "[uavs]\nbody_radius_m = 0.445\n", 1);
@@ -92,10 +94,11 @@ fn the_paper_team_with_bodies_keeps_the_floor_on_the_default_plant() {
     t.push_str("\n[controller.shape]\nenabled = true\n");
     let (s, _) = fly(&t);
     assert!(s.success, "{:?}", s.failures);
-    assert!(s.min_uav_uav_clearance_m >= 0.25, "{}", s.min_uav_uav_clearance_m);
+    assert!(s.min_uav_uav_clearance_m >= 0.3, "{}", s.min_uav_uav_clearance_m);
     assert!(s.min_uav_boundary_clearance_m >= 0.2, "{}", s.min_uav_boundary_clearance_m);
     assert!(s.min_obstacle_clearance_m >= 0.2, "{}", s.min_obstacle_clearance_m);
-    assert!(s.completion_time_s.is_some_and(|t| t < 45.0), "{:?}", s.completion_time_s);
+    // The passage speed costs the two passages about 11 s; it must not crawl.
+    assert!(s.completion_time_s.is_some_and(|t| t < 55.0), "{:?}", s.completion_time_s);
 }
 
 fn expect_error(text: &str, name: &str, must_contain: &[&str]) {
