@@ -577,9 +577,9 @@ impl Validator<'_> {
             let node = if len > 0.0 { load + off * (r_node as f32 / len) } else { uav };
             let clear = |q: vt_tube::Vec2| tube.locate(q, 0).map_or(f32::NEG_INFINITY, |sec| sec.boundary_distance_m(q));
             let (d_uav, d_node) = (clear(uav), clear(node));
-            let d = d_uav.min(d_node);
-            // `!(>=)`: a NaN distance is refused too.
-            if !(f64::from(d) >= r_safe) {
+            let d = f64::from(d_uav.min(d_node));
+            // A NaN distance is refused too.
+            if d.is_nan() || d < r_safe {
                 return Err(self.err("uavs", "formation_radius_m", format!(
                     "UAV {i} takes off {d_uav:.2} m from the tube's boundary (its node {d_node:.2} m), within r_safe {r_safe:.2} m: the tube narrows within the take-off formation's reach of the start")));
             }
