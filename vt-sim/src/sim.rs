@@ -97,6 +97,9 @@ pub struct Takeoff {
     pub share_n: f64,
     /// Vertical capacity of the capped cables at the take-off lean / load weight.
     pub capacity_margin: f64,
+    /// Radius of the take-off node circle on the tray, m: the scenario's times the
+    /// capacity-aware formation's scale ([`takeoff_scale`]).
+    pub node_radius_m: f64,
 }
 
 /// Computes the take-off state: nodes on the formation circle around the load, cables taut
@@ -139,7 +142,7 @@ pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64
             load + V3::new(offset * a.cos(), offset * a.sin(), z)
         })
         .collect();
-    Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin }
+    Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin, node_radius_m: r }
 }
 
 /// Height above the resting load at which a ground start's UAVs hover before take-off, m:

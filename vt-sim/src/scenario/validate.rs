@@ -531,8 +531,6 @@ impl Validator<'_> {
                     "UAV {i} would fly at {:.1} m, above the ceiling {} m", s.load.altitude_m + height, s.world.ceiling_m)));
             }
         }
-        let start = tube.locate(vt_tube::Vec2::zeros(), 0);
-        let _ = start;
         let s0 = s.load.start_s_m as f32;
         if s0 >= tube.length_m() {
             return Err(self.err("load", "start_s_m", format!("beyond the tube end ({:.1} m)", tube.length_m())));
@@ -567,14 +565,14 @@ impl Validator<'_> {
     /// places inside the tube").
     fn check_takeoff_places(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
         let r_safe = s.uavs.flown_r_safe_m(s.controller.r_safe_m, s.mission.clearance_floor());
-        let r_node = s.uavs.formation_radius_m * crate::sim::takeoff_scale(s, s.cables.rated_n);
         let t = crate::sim::takeoff(s, tube, s.cables.rated_n);
+        let r_node = t.node_radius_m as f32;
         let load = vt_tube::Vec2::new(t.load_pos_m.x as f32, t.load_pos_m.y as f32);
         for (i, p) in t.uav_pos_m.iter().enumerate() {
             let uav = vt_tube::Vec2::new(p.x as f32, p.y as f32);
             let off = uav - load;
             let len = off.norm();
-            let node = if len > 0.0 { load + off * (r_node as f32 / len) } else { uav };
+            let node = if len > 0.0 { load + off * (r_node / len) } else { uav };
             let clear = |q: vt_tube::Vec2| tube.locate(q, 0).map_or(f32::NEG_INFINITY, |sec| sec.boundary_distance_m(q));
             let (d_uav, d_node) = (clear(uav), clear(node));
             let d = f64::from(d_uav.min(d_node));
