@@ -68,9 +68,10 @@ fn carries_19_8_kg_with_the_20_n_cap_as_a_hard_limit() {
     assert!(!off.success && off.capacity_margin < 1.0, "without the law the paper formation cannot lift {mass} kg: {}", describe(&off));
 }
 
+/// Campaign `name` in its base scenario's own world (tests/robustness.rs's `load`).
 fn load(name: &str) -> Campaign {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns").join(name);
-    campaign::load(Some(&p)).expect("campaign is valid")
+    campaign::load_in(Some(&p), Some(campaign::World::Scenario)).expect("campaign is valid")
 }
 
 fn jobs() -> usize {

@@ -115,7 +115,7 @@ fn unknown_forests_are_flown_where_a_route_exists_and_never_where_none_does() {
     let text = text.split("[levels]").next().unwrap_or_default().to_string();
     let file = dir.join("forest.toml");
     std::fs::write(&file, text).unwrap_or_else(|e| panic!("{e}"));
-    let c = campaign::load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+    let c = campaign::load_in(Some(&file), Some(campaign::World::Scenario)).unwrap_or_else(|e| panic!("{e}"));
     assert!(c.forest.is_some() && c.name.starts_with("unknown forests over"));
     let rows = campaign::fly(&c, 40, 100, 2, false).unwrap_or_else(|e| panic!("{e}"));
     let rep = campaign::report(&c, 100, &rows);

@@ -4,9 +4,12 @@
 use host_sim::campaign::{self, Campaign};
 use std::path::Path;
 
+/// Campaign `name` flown in its base scenario's own world: these are the claims about the
+/// scenarios as written (the real-aircraft world's figures are docs/robustness.md's,
+/// "Every campaign in the real-aircraft world").
 fn load(name: &str) -> Campaign {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns").join(name);
-    campaign::load(Some(&p)).expect("campaign is valid")
+    campaign::load_in(Some(&p), Some(campaign::World::Scenario)).expect("campaign is valid")
 }
 
 /// Keeps only `level` of campaign `c` (its scenario and the table the generator draws over).

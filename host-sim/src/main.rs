@@ -124,6 +124,12 @@ enum Cmd {
         /// OUT/shard.json for `sweep merge`.
         #[arg(long, value_name = "K/N")]
         shard: Option<host_sim::campaign::ShardSpec>,
+        /// The world a campaign's base is flown in: `real_aircraft` (ground start, PX4's stock
+        /// gains, RTK errors, attitude estimate, turbulence, thrust errors, declared bodies and
+        /// a 0.2 m clearance floor) or `scenario` (as written). Default: the campaign's `world`
+        /// key, else `real_aircraft`; a plain scenario file always flies as written.
+        #[arg(long, value_parser = host_sim::campaign::World::parse)]
+        world: Option<host_sim::campaign::World>,
     },
     /// Processor-in-the-loop: fly the mission with each UAV's controller in its own QEMU
     /// (the `qemu` firmware over MAVLink) and SIL with host twins; compare every command and
@@ -292,7 +298,7 @@ fn main() -> ExitCode {
         Cmd::Run { scenario, controller, f_max, out, seed, plant, mcap } => run(scenario, controller_kind(controller), f_max, &out, seed, plant, mcap.as_deref()),
         Cmd::Compare { scenario, f_max, out, seed, plant, mcap } => compare(scenario, f_max, &out, seed, plant, mcap.as_deref()),
         Cmd::Sweep { merge: Some(SweepCmd::Merge { dirs, out }), .. } => sweep_merge(&dirs, &out),
-        Cmd::Sweep { merge: None, scenario, runs, jobs, seed, out, replay_worst, shard } => sweep(scenario, runs, jobs, seed, &out, replay_worst, shard),
+        Cmd::Sweep { merge: None, scenario, runs, jobs, seed, out, replay_worst, shard, world } => sweep(scenario, runs, jobs, seed, &out, replay_worst, shard, world),
         Cmd::Pil { scenario, out, firmware, duration, plant, mcap } => {
             if let Some(d) = duration {
                 if !(d.is_finite() && d > 0.0) {
@@ -472,9 +478,10 @@ fn compare(path: Option<PathBuf>, f_max: Option<f64>, out: &std::path::Path, see
     result.unwrap_or_else(|c| c)
 }
 
-fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path, replay_worst: bool, shard: Option<host_sim::campaign::ShardSpec>) -> ExitCode {
+#[allow(clippy::too_many_arguments)]
+fn sweep(path: Option<PathBuf>, runs: Option<usize>, jobs: Option<usize>, seed: Option<u64>, out: &std::path::Path, replay_worst: bool, shard: Option<host_sim::campaign::ShardSpec>, world: Option<host_sim::campaign::World>) -> ExitCode {
     use host_sim::campaign;
-    let c = match campaign::load(path.as_deref()) {
+    let c = match campaign::load_in(path.as_deref(), world) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("error: {e}");

@@ -11,7 +11,8 @@
 //! campaign's. With `declare_wind = true` every run declares its wind as a forecast would
 //! (`[mission] max_wind_mps` = the mean wind, `gust_margin_mps` = two gust standard deviations,
 //! at the run's intensity); a team that cannot hold it is refused before take-off and the row
-//! says so (`outcome = "refused"`).
+//! says so (`outcome = "refused"`). `world` (`"real_aircraft"`, the default, or `"scenario"`)
+//! says which world the base is flown in ([`world`]); a plain scenario file flies as written.
 
 use crate::scenario::{self, LoadedScenario, ScenarioError};
 use crate::sim::{self, RunOptions};
@@ -22,10 +23,12 @@ use std::path::Path;
 
 pub mod forest;
 pub mod shard;
+pub mod world;
 pub use shard::{merge, ShardFile, ShardSpec};
+pub use world::World;
 
 /// Keys of a campaign file that are not scenario fields.
-const CAMPAIGN_KEYS: [&str; 7] = ["base", "runs", "seed", "levels", "generate", "declare_wind", "forest"];
+const CAMPAIGN_KEYS: [&str; 8] = ["base", "runs", "seed", "levels", "generate", "declare_wind", "forest", "world"];
 
 /// A loaded campaign.
 #[derive(Debug, Clone)]
@@ -48,6 +51,8 @@ pub struct Campaign {
     pub forest: Option<forest::ForestSpec>,
     /// The merged scenario table of each level (what the generator draws over).
     pub tables: Vec<toml::Table>,
+    /// The world the base is flown in ([`World::Scenario`] for a plain scenario file).
+    pub world: World,
 }
 
 fn err(source: &str, field: Option<&str>, message: String) -> ScenarioError {
@@ -103,10 +108,19 @@ fn set_dotted(t: &mut toml::Table, key: &str, value: f64) -> bool {
 /// Unreadable files, TOML errors, unknown campaign structure, and scenario validation errors
 /// (naming the field; lines refer to the file that holds it when it is a plain scenario).
 pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
+    load_in(path, None)
+}
+
+/// [`load`], flying a campaign file's base in `world` instead of the file's `world` key (a
+/// plain scenario file, or the built-in one, always flies as written).
+///
+/// # Errors
+/// As [`load`].
+pub fn load_in(path: Option<&Path>, world: Option<World>) -> Result<Campaign, ScenarioError> {
     let Some(path) = path else {
         let ls = scenario::load(None)?;
         let tables = vec![toml::from_str(scenario::PAPER_10UAV).map_err(|e| err(scenario::DEFAULT_SCENARIO_NAME, None, e.to_string()))?];
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, declare_wind: false, forest: None, tables });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed: 1, generate: false, declare_wind: false, forest: None, tables, world: World::Scenario });
     };
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| err(&name, None, format!("cannot read: {e}")))?;
@@ -119,7 +133,7 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     let Some(base) = table.get("base") else {
         let ls = scenario::parse(&text, &name)?;
         let seed = ls.scenario.seed;
-        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, declare_wind: false, forest: None, tables: vec![table] });
+        return Ok(Campaign { name: ls.scenario.name.clone(), levels: vec![(None, ls)], level_key: None, runs: 20, seed, generate: false, declare_wind: false, forest: None, tables: vec![table], world: World::Scenario });
     };
     let base = base.as_str().ok_or_else(|| err(&name, Some("base"), "must be a path string".into()))?;
     let (base_text, base_name) = if base == "builtin:paper-10uav" {
@@ -156,6 +170,18 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
             bt.remove("plan");
         }
     }
+    let world = match (world, table.get("world")) {
+        (Some(w), _) => w,
+        (None, None) => World::default(),
+        (None, Some(v)) => v.as_str().ok_or_else(|| "must be a string".to_string()).and_then(World::parse).map_err(|m| err(&name, Some("world"), m))?,
+    };
+    let generated = table.get("generate").and_then(toml::Value::as_bool).unwrap_or(false);
+    // The world is chosen on the base with the campaign's own tables (its airframe or plant
+    // may be the campaign's), and merged under them.
+    let mut probe = merged.clone();
+    merge_tables(&mut probe, &over);
+    let world_table = world.overlay(&probe, generated, &name)?;
+    merge_tables(&mut merged, &world_table);
     merge_tables(&mut merged, &over);
     let runs = match table.get("runs") {
         None => 20,
@@ -211,7 +237,10 @@ pub fn load(path: Option<&Path>) -> Result<Campaign, ScenarioError> {
     if forest.is_some() {
         name = format!("unknown forests over {name}");
     }
-    Ok(Campaign { name, levels, level_key, runs, seed, generate, declare_wind, forest, tables })
+    if !world_table.is_empty() {
+        name = format!("{name} in the real-aircraft world");
+    }
+    Ok(Campaign { name, levels, level_key, runs, seed, generate, declare_wind, forest, tables, world })
 }
 
 /// One run's row of `sweep.csv`.

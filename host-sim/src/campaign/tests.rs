@@ -155,3 +155,69 @@ fn declared_wind_refuses_the_runs_the_team_cannot_hold() {
     assert!(worst(&rows).is_some_and(|w| !w.summary.was_refused()));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 27 §5: a campaign flies its base in the real-aircraft world by default: ground start,
+/// PX4's stock gains with the matched observer lag, the airframe's envelope declared, the
+/// formation shaped, RTK errors, the attitude estimate, light turbulence, thrust errors and
+/// the 0.2 m floor. The campaign's own tables still win; `world = "scenario"` (or the
+/// command line's override) flies the base as written; a point-mass base keeps its world.
+#[test]
+fn campaigns_fly_the_real_aircraft_world_unless_told_otherwise() {
+    use crate::scenario::{AutopilotPreset, MissionStart};
+    use crate::sensing::{AttitudeModel, PositionModel};
+    let scenarios = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios");
+    let dir = std::env::temp_dir().join(format!("vt-campaign-world-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, base: &str, rest: &str| {
+        let file = dir.join(name);
+        std::fs::write(&file, format!("base = {:?}\nruns = 2\n{rest}", scenarios.join(base).display().to_string())).unwrap();
+        file
+    };
+    let plain = write("plain.toml", "experiment-3uav.toml", "[disturbances]\nposition_noise_m = 0.02\n");
+    let c = load(Some(&plain)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(c.world, World::RealAircraft);
+    assert!(c.name.ends_with("in the real-aircraft world"), "{}", c.name);
+    let s = &c.levels[0].1.scenario;
+    assert_eq!(s.mission.start, MissionStart::Ground);
+    assert_eq!(s.mission.clearance_floor_m, Some(world::CLEARANCE_FLOOR_M));
+    assert_eq!(s.uavs.autopilot, AutopilotPreset::Px4Default);
+    let envelope = crate::quadrotor::QuadParams::sized(s.uavs.mass_kg, s.uavs.thrust_max_n).envelope_radius_m();
+    assert_eq!(s.uavs.body_radius_m, Some(envelope));
+    assert!((envelope - 0.404).abs() < 1e-3, "the 1.47 kg airframe: {envelope}");
+    assert!(s.controller.shape.enabled);
+    assert_eq!(s.velocity_loop.rigid_body.and_then(|t| t.actuator_lag_s), Some(world::STOCK_AUTOPILOT_LAG_S));
+    assert_eq!((s.sensing.position, s.sensing.attitude), (PositionModel::Rtk, AttitudeModel::Px4));
+    assert_eq!((s.disturbances.turbulence, s.disturbances.thrust_scale_error), (world::TURBULENCE, world::THRUST_SCALE_ERROR));
+    assert_eq!(s.disturbances.position_noise_m, 0.02, "the campaign's own disturbances stay");
+
+    // The campaign's keys win over the world's.
+    let air = write("air.toml", "experiment-3uav.toml", "[mission]\nstart = \"air\"\n[uavs]\nautopilot = \"tuned\"\nbody_radius_m = 0.5\n");
+    let s = load(Some(&air)).unwrap_or_else(|e| panic!("{e}")).levels[0].1.scenario.clone();
+    assert_eq!((s.mission.start, s.uavs.autopilot, s.uavs.body_radius_m), (MissionStart::Air, AutopilotPreset::Tuned, Some(0.5)));
+    assert_eq!(s.sensing.position, PositionModel::Rtk, "the rest of the world stays");
+
+    // As written: by the file's key, or by the command line over it.
+    let as_written = crate::scenario::load(Some(&scenarios.join("experiment-3uav.toml"))).unwrap_or_else(|e| panic!("{e}")).scenario;
+    let keyed = write("keyed.toml", "experiment-3uav.toml", "world = \"scenario\"\n");
+    for c in [load(Some(&keyed)), load_in(Some(&plain), Some(World::Scenario))] {
+        let c = c.unwrap_or_else(|e| panic!("{e}"));
+        let s = &c.levels[0].1.scenario;
+        assert_eq!(c.world, World::Scenario);
+        assert_eq!((s.mission.start, s.uavs.autopilot, s.uavs.body_radius_m), (as_written.mission.start, as_written.uavs.autopilot, None));
+        assert_eq!((s.sensing.position, s.disturbances.turbulence), (PositionModel::White, 0.0));
+    }
+    assert_eq!(load_in(Some(&keyed), Some(World::RealAircraft)).unwrap_or_else(|e| panic!("{e}")).world, World::RealAircraft);
+
+    // A point-mass base keeps its own world; a plain scenario file flies as written.
+    let pm = write("pm.toml", "paper-10uav.toml", "[uavs]\nmodel = \"point_mass\"\n");
+    let s = load(Some(&pm)).unwrap_or_else(|e| panic!("{e}")).levels[0].1.scenario.clone();
+    assert_eq!((s.mission.start, s.sensing.position, s.uavs.body_radius_m), (MissionStart::Air, PositionModel::White, None));
+    assert_eq!(load(Some(&scenarios.join("experiment-3uav.toml"))).unwrap_or_else(|e| panic!("{e}")).world, World::Scenario);
+
+    // A bad name is an error naming the key.
+    let bad = write("bad.toml", "experiment-3uav.toml", "world = \"mars\"\n");
+    let e = load(Some(&bad)).unwrap_err();
+    assert_eq!(e.field.as_deref(), Some("world"), "{e}");
+    assert!(e.to_string().contains("mars") && e.to_string().contains("real_aircraft"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
