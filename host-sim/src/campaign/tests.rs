@@ -221,3 +221,29 @@ fn campaigns_fly_the_real_aircraft_world_unless_told_otherwise() {
     assert!(e.to_string().contains("mars") && e.to_string().contains("real_aircraft"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `scenarios/campaigns/real-world.toml` spells the real-aircraft world out: flown as written,
+/// its scenario at each level is the one the world's table gives the nominal campaign's
+/// disturbances (with its bodies' 0.445 m, the envelope rounded).
+#[test]
+fn the_real_world_campaign_is_the_real_aircraft_world_spelled_out() {
+    let campaigns = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns");
+    let spelled = load_in(Some(&campaigns.join("real-world.toml")), Some(World::Scenario)).unwrap_or_else(|e| panic!("{e}"));
+    let dir = std::env::temp_dir().join(format!("vt-campaign-real-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("nominal-real.toml");
+    let text = format!(
+        "base = {:?}\nruns = 200\nseed = 1000\n[levels]\nkey = \"disturbances.intensity\"\nvalues = [1.0, 3.0]\n[uavs]\nbody_radius_m = 0.445\n\
+         [link]\ndrop_probability = 0.10\n[disturbances]\nposition_noise_m = 0.05\nvelocity_noise_mps = 0.05\nlatency_s = 0.02\nlink_jitter_s = 0.02\n\
+         wind_mean_mps = [3.0, 0.0, 0.0]\ngust_std_mps = 1.0\ngust_tau_s = 2.0\n",
+        campaigns.join("../paper-10uav.toml").display().to_string()
+    );
+    std::fs::write(&file, text).unwrap();
+    let world = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(world.levels.len(), spelled.levels.len());
+    for ((la, a), (lb, b)) in world.levels.iter().zip(&spelled.levels) {
+        assert_eq!(la, lb);
+        assert_eq!(format!("{:?}", a.scenario), format!("{:?}", b.scenario), "level {la:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
