@@ -137,28 +137,30 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The planner's work space (about 150 KiB): the distance field (two bytes a cell,
-/// `vt_plan::distance_transform_squares`), its line buffers and the lattice search's arrays
-/// (three `f32` and three `u16` a node). Apart from the map, so a board can lend it to a task
+/// The planner's work space (about 140 KiB): the distance field (two bytes a cell,
+/// `vt_plan::distance_transform_squares`), the transform's envelope and the lattice search's
+/// arrays (three `f32` and three `u16` a node), whose floats lend the transform its line buffers. Apart from the map, so a board can lend it to a task
 /// of lower priority while the map keeps taking scans ([`Perception::prepare`],
 /// [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
     plan_cells: [u16; PLAN_CELLS],
-    line: [f32; 3 * PLAN_LINE + 1],
     envelope: [usize; PLAN_LINE + 1],
-    breaks: [f32; PLAN_LINE + 2],
+    /// The lattice's three `f32` a node; before the search, the distance transform's line
+    /// buffers (`3 PLAN_LINE + 1` and `PLAN_LINE + 2` of them): the transform is done before
+    /// the search starts, and every search clears what it reads first.
     floats: [f32; 3 * LATTICE_NODES],
     ints: [u16; 3 * LATTICE_NODES],
 }
+
+/// The transform's line buffers fit in the lattice's floats.
+const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 3 * LATTICE_NODES);
 
 impl PlannerSpace {
     /// Storage, every byte zero (`.bss` in a firmware's `static`).
     pub const fn zeroed() -> Self {
         Self {
             plan_cells: [0; PLAN_CELLS],
-            line: [0.0; 3 * PLAN_LINE + 1],
             envelope: [0; PLAN_LINE + 1],
-            breaks: [0.0; PLAN_LINE + 2],
             floats: [0.0; 3 * LATTICE_NODES],
             ints: [0; 3 * LATTICE_NODES],
         }
@@ -175,7 +177,10 @@ impl PlannerSpace {
     /// The planner's: no route, a start inside an obstacle.
     pub fn plan(&mut self, p: &Prepared, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
         let cells = self.plan_cells.get_mut(..p.width * p.height).ok_or(PlanError::BadParams { field: "plan cells" })?;
-        vt_plan::distance_transform_squares(cells, p.width, p.height, &mut self.line, &mut self.envelope, &mut self.breaks)?;
+        // The transform's line buffers lent by the lattice (its first search resets them).
+        let (line, rest) = self.floats.split_at_mut(3 * PLAN_LINE + 1);
+        let breaks = rest.get_mut(..PLAN_LINE + 2).ok_or(PlanError::BadParams { field: "work space" })?;
+        vt_plan::distance_transform_squares(cells, p.width, p.height, line, &mut self.envelope, breaks)?;
         let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
         let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
         vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
