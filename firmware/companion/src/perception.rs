@@ -139,9 +139,9 @@ pub enum Keep {
 
 /// The planner's work space (about 140 KiB): the distance field (two bytes a cell,
 /// `vt_plan::distance_transform_squares`), the transform's envelope and the lattice search's
-/// arrays (three `f32` and three `u16` a node), whose floats lend the transform its line buffers. Apart from the map, so a board can lend it to a task
-/// of lower priority while the map keeps taking scans ([`Perception::prepare`],
-/// [`PlannerSpace::plan`]).
+/// arrays (three `f32` and three `u16` a node), whose floats lend the transform its line
+/// buffers. Apart from the map, so a board can lend it to a task of lower priority while the
+/// map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
     plan_cells: [u16; PLAN_CELLS],
     envelope: [usize; PLAN_LINE + 1],

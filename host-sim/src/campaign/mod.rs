@@ -175,12 +175,16 @@ pub fn load_in(path: Option<&Path>, world: Option<World>) -> Result<Campaign, Sc
         (None, None) => World::default(),
         (None, Some(v)) => v.as_str().ok_or_else(|| "must be a string".to_string()).and_then(World::parse).map_err(|m| err(&name, Some("world"), m))?,
     };
-    let generated = table.get("generate").and_then(toml::Value::as_bool).unwrap_or(false);
+    let flag = |key: &str| match table.get(key) {
+        None => Ok(false),
+        Some(v) => v.as_bool().ok_or_else(|| err(&name, Some(key), "must be true or false".into())),
+    };
+    let (generate, declare_wind) = (flag("generate")?, flag("declare_wind")?);
     // The world is chosen on the base with the campaign's own tables (its airframe or plant
     // may be the campaign's), and merged under them.
     let mut probe = merged.clone();
     merge_tables(&mut probe, &over);
-    let world_table = world.overlay(&probe, generated, &name)?;
+    let world_table = world.overlay(&probe, generate, &name)?;
     merge_tables(&mut merged, &world_table);
     merge_tables(&mut merged, &over);
     let runs = match table.get("runs") {
@@ -191,11 +195,6 @@ pub fn load_in(path: Option<&Path>, world: Option<World>) -> Result<Campaign, Sc
         None => 1,
         Some(v) => v.as_integer().filter(|r| *r >= 0).ok_or_else(|| err(&name, Some("seed"), "must be an integer >= 0".into()))? as u64,
     };
-    let flag = |key: &str| match table.get(key) {
-        None => Ok(false),
-        Some(v) => v.as_bool().ok_or_else(|| err(&name, Some(key), "must be true or false".into())),
-    };
-    let (generate, declare_wind) = (flag("generate")?, flag("declare_wind")?);
     let forest = table.get("forest").map(|v| forest::ForestSpec::parse(v, &name)).transpose()?;
     if generate && forest.is_some() {
         return Err(err(&name, Some("forest"), "a campaign either generates its missions or draws forests, not both".into()));
