@@ -95,7 +95,7 @@ fn an_undeclared_overload_is_abandoned_on_the_ground() {
 }
 
 /// The start checks run with the cables taut and the load still down: a declared wind above the
-/// team's capacity is refused there (code 8), and the team slackens and releases. (Scenario
+/// team's capacity is refused there (code 8), and the team lands at once. (Scenario
 /// validation refuses such a file before any flight; a campaign's drawn wind reaches the
 /// companions as this one does.)
 #[test]
@@ -107,7 +107,7 @@ fn a_refused_start_check_leaves_the_load_on_the_ground() {
     println!("wind refusal: outcome {}, {:?}, phases {:?}", s.outcome, s.failures, names(&s));
     assert_eq!(s.outcome, "refused");
     assert!(s.failures[0].contains("refusal code 8"), "{:?}", s.failures);
-    assert_eq!(names(&s), ["takeoff", "tension", "slack", "released"]);
+    assert_eq!(names(&s), ["takeoff", "tension", "released"]);
     let top = rec.load_pos_m.iter().map(|p| p[2]).fold(f64::MIN, f64::max);
     assert!(top < s.load_radius_m + 0.05, "the load stayed down: {top:.2} m");
 }

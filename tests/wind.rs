@@ -138,3 +138,43 @@ fn a_wind_beyond_the_capacity_in_the_air_sets_the_load_down_inside_the_tube() {
         assert!(!s.reached_end && s.cables_broken == 0);
     }
 }
+
+/// Issue 27's safety finding (docs/design.md, "A refused start lands at once"): in the
+/// real-aircraft world at three times the nominal campaign's disturbances, seed 7013 of
+/// `strong-wind-experiment` has UAV 2 blown off its place 1 s after the take-off (refusal
+/// code 10, it lands at once). Its neighbours hold 3 s, then land at once too: the phases go
+/// from the take-off straight to `released`. Through the 7 s slack they used to fly at their
+/// cables' taut height first, they were blown 6 m downwind and dragged the load 4.95 m out of
+/// the tube; it now stays inside.
+#[test]
+fn a_start_held_in_a_wind_the_team_cannot_fight_lands_and_keeps_the_load_in_the_tube() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/strong-wind-experiment.toml");
+    let c = host_sim::campaign::load_in(Some(&path), Some(host_sim::campaign::World::RealAircraft)).expect("campaign");
+    let rows = host_sim::campaign::fly(&c, 1, 7013, 1, false).expect("flies");
+    let s = &rows.iter().find(|r| r.level == Some(3.0)).expect("the 3x level").summary;
+    let names: Vec<&str> = s.phases.iter().map(|m| m.name.as_str()).collect();
+    println!("seed 7013 at 3x: outcome {}, phases {names:?}, load-boundary {:.2} m, {:?}", s.outcome, s.min_load_boundary_m, s.failures);
+    assert_eq!(s.outcome, "refused");
+    assert!(s.failures[0].contains("refusal code 10"), "{:?}", s.failures);
+    assert_eq!(names, ["takeoff", "released"], "no slack before the landing");
+    assert!(s.min_load_boundary_m > 1.0, "the load stays inside the tube: {:.2} m", s.min_load_boundary_m);
+    assert_eq!(s.cables_broken, 0);
+}
+
+/// The same rule where part of the team had armed: generated seed 5157 at 1x (four 1.47 kg
+/// UAVs, real-aircraft world). UAV 3's start checks refuse at its arming (the hover's wind
+/// survey, code 8) and it lands at once, while the other three have armed and hold their lift.
+/// Its `released` heartbeat takes it out of their law: kept in, its springs pulled the three
+/// over its spot on the ground, to 0.49 m between centres. Now no pair comes closer than the
+/// landing's spacing.
+#[test]
+fn a_member_that_lands_after_its_refusal_leaves_the_armed_law() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
+    let c = host_sim::campaign::load_in(Some(&path), Some(host_sim::campaign::World::RealAircraft)).expect("campaign");
+    let rows = host_sim::campaign::fly(&c, 1, 5157, 1, false).expect("flies");
+    let s = &rows.iter().find(|r| r.level == Some(1.0)).expect("the 1x level").summary;
+    println!("generated 5157 at 1x: outcome {}, UAV-UAV {:.3} m, {:?}", s.outcome, s.min_uav_uav_m, s.failures);
+    assert_eq!(s.outcome, "refused");
+    assert!(s.failures[0].contains("UAV 3") && s.failures[0].contains("refusal code 8"), "{:?}", s.failures);
+    assert!(s.min_uav_uav_m >= vt_dissipative::landing::LAND_SPACING_M as f64, "UAV-UAV {:.3} m", s.min_uav_uav_m);
+}

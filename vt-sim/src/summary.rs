@@ -260,7 +260,8 @@ impl Summary {
         }
     }
 
-    /// Nothing flew: the team refused before take-off.
+    /// The team refused its start: before take-off (nothing flew, `sim_time_s` 0) or on the
+    /// ground before the lift (it took off and landed).
     pub fn was_refused(&self) -> bool {
         self.outcome == "refused"
     }

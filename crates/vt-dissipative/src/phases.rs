@@ -17,7 +17,7 @@
 //! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`HoldWatch`]) descends at once |
 //! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off |
 //! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
-//! | released | `z_g - slack` | land in place at [`crate::landing::LAND_SPEED_MPS`], motors idle once down ([`crate::landing::LandDetector`]); a UAV that cannot hold its place before the arming comes here at once ([`PhaseProfile::land_now`]) |
+//! | released | `z_g - slack` | land in place at [`crate::landing::LAND_SPEED_MPS`], motors idle once down ([`crate::landing::LandDetector`]); a start refused before the lift comes here at once: a UAV that cannot hold its place before the arming ([`PhaseProfile::land_now`]), the start checks' refusal at the arming and a start held too long before it ([`PhaseProfile::refuse`]) |
 
 use crate::ControlError;
 
@@ -414,12 +414,14 @@ impl PhaseProfile {
         }
     }
 
-    /// The start checks refused: the cables slacken with the load on the ground.
+    /// The start checks refused at the arming: the UAV lands at once, as [`Self::land_now`].
+    /// The load never left the ground and its cable carries at most the pretension, which the
+    /// landing's first centimetres take off; the set-down's slow slack (`slack_m` at `v_lift`,
+    /// then `settle_s`: 7 s by default) would keep it up in a wind that may be the reason for
+    /// the refusal (docs/design.md, "A refused start lands at once"). Members that armed drop
+    /// it from their law once it broadcasts `released`.
     pub fn refuse(&mut self) {
-        if matches!(self.phase, Phase::Takeoff | Phase::Tension) {
-            self.abort = Some(Abort::Refused);
-            self.enter_slack(self.p.ground_z_m);
-        }
+        self.land_now();
     }
 
     /// The UAV cannot hold its place before the arming ([`crate::landing::STATION_DRIFT_ABORT_M`]): the start is
@@ -459,7 +461,8 @@ impl PhaseProfile {
                 }
             } else if matches!(self.phase, Phase::Takeoff | Phase::Tension) {
                 // Before the arming, a hold as long abandons the start too (a member that
-                // refused, or cannot hold its place, holds its team): the team lands.
+                // refused, or cannot hold its place, holds its team): the team lands at once
+                // ([`Self::refuse`]).
                 self.held_s += dt;
                 if self.held_s > LIFT_HOLD_ABORT_S {
                     self.refuse();

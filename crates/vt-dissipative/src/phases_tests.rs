@@ -98,12 +98,16 @@ fn a_hold_freezes_the_ramp_and_the_timers() {
 
 #[test]
 fn a_start_held_too_long_or_off_station_is_abandoned_with_the_load_down() {
-    // A hold longer than `LIFT_HOLD_ABORT_S` before the arming: refused, the cables slacken.
+    // A hold longer than `LIFT_HOLD_ABORT_S` before the arming: refused, the team lands at once.
     let mut pr = PhaseProfile::ground(params()).unwrap();
-    for _ in 0..151 {
+    for _ in 0..149 {
         pr.step(0.02, Some(0.3), false, true);
     }
-    assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::Refused)));
+    assert_eq!((pr.phase(), pr.abort()), (Phase::Takeoff, None), "not before LIFT_HOLD_ABORT_S");
+    for _ in 0..2 {
+        pr.step(0.02, Some(0.3), false, true);
+    }
+    assert_eq!((pr.phase(), pr.abort()), (Phase::Released, Some(Abort::Refused)));
     assert!(pr.load_altitude_ref_m() <= 0.3);
     // Off station (the caller's watch): released at once, in take-off and in tension.
     for tension in [false, true] {
@@ -115,7 +119,7 @@ fn a_start_held_too_long_or_off_station_is_abandoned_with_the_load_down() {
         pr.land_now();
         assert_eq!((pr.phase(), pr.abort()), (Phase::Released, Some(Abort::Refused)));
     }
-    // Not once armed: a_refusal_before_the_lift_slackens_from_the_ground.
+    // Not once armed: a_refusal_before_the_lift_lands_at_once.
 }
 
 #[test]
@@ -291,10 +295,23 @@ fn an_air_start_hovers_at_the_end_and_sets_down_only_when_it_cannot_hold() {
 }
 
 #[test]
-fn a_refusal_before_the_lift_slackens_from_the_ground() {
-    let mut pr = PhaseProfile::ground(params()).unwrap();
-    pr.refuse();
-    assert_eq!((pr.phase(), pr.abort()), (Phase::Slack, Some(Abort::Refused)));
+fn a_refusal_before_the_lift_lands_at_once() {
+    // In take-off and at the end of the tension build-up alike: no slow slack with the load
+    // down (a set-down's), the landing straight away.
+    for tension in [false, true] {
+        let mut pr = PhaseProfile::ground(params()).unwrap();
+        if tension {
+            run(&mut pr, |_| 0.3, false, 10_000);
+            while !pr.ready_to_arm() {
+                pr.step(0.02, Some(0.3), false, false);
+            }
+        }
+        pr.refuse();
+        assert_eq!((pr.phase(), pr.abort()), (Phase::Released, Some(Abort::Refused)));
+        assert_eq!(pr.load_altitude_ref_m(), params().ground_z_m - params().slack_m);
+        pr.step(0.02, Some(0.3), false, false);
+        assert_eq!(pr.phase(), Phase::Released, "released stays released");
+    }
     // Too late to refuse once lifted: nothing changes.
     let mut lifted = PhaseProfile::ground(params()).unwrap();
     run(&mut lifted, |_| 0.3, false, 10_000);

@@ -86,6 +86,9 @@ pub struct Sources {
     /// Bit `j` set: neighbour `j`'s last broadcast mode was [`TeamMode::Hold`] (own bit never
     /// set); it counts while the neighbour's position is fresh.
     pub neighbour_hold: MemberBits,
+    /// Bit `j` set: neighbour `j`'s last broadcast phase was [`Phase::Released`] (own bit
+    /// never set): it lands, and the armed law flies on without it.
+    pub neighbour_released: MemberBits,
     /// Before the mission starts: the take-off positions averaged over `VT_CAL_N` samples per
     /// source (`vt_dissipative::survey`); [`Flight::start`] calibrates from them.
     pub survey: TakeoffSurvey<MAX_UAVS>,
@@ -159,7 +162,7 @@ impl Sources {
 
     /// Nothing received yet.
     pub const fn new() -> Self {
-        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: MemberBits::EMPTY, survey: TakeoffSurvey::new(1) }
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: MemberBits::EMPTY, neighbour_released: MemberBits::EMPTY, survey: TakeoffSurvey::new(1) }
     }
 }
 
@@ -484,6 +487,17 @@ impl Flight {
             high.set_team_hold(holding || phase.passing_off());
             if let Some(z) = z_ref {
                 high.set_load_altitude_ref(z, phase.sharing());
+            }
+            // A released neighbour lands: its springs and clearance leave the armed law, which
+            // would otherwise pull the UAVs still flying over its spot on the ground
+            // (docs/design.md, "A refused start lands at once"). No neighbour is released in
+            // transport: one test then.
+            if src.neighbour_released.any() {
+                for (j, slot) in view.iter_mut().enumerate().take(self.n) {
+                    if src.neighbour_released.get(j) {
+                        *slot = None;
+                    }
+                }
             }
             // Measurements carried forward to now (vt_cfo::prediction): own position by the
             // velocity loop's last prediction (made from this same sample), the load at constant

@@ -104,6 +104,34 @@ fn a_neighbours_hold_is_followed_with_the_controllers_team_hold_and_released_aft
     assert!(fl.velocity_command_mps().x > 0.1, "advancing again");
 }
 
+/// A neighbour that broadcasts `released` (it refused its start, or was blown off its place,
+/// and lands) leaves the armed law: its springs and clearance are dropped, bit for bit as if
+/// its position were not there, and no hold is raised for it (docs/design.md, "A refused start
+/// lands at once"). Without it, the springs pulled the UAVs still flying over its spot.
+#[test]
+fn a_released_neighbour_leaves_the_armed_law_without_a_hold() {
+    let (p, t) = (params(1.0), tube());
+    let mut fl = Flight::start(&p, Some(&t), &sources(0), 0).unwrap();
+    let mut r = reference(&p);
+    let all = [Some(uav_pos(0)), Some(uav_pos(1)), Some(uav_pos(2))];
+    let v = fl.high_level(&t, &sources(0), 0);
+    assert_eq!(v, r.update(&t, &measurements(&all), p.high_level_dt_s()).vel_mps);
+    // UAV 2 released, and on the ground below its place.
+    let without = [Some(uav_pos(0)), Some(uav_pos(1)), None];
+    let mut now = 0;
+    for _ in 0..5 {
+        now += HL_MS;
+        let mut src = sources(now);
+        src.neighbour_released.set(2, true);
+        let landed = Vec3::new(uav_pos(2).x, uav_pos(2).y, 0.0);
+        src.neighbours[2] = Some(Stamped { value: landed, stamp_ms: now });
+        let v = fl.high_level(&t, &src, now);
+        assert_eq!(v, r.update(&t, &measurements(&without), p.high_level_dt_s()).vel_mps);
+        assert_eq!(fl.team_mode(), TeamMode::Transport, "a released neighbour holds nobody");
+        assert!(fl.hold_reasons().is_clear());
+    }
+}
+
 /// A hold this UAV raises itself (`raise(fl, true)`): its `reason` shows at once, it is
 /// broadcast, and the team hold is flown for three steps; then `before_lift` runs and
 /// `raise(fl, false)` lifts it, and the team resumes after `FS_RESUME`.
@@ -535,7 +563,7 @@ fn the_start_calibrates_from_the_take_off_survey_not_the_last_sample() {
 /// A ground start (`VT_START = 1`): no armed law yet, the take-off holds the own horizontal
 /// position and climbs towards the nominal cable's taut height less `VT_SLACK`; with a team
 /// member never heard at the end of the tension build-up the arming refuses (stale data) and
-/// the team slackens with the load on the ground; every command stays finite.
+/// it lands at once with the load on the ground; every command stays finite.
 #[test]
 fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming() {
     let mut p = params(0.0);
@@ -560,7 +588,7 @@ fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming()
     assert!(fl.last_command().is_none(), "no armed law before the tension build-up");
     // Run through take-off and tension with member 2 silent from now on.
     let mut now = 0;
-    while fl.phase() != Phase::Slack && now < 60_000 {
+    while fl.phase() != Phase::Released && now < 60_000 {
         now += HL_MS;
         src.own = Some(st(low(0), now));
         src.load = Some(st(ground, now));
@@ -570,7 +598,7 @@ fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming()
         let sp = fl.low_level(&src, now);
         assert!(sp.thrust.is_finite() && sp.q_ned.iter().all(|c| c.is_finite()));
     }
-    assert_eq!(fl.phase(), Phase::Slack, "refused at the arming");
+    assert_eq!(fl.phase(), Phase::Released, "refused at the arming: it lands at once");
     assert_eq!(fl.refusal(), Some(&StartError::StaleData));
     assert_eq!(fl.take_refusal(), Some(StartError::StaleData));
     assert_eq!(fl.take_refusal(), None, "reported once");

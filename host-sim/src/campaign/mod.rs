@@ -391,12 +391,17 @@ pub fn fly_shard(c: &Campaign, runs: usize, seed: u64, jobs: usize, progress: bo
     rows
 }
 
-/// The run `sweep --replay-worst` re-flies (issue 17): the first failed run in (level, seed)
-/// order, else the run with the smallest minimum UAV-boundary distance; refused runs (nothing
-/// flew) are skipped. `None` without a flown row.
+/// The run `sweep --replay-worst` re-flies (issue 17), in (level, seed) order: the first run
+/// that left the tube, refused or not (a team refused on the ground still takes off and lands:
+/// the safety failure to look at), else the first failed accepted run, else the flown run with
+/// the smallest minimum UAV-boundary distance. Runs refused before take-off (nothing flew) are
+/// skipped. `None` without a flown row.
 pub fn worst(rows: &[Row]) -> Option<&Row> {
-    let flown = || rows.iter().filter(|r| !r.summary.was_refused());
-    flown().find(|r| !r.summary.success).or_else(|| flown().min_by(|a, b| a.summary.min_uav_boundary_m.total_cmp(&b.summary.min_uav_boundary_m)))
+    let flew = || rows.iter().filter(|r| r.summary.sim_time_s > 0.0);
+    flew()
+        .find(|r| left_the_tube(&r.summary))
+        .or_else(|| flew().find(|r| !r.summary.was_refused() && !r.summary.success))
+        .or_else(|| flew().min_by(|a, b| a.summary.min_uav_boundary_m.total_cmp(&b.summary.min_uav_boundary_m)))
 }
 
 /// Flies `row`'s run again (same level, same seed) with recording on, for its replay: campaign

@@ -29,6 +29,14 @@ fn refly_repeats_the_worst_run_with_a_record() {
     failed[2].summary.success = false;
     failed[2].summary.min_uav_boundary_m = 99.0;
     assert_eq!(worst(&failed).map(|r| r.summary.seed), Some(failed[2].summary.seed));
+    // A run that left the tube comes before any other failure, even refused on the ground.
+    let mut out = failed.clone();
+    out[1].summary.min_load_boundary_m = -0.3;
+    out[1].summary.outcome = "refused".into();
+    assert_eq!(worst(&out).map(|r| r.summary.seed), Some(out[1].summary.seed));
+    // Nothing flown (refused before take-off): never picked.
+    out[1].summary.sim_time_s = 0.0;
+    assert_eq!(worst(&out).map(|r| r.summary.seed), Some(out[2].summary.seed));
     assert!(worst(&[]).is_none());
 }
 

@@ -7,11 +7,10 @@ use vt_companion::frames::enu_from_ned;
 use super::config::{configure, start_mission_with_reason, sync, team_setup_for, UavConfig};
 use super::port::Port;
 use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
-use vt_companion::Mode;
 use vt_dissipative::TeamMode;
 use super::relay::PortPerception;
 use super::{err, PilError};
-use crate::mission::{self, holding_of, team_mode_of, Setpoint, Team, TeamStart, Tick};
+use crate::mission::{self, holding_of, team_mode_of, Beacon, Setpoint, Team, TeamStart, Tick};
 use crate::record::RunRecord;
 use crate::scenario::LoadedScenario;
 use crate::sim::{ControllerKind, RunOptions, SimError};
@@ -92,7 +91,7 @@ pub struct PortTeam<'p, P: Port> {
     last_high_level: Vec<(Vector3<f32>, Vector3<f32>)>,
     /// Per receiver, per sender: the team mode last relayed (the network relays a member's
     /// `HEARTBEAT` when the mode that came with its position changes).
-    relayed: Vec<Vec<TeamMode>>,
+    relayed: Vec<Vec<Beacon>>,
     /// Someone else starts the mission (a ground station, `host-sim sitl`): called once the
     /// start tick has been delivered; the team then waits for every companion's `COMMAND_ACK`.
     start_hook: Option<StartHook<'p>>,
@@ -119,7 +118,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
             status: vec![[0u16; 5]; n],
             custom_mode: vec![0u32; n],
             last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
-            relayed: vec![vec![TeamMode::Transport; n]; n],
+            relayed: vec![vec![Beacon::START; n]; n],
             start_hook: None,
             perception: None,
         }
@@ -178,7 +177,7 @@ impl<'p, P: Port> PortTeam<'p, P> {
                 if let (Some(m), true) = (m, j != i) {
                     if m != last {
                         *last = *m;
-                        beats.extend(relayed_heartbeat(&mut self.enc[i].network, j, Mode::of_team(*m) as u32));
+                        beats.extend(relayed_heartbeat(&mut self.enc[i].network, j, m.custom_mode()));
                     }
                 }
             }

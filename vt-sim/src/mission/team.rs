@@ -51,9 +51,9 @@ pub struct Tick<'a> {
     /// Per UAV, the team's positions as its link delivered them (`None`: not delivered; own
     /// slot: its own position; valid when `high_level`).
     pub views: &'a [Vec<Option<V3f>>],
-    /// Per UAV, the team mode each other UAV broadcast with the position in `views` (`None`
-    /// with it; docs/design.md, "Team failsafe"; valid when `high_level`).
-    pub modes: &'a [Vec<Option<TeamMode>>],
+    /// Per UAV, the team mode and phase each other UAV broadcast with the position in `views`
+    /// (`None` with it; docs/design.md, "Team failsafe"; valid when `high_level`).
+    pub modes: &'a [Vec<Option<Beacon>>],
     /// Issue 28: per UAV, the LiDAR scan taken this high-level period (empty or `None`: none;
     /// origin at the UAV's measured position, as its companion knows it).
     pub scans: &'a [Option<vt_map::Scan>],
@@ -159,6 +159,28 @@ impl Io for Unlinked {
     }
 }
 
+/// What a UAV's team message carries besides its position: its companion's team mode and
+/// mission phase, as its last `HEARTBEAT.custom_mode` says them (docs/protocol.md, "Team
+/// failsafe"; a neighbour in `released` leaves the armed law, docs/design.md "A refused start
+/// lands at once").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Beacon {
+    /// The team mode (`custom_mode` low byte).
+    pub mode: TeamMode,
+    /// The phase code (`vt_dissipative::Phase`, `custom_mode` bits 24..31; 0 before one).
+    pub phase: u8,
+}
+
+impl Beacon {
+    /// Before any heartbeat: transport, no phase.
+    pub const START: Self = Self { mode: TeamMode::Transport, phase: 0 };
+
+    /// The `HEARTBEAT.custom_mode` the team network relays: the mode and the phase.
+    pub fn custom_mode(self) -> u32 {
+        Mode::of_team(self.mode) as u32 | (u32::from(self.phase) << 24)
+    }
+}
+
 /// The team mode in a companion's `HEARTBEAT.custom_mode` (low byte, docs/protocol.md).
 pub fn team_mode_of(custom_mode: u32) -> TeamMode {
     match custom_mode & 0xFF {
@@ -232,7 +254,7 @@ impl CompanionTeam {
         if tick.high_level {
             for (j, m) in tick.modes.get(i).into_iter().flatten().enumerate() {
                 if let (Some(m), true) = (m, j != i) {
-                    c.member_heartbeat(j, Mode::of_team(*m) as u32);
+                    c.member_heartbeat(j, m.custom_mode());
                 }
             }
         }

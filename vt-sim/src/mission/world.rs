@@ -2,7 +2,7 @@
 //! the wind, the team link, the faults, the metrics and the recorder. It steps under the
 //! setpoints a [`super::Team`] sends and produces the [`Tick`]s the team reads.
 
-use super::team::{Meas, Setpoint, TeamStart, Tick};
+use super::team::{Beacon, Meas, Setpoint, TeamStart, Tick};
 use crate::disturbance::{ParameterDraw, Sensors, Wind};
 use crate::link::Link;
 use crate::metrics::{formation_error, FlightEnd, Metrics, TubeHints};
@@ -28,7 +28,7 @@ fn v3f(v: &V3) -> V3f {
 #[derive(Debug, Clone, Copy)]
 struct TeamMsg {
     pos_m: V3f,
-    mode: TeamMode,
+    mode: Beacon,
 }
 
 /// The simulated world of one mission.
@@ -54,12 +54,12 @@ pub struct World<'a> {
     start_own: Vec<Meas>,
     start_load: Meas,
     start_views: Vec<Vec<Option<V3f>>>,
-    start_modes: Vec<Vec<Option<TeamMode>>>,
+    start_modes: Vec<Vec<Option<Beacon>>>,
     own: Vec<Meas>,
     load: Meas,
     views: Vec<Vec<Option<V3f>>>,
     /// Per receiver, per sender: the team mode that came with the position in `views`.
-    modes: Vec<Vec<Option<TeamMode>>>,
+    modes: Vec<Vec<Option<Beacon>>>,
     link_msg: Vec<TeamMsg>,
     view_buf: Vec<Option<TeamMsg>>,
     /// Per UAV, the team mode its companion broadcasts (reported by the team).
@@ -214,12 +214,12 @@ impl<'a> World<'a> {
             own: start_own.clone(),
             load: start_load,
             views: start_views.clone(),
-            modes: vec![vec![Some(TeamMode::Transport); n]; n],
-            start_modes: vec![vec![Some(TeamMode::Transport); n]; n],
+            modes: vec![vec![Some(Beacon::START); n]; n],
+            start_modes: vec![vec![Some(Beacon::START); n]; n],
             start_own,
             start_load,
             start_views,
-            link_msg: vec![TeamMsg { pos_m: V3f::zeros(), mode: TeamMode::Transport }; n],
+            link_msg: vec![TeamMsg { pos_m: V3f::zeros(), mode: Beacon::START }; n],
             view_buf: Vec::with_capacity(n),
             team_mode: vec![TeamMode::Transport; n],
             stall_until: vec![None; n],
@@ -304,7 +304,7 @@ impl<'a> World<'a> {
         let n = own_pos.len();
         self.start_views = vec![own_pos.iter().copied().map(Some).collect::<Vec<_>>(); n];
         self.views = self.start_views.clone();
-        self.modes = vec![vec![Some(TeamMode::Transport); n]; n];
+        self.modes = vec![vec![Some(Beacon::START); n]; n];
         self.own = start_own.clone();
         self.load = start_load;
         self.start_own = start_own;
@@ -426,8 +426,10 @@ impl<'a> World<'a> {
         if high_level {
             let hl_step = clock / self.hl_every;
             let snap = self.sensors.delayed().clone();
-            for (i, ((msg, x), mode)) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode).enumerate() {
-                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), x)), mode: *mode };
+            // The mode as the team set it for this tick, the phase as its last step reported
+            // it: both what the companion's last HEARTBEAT said.
+            for (i, (((msg, x), mode), phase)) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode).zip(&self.phase_codes).enumerate() {
+                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), x)), mode: Beacon { mode: *mode, phase: *phase } };
             }
             self.load = Meas {
                 pos_m: v3f(&self.sensors.position(Receiver::Load, &snap.load_pos_m)),
@@ -442,7 +444,7 @@ impl<'a> World<'a> {
                 sc.measure(hl_step, &self.uav_pos_scratch, &measured);
             }
             for (i, (view, modes)) in self.views.iter_mut().zip(self.modes.iter_mut()).enumerate() {
-                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), mode: TeamMode::Transport });
+                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), mode: Beacon::START });
                 self.link.view(i, hl_step, own, &mut self.view_buf);
                 view.clear();
                 view.extend(self.view_buf.iter().map(|m| m.map(|m| m.pos_m)));

@@ -100,8 +100,9 @@ impl Core<'_> {
         }
     }
 
-    /// A team member's companion announces its mode (`custom_mode` low byte): remember whether
-    /// it holds (docs/protocol.md, "Team failsafe"). Other heartbeats are ignored silently.
+    /// A team member's companion announces its mode (`custom_mode` low byte) and its phase
+    /// (bits 24..31): remember whether it holds and whether it was released (docs/protocol.md,
+    /// "Team failsafe"). Other heartbeats are ignored silently.
     pub(super) fn on_heartbeat(&mut self, f: &Frame<'_>, d: &HEARTBEAT_DATA) {
         if f.component_id != COMPANION_COMPONENT_ID || f.system_id == self.own_system_id() {
             return;
@@ -114,6 +115,7 @@ impl Core<'_> {
         let n = self.params.get_u32(Param::NUavs) as usize;
         if j < n && j != self.params.get_u32(Param::Id) as usize {
             self.sources.neighbour_hold.set(j, custom_mode & 0xFF == Mode::Hold as u32);
+            self.sources.neighbour_released.set(j, custom_mode >> 24 == vt_dissipative::Phase::Released as u32);
         }
     }
 
