@@ -123,3 +123,21 @@ fn crates_and_twin_fly_unknown_maps_identically() {
         assert!(p.replans > 0 && p.tube_switches > 0, "{file}: the team re-planned and switched ({p:?})");
     }
 }
+
+/// A refusal on the ground reads the same on both backends, in the companion's own words: the
+/// experiment's team from the ground with a declared 30 m/s wind is refused at its arming
+/// (code 8), lands at once, and the failure quotes its `STATUSTEXT` with the numbers (SIL reads
+/// them from the companion, the twin from the wire).
+#[test]
+fn crates_and_twin_report_a_refusal_on_the_ground_in_the_same_words() {
+    let mut ls = load("experiment-3uav.toml");
+    ls.scenario.mission.start = scenario::MissionStart::Ground;
+    ls.scenario.mission.max_wind_mps = Some(30.0);
+    let s = assert_same_flight(&ls, "experiment-3uav.toml (ground, 30 m/s declared)", UavModel::RigidBody, CableModel::Elastic, false);
+    println!("{:?}", s.failures);
+    assert_eq!(s.outcome, "refused");
+    let first = &s.failures[0];
+    assert!(first.starts_with("refused on the ground: UAV 0: ") && first.contains("(refusal code 8): \"start refused: "), "{first}");
+    // The declared 30 m/s plus the scenario's gust margin, against the team's capacity.
+    assert!(first.contains("wind 30.") && first.contains("m/s > cap ") && first.contains("(tilt)"), "the numbers: {first}");
+}

@@ -62,6 +62,10 @@ impl Team for Recording {
         self.team.phases(phases, refusals);
     }
 
+    fn refusal_text(&self, uav: usize) -> Option<String> {
+        self.team.refusal_text(uav)
+    }
+
     fn published_tube(&self) -> Option<(u32, &host_sim::scenario::SimTube)> {
         self.team.published_tube()
     }

@@ -87,6 +87,11 @@ pub struct PortTeam<'p, P: Port> {
     pub status: Vec<[u16; 5]>,
     /// Last `HEARTBEAT.custom_mode` per companion.
     pub custom_mode: Vec<u32>,
+    /// Per companion, the `STATUSTEXT` lines of its refusal on the ground (the head line,
+    /// "start refused: ...", and the line right after it), as [`Team::refusal_text`] gives them.
+    refusal: Vec<Vec<String>>,
+    /// Per companion, true right after a refusal's head line: the next frame may be its detail.
+    refusal_open: Vec<bool>,
     /// Last velocity command and cable-force estimate per companion, ENU (m/s, N).
     last_high_level: Vec<(Vector3<f32>, Vector3<f32>)>,
     /// Per receiver, per sender: the team mode last relayed (the network relays a member's
@@ -117,6 +122,8 @@ impl<'p, P: Port> PortTeam<'p, P> {
             ll_cycles: vec![Vec::new(); n],
             status: vec![[0u16; 5]; n],
             custom_mode: vec![0u32; n],
+            refusal: vec![Vec::new(); n],
+            refusal_open: vec![false; n],
             last_high_level: vec![(Vector3::zeros(), Vector3::zeros()); n],
             relayed: vec![vec![Beacon::START; n]; n],
             start_hook: None,
@@ -160,6 +167,39 @@ impl<'p, P: Port> PortTeam<'p, P> {
     /// Takes the start hook (a team that starts the companions its own way).
     pub fn take_start_hook(&mut self) -> Option<StartHook<'p>> {
         self.start_hook.take()
+    }
+
+    /// A frame from UAV `i` that is not a `STATUSTEXT` ends a refusal's lines (the companion
+    /// sends its head and detail lines back to back).
+    pub fn frame_seen(&mut self, i: usize, rx: &Rx) {
+        if !matches!(rx, Rx::StatusText(..)) {
+            self.end_refusal_lines(i);
+        }
+    }
+
+    /// UAV `i` sent something else than a `STATUSTEXT`: its refusal's lines are complete.
+    pub fn end_refusal_lines(&mut self, i: usize) {
+        if let Some(open) = self.refusal_open.get_mut(i) {
+            *open = false;
+        }
+    }
+
+    /// What UAV `i` sent besides its setpoint and high-level telemetry: its `HEARTBEAT`, a
+    /// refusal's `STATUSTEXT` lines, and the re-planning's frames ([`Self::absorb`]).
+    pub fn note(&mut self, i: usize, rx: Rx) {
+        self.frame_seen(i, &rx);
+        match rx {
+            Rx::Heartbeat(m) => self.note_heartbeat(i, m),
+            Rx::StatusText(_, t) if t.starts_with(REFUSAL_HEAD) && self.refusal.get(i).is_some_and(Vec::is_empty) => {
+                self.refusal[i].push(t);
+                self.refusal_open[i] = true;
+            }
+            Rx::StatusText(_, t) if self.refusal_open.get(i).copied().unwrap_or(false) => {
+                self.refusal[i].push(t);
+                self.refusal_open[i] = false;
+            }
+            other => self.absorb(i, &other),
+        }
     }
 
     /// Records the last `HEARTBEAT.custom_mode` heard from UAV `i`.
@@ -353,6 +393,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
             let mut hl_values: Vec<f32> = Vec::new();
             let (q, thrust) = loop {
                 let rx = self.ports[i].recv().map_err(|e| SimError(format!("{} UAV {i} at tick {}: {e}", self.label, tick.time_ms)))?;
+                self.frame_seen(i, &rx);
                 match rx {
                     Rx::Setpoint { time_ms, q, thrust } if time_ms == tick.time_ms => break (q, thrust),
                     Rx::VelocityTarget { v_ned, .. } => hl_values.extend_from_slice(&v_ned),
@@ -362,8 +403,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
                         self.ll_cycles[i].push(l);
                     }
                     Rx::Status(c) => self.status[i] = c,
-                    Rx::Heartbeat(m) => self.custom_mode[i] = m,
-                    other => self.absorb(i, &other),
+                    other => self.note(i, other),
                 }
             };
             if tick.high_level {
@@ -392,6 +432,10 @@ impl<P: Port> Team for PortTeam<'_, P> {
     fn holding(&self) -> Vec<bool> {
         // HEARTBEAT.custom_mode = mode | hold reasons << 8 (docs/protocol.md).
         self.custom_mode.iter().map(|m| holding_of(*m)).collect()
+    }
+
+    fn refusal_text(&self, uav: usize) -> Option<String> {
+        self.refusal.get(uav).filter(|l| !l.is_empty()).map(|l| l.join("; "))
     }
 
     fn team_modes(&self, out: &mut [TeamMode]) {
@@ -432,6 +476,9 @@ impl<P: Port> Port for Tap<'_, P> {
         Ok(rx)
     }
 }
+
+/// How a companion's refusal `STATUSTEXT` begins (`vt_companion::refusal::StartError::lines`).
+const REFUSAL_HEAD: &str = "start refused: ";
 
 /// Flies the mission through the one mission loop with one port per UAV (lockstep). Ports
 /// must be fresh companions.

@@ -100,7 +100,7 @@ pub fn fly(ls: &LoadedScenario, opts: &RunOptions, team: &mut dyn Team) -> Resul
     }
     let kind: ControllerKind = opts.controller;
     let load_path_m = world.load_path_m();
-    let (mut summary, record) = world.finish(kind, wall.elapsed().as_secs_f64(), team.invalid_commands());
+    let (mut summary, record) = world.finish(kind, wall.elapsed().as_secs_f64(), team.invalid_commands(), |uav| team.refusal_text(uav));
     if let Some(r) = team.replan_stats() {
         summary.perception(ls, &r, load_path_m);
     }

@@ -96,6 +96,12 @@ pub trait Team {
     /// A backend failed (link closed, reply missing).
     fn step(&mut self, tick: &Tick<'_>, out: &mut [Setpoint]) -> Result<(), SimError>;
 
+    /// Why UAV `uav` refused its start on the ground, as its `STATUSTEXT` lines said it
+    /// ("; " between them; `None`: no refusal, or a team that does not report one).
+    fn refusal_text(&self, _uav: usize) -> Option<String> {
+        None
+    }
+
     /// High-level commands so far that fell back to hold (invalid input or non-finite output).
     fn invalid_commands(&self) -> u64 {
         0
@@ -344,6 +350,13 @@ impl Team for CompanionTeam {
             *slot = c.setpoint().filter(|_| stepped).ok_or_else(|| SimError(format!("UAV {i}: no setpoint for t = {} ms (not armed)", tick.time_ms)))?;
         }
         Ok(())
+    }
+
+    fn refusal_text(&self, uav: usize) -> Option<String> {
+        // The lines its STATUSTEXT carries (`Core::refused`), without the bytes.
+        let e = self.companions().nth(uav)?.flight()?.refusal()?;
+        let (head, detail) = e.lines();
+        Some(core::iter::once(head).chain(detail).map(|l| l.as_str().to_string()).collect::<Vec<_>>().join("; "))
     }
 
     fn invalid_commands(&self) -> u64 {

@@ -661,8 +661,9 @@ impl<'a> World<'a> {
     }
 
     /// Ends the flight: the summary (`wall_s`: wall time of the loop, s; `invalid_commands`:
-    /// the team's hold fallbacks).
-    pub fn finish(mut self, kind: ControllerKind, wall_s: f64, invalid_commands: u64) -> (Summary, RunRecord) {
+    /// the team's hold fallbacks; `refusal_text`: a UAV's refusal in its own words, from the
+    /// team, for the failure of a refusal on the ground).
+    pub fn finish(mut self, kind: ControllerKind, wall_s: f64, invalid_commands: u64, refusal_text: impl Fn(usize) -> Option<String>) -> (Summary, RunRecord) {
         let s = &self.ls.scenario;
         self.metrics.invalid_commands = invalid_commands;
         let end = FlightEnd {
@@ -682,7 +683,8 @@ impl<'a> World<'a> {
         };
         let mut summary = self.metrics.finish(s, &end);
         summary.start = s.mission.start.name().into();
-        phase_verdict(&mut summary, &self.phases, self.rated_n, self.ground_start);
+        let text = self.phases.refusal().and_then(|(uav, _)| refusal_text(uav));
+        phase_verdict(&mut summary, &self.phases, self.rated_n, self.ground_start, text.as_deref());
         (summary, self.record)
     }
 }
@@ -696,7 +698,7 @@ pub const TOUCHDOWN_MAX_MPS: f64 = 0.5;
 /// arrival), no snatch above [`LIFT_PEAK_FACTOR`] times the rated tension, a touchdown at most
 /// [`TOUCHDOWN_MAX_MPS`]; a refusal on the ground is the outcome `refused`. Either start: a
 /// descent before the end is the outcome `set_down`, its touchdown judged as a ground start's.
-fn phase_verdict(summary: &mut Summary, g: &crate::phases::PhaseRecord, rated_n: f64, ground_start: bool) {
+fn phase_verdict(summary: &mut Summary, g: &crate::phases::PhaseRecord, rated_n: f64, ground_start: bool, refusal_text: Option<&str>) {
     let (phases, peak, spread, touchdown) = g.figures();
     let released = g.team_phase() == Some(vt_dissipative::Phase::Released);
     summary.phases = phases;
@@ -707,7 +709,9 @@ fn phase_verdict(summary: &mut Summary, g: &crate::phases::PhaseRecord, rated_n:
         summary.outcome = "refused".into();
         summary.success = false;
         let what = if code == vt_companion::flight::StartError::LiftFailed.code() { "the load did not leave the ground" } else { "the start checks refused with the load on the ground" };
-        summary.failures.insert(0, format!("refused on the ground: UAV {uav}: {what} (refusal code {code})"));
+        // The companion's own words after the code (its STATUSTEXT), when the team heard them.
+        let said = refusal_text.map_or_else(String::new, |t| format!(": \"{t}\""));
+        summary.failures.insert(0, format!("refused on the ground: UAV {uav}: {what} (refusal code {code}){said}"));
         return;
     }
     let mut fail = |m: String| {

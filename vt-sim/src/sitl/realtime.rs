@@ -94,11 +94,11 @@ impl<'p> RealtimeTeam<'p> {
                 let rx = self.inner.ports_mut()[i].poll(Duration::ZERO).map_err(|e| SimError(e.0))?;
                 match rx {
                     Some(Rx::Setpoint { q, thrust, .. }) => {
+                        self.inner.end_refusal_lines(i);
                         self.latest[i] = Some(Setpoint { q_ned: q, thrust });
                         self.arrived[i] = true;
                     }
-                    Some(Rx::Heartbeat(m)) => self.inner.note_heartbeat(i, m),
-                    Some(other) => self.inner.absorb(i, &other),
+                    Some(other) => self.inner.note(i, other),
                     None => break,
                 }
             }
@@ -170,6 +170,10 @@ impl Team for RealtimeTeam<'_> {
 
     fn holding(&self) -> Vec<bool> {
         self.inner.holding()
+    }
+
+    fn refusal_text(&self, uav: usize) -> Option<String> {
+        self.inner.refusal_text(uav)
     }
 
     fn team_modes(&self, out: &mut [vt_dissipative::TeamMode]) {
