@@ -137,6 +137,9 @@ impl core::fmt::Display for StartError {
     }
 }
 
+/// How the headline of a refusal's `STATUSTEXT` begins ([`StartError::lines`]).
+pub const REFUSAL_HEAD: &str = "start refused: ";
+
 impl StartError {
     /// The refusal code reported in `HEARTBEAT.custom_mode` bits 16..23 (0: none).
     pub fn code(&self) -> u8 {
@@ -155,11 +158,12 @@ impl StartError {
         }
     }
 
-    /// The `STATUSTEXT` lines: a headline, and the numbers when there are any.
+    /// The `STATUSTEXT` lines: a headline (beginning [`REFUSAL_HEAD`]), and the numbers when
+    /// there are any.
     #[inline(never)]
     pub fn lines(&self) -> (Line, Option<Line>) {
         let mut head = Line::new();
-        head.push("start refused: ");
+        head.push(REFUSAL_HEAD);
         let mut detail = Line::new();
         let has_detail = match self {
             Self::NoTube => {

@@ -45,14 +45,6 @@ pub enum World {
 }
 
 impl World {
-    /// The name in campaign files and on the command line (`scenario`, `real_aircraft`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Scenario => "scenario",
-            Self::RealAircraft => "real_aircraft",
-        }
-    }
-
     /// The world named `s` (`real-aircraft` is accepted for `real_aircraft`).
     ///
     /// # Errors

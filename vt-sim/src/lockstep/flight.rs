@@ -10,7 +10,8 @@ use super::wire::{relayed_heartbeat, Encoders, Rx, TickFrames};
 use vt_dissipative::TeamMode;
 use super::relay::PortPerception;
 use super::{err, PilError};
-use crate::mission::{self, holding_of, team_mode_of, Beacon, Setpoint, Team, TeamStart, Tick};
+use crate::mission::{self, holding_of, refusal_text_of, team_mode_of, Beacon, Setpoint, Team, TeamStart, Tick};
+use vt_companion::refusal::REFUSAL_HEAD;
 use crate::record::RunRecord;
 use crate::scenario::LoadedScenario;
 use crate::sim::{ControllerKind, RunOptions, SimError};
@@ -169,25 +170,18 @@ impl<'p, P: Port> PortTeam<'p, P> {
         self.start_hook.take()
     }
 
-    /// A frame from UAV `i` that is not a `STATUSTEXT` ends a refusal's lines (the companion
-    /// sends its head and detail lines back to back).
+    /// Every frame received from UAV `i`, first: one that is not a `STATUSTEXT` ends a
+    /// refusal's lines (the companion sends its head and detail lines back to back).
     pub fn frame_seen(&mut self, i: usize, rx: &Rx) {
-        if !matches!(rx, Rx::StatusText(..)) {
-            self.end_refusal_lines(i);
-        }
-    }
-
-    /// UAV `i` sent something else than a `STATUSTEXT`: its refusal's lines are complete.
-    pub fn end_refusal_lines(&mut self, i: usize) {
-        if let Some(open) = self.refusal_open.get_mut(i) {
+        if let (false, Some(open)) = (matches!(rx, Rx::StatusText(..)), self.refusal_open.get_mut(i)) {
             *open = false;
         }
     }
 
-    /// What UAV `i` sent besides its setpoint and high-level telemetry: its `HEARTBEAT`, a
-    /// refusal's `STATUSTEXT` lines, and the re-planning's frames ([`Self::absorb`]).
+    /// What UAV `i` sent besides its setpoint and high-level telemetry (after
+    /// [`Self::frame_seen`]): its `HEARTBEAT`, a refusal's `STATUSTEXT` lines, and the
+    /// re-planning's frames ([`Self::absorb`]).
     pub fn note(&mut self, i: usize, rx: Rx) {
-        self.frame_seen(i, &rx);
         match rx {
             Rx::Heartbeat(m) => self.note_heartbeat(i, m),
             Rx::StatusText(_, t) if t.starts_with(REFUSAL_HEAD) && self.refusal.get(i).is_some_and(Vec::is_empty) => {
@@ -349,7 +343,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
                 .map_err(|e| self.fail(i, e))?;
                 seen.iter().for_each(|rx| self.absorb(i, rx));
                 if r != 0 {
-                    return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, texts.join("; "))));
+                    return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, refusal_text_of(texts.iter().map(String::as_str)))));
                 }
             }
             self.close(&start.tick, true);
@@ -371,7 +365,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
             let id = self.configs[i].system_id;
             let (r, texts) = start_mission_with_reason(&mut self.ports[i], id, &mut self.enc[i].gcs).map_err(|e| self.fail(i, e))?;
             if r != 0 {
-                return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, texts.join("; "))));
+                return Ok(Some(format!("{}: UAV {i}: mission start refused (MAV_RESULT {r}): {}", self.label, refusal_text_of(texts.iter().map(String::as_str)))));
             }
         }
         Ok(None)
@@ -435,7 +429,7 @@ impl<P: Port> Team for PortTeam<'_, P> {
     }
 
     fn refusal_text(&self, uav: usize) -> Option<String> {
-        self.refusal.get(uav).filter(|l| !l.is_empty()).map(|l| l.join("; "))
+        self.refusal.get(uav).filter(|l| !l.is_empty()).map(|l| refusal_text_of(l.iter().map(String::as_str)))
     }
 
     fn team_modes(&self, out: &mut [TeamMode]) {
@@ -476,9 +470,6 @@ impl<P: Port> Port for Tap<'_, P> {
         Ok(rx)
     }
 }
-
-/// How a companion's refusal `STATUSTEXT` begins (`vt_companion::refusal::StartError::lines`).
-const REFUSAL_HEAD: &str = "start refused: ";
 
 /// Flies the mission through the one mission loop with one port per UAV (lockstep). Ports
 /// must be fresh companions.

@@ -187,6 +187,12 @@ impl Beacon {
     }
 }
 
+/// A refusal's `STATUSTEXT` lines as one text, as [`Team::refusal_text`] gives it ("; "
+/// between them): every backend joins them here, so SIL's text and the wire's agree.
+pub fn refusal_text_of<'a>(lines: impl IntoIterator<Item = &'a str>) -> String {
+    lines.into_iter().collect::<Vec<_>>().join("; ")
+}
+
 /// The team mode in a companion's `HEARTBEAT.custom_mode` (low byte, docs/protocol.md).
 pub fn team_mode_of(custom_mode: u32) -> TeamMode {
     match custom_mode & 0xFF {
@@ -356,7 +362,7 @@ impl Team for CompanionTeam {
         // The lines its STATUSTEXT carries (`Core::refused`), without the bytes.
         let e = self.companions().nth(uav)?.flight()?.refusal()?;
         let (head, detail) = e.lines();
-        Some(core::iter::once(head).chain(detail).map(|l| l.as_str().to_string()).collect::<Vec<_>>().join("; "))
+        Some(refusal_text_of(core::iter::once(&head).chain(detail.as_ref()).map(vt_companion::refusal::Line::as_str)))
     }
 
     fn invalid_commands(&self) -> u64 {

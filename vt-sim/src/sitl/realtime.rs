@@ -92,9 +92,11 @@ impl<'p> RealtimeTeam<'p> {
         for i in 0..self.latest.len() {
             loop {
                 let rx = self.inner.ports_mut()[i].poll(Duration::ZERO).map_err(|e| SimError(e.0))?;
+                if let Some(r) = &rx {
+                    self.inner.frame_seen(i, r);
+                }
                 match rx {
                     Some(Rx::Setpoint { q, thrust, .. }) => {
-                        self.inner.end_refusal_lines(i);
                         self.latest[i] = Some(Setpoint { q_ned: q, thrust });
                         self.arrived[i] = true;
                     }
