@@ -47,6 +47,28 @@ fn the_paper_world_unknown_is_mapped_and_flown_to_the_goal_on_replanned_tubes() 
     assert_eq!(again.min_uav_uav_m.to_bits(), s.min_uav_uav_m.to_bits(), "deterministic");
 }
 
+/// The paper's world unknown, flown by the paper team with its 0.445 m bodies declared, the
+/// formation shaped to the tube and a 0.2 m floor. The onboard map sees the first passage (2.34 m
+/// of half-width on the known map's plan) about 0.4 m narrower through the LiDAR's 5 deg sectors,
+/// under the 2.1-2.2 m in which the separated stadium keeps the floor; the re-planner asks for
+/// that width (`DissipativeController::shaped_need_half_width_m`), so the team holds with no
+/// route instead of flying a passage its formation cannot keep apart in (it flew through before,
+/// and pairs came to 0.05 m; docs/design.md, "The width the shaped formation needs").
+#[test]
+fn the_paper_team_with_bodies_holds_before_a_passage_its_shaped_formation_cannot_fly_apart() {
+    let mut ls = load("paper-10uav-unknown.toml");
+    ls.scenario.uavs.body_radius_m = Some(0.445);
+    ls.scenario.mission.clearance_floor_m = Some(0.2);
+    ls.scenario.controller.shape.enabled = true;
+    let s = fly(&ls);
+    let p = s.perception.clone().expect("a perception summary");
+    eprintln!("paper unknown, bodies: {p:?}, outcome {}, clearances {} / {} / {} m", s.outcome, s.min_uav_uav_clearance_m, s.min_uav_boundary_clearance_m, s.min_obstacle_clearance_m);
+    assert!(p.no_route && s.outcome == "no_route", "{p:?} {}", s.outcome);
+    assert!(s.completion_time_s.is_none());
+    assert!(p.load_path_m < 25.0, "held before the first passage (x = 16 m): {p:?}");
+    assert!(s.min_obstacle_clearance_m > 1.0, "{}", s.min_obstacle_clearance_m);
+}
+
 /// A wall appears across the whole yard at 10 s: the team sees it, finds no route and holds in
 /// place with the reason; it never touches the wall.
 #[test]

@@ -414,6 +414,39 @@ impl<const N: usize> DissipativeController<N> {
         shape.write_rest_lengths(self.id, q, frame, self.n, self.rest_scale, &mut self.rest);
     }
 
+    /// The narrowest tube half-width in which the formation shaped to the tube keeps its
+    /// separation floor by construction, m: `r_safe + margin + r q / QUANTA` for the narrowest
+    /// quantum `q` from which every wider stadium's pairs keep the floor where they fly
+    /// ([`crate::shape::separated_half_length_m`]: a narrower stadium lengthens, until the
+    /// capacity stops it). A planner that gives the team less asks the formation for a shape
+    /// it cannot fly apart (docs/design.md, "The width the shaped formation needs"). `None`
+    /// without a shape or a floor (bodies not declared). The stadium's frame is the first look's,
+    /// or before it `tangent` (the tube's direction at the load). Out of line and cold: a few
+    /// hundred pair distances per quantum, called once per re-plan.
+    #[cold]
+    #[inline(never)]
+    pub fn shaped_need_half_width_m(&self, tangent: &Vec2) -> Option<f32> {
+        let shape = self.shape.as_ref()?;
+        if !(shape.separation_m > 0.0) {
+            return None;
+        }
+        let frame = shape.frame.unwrap_or_else(|| shape.turned_frame(tangent));
+        if !(frame.iter().all(|x| x.is_finite()) && vt_fpu::norm(&frame) > 0.0) {
+            return None;
+        }
+        let floor_q = min_quantum(self.n);
+        // Down from the ring: the first quantum whose stadium cannot keep the floor ends the scan.
+        let mut held = QUANTA;
+        for q in (floor_q..QUANTA).rev() {
+            if !shape.keeps_floor(q, frame, self.n, self.params.tray.height_above_load_m, &self.scale) {
+                break;
+            }
+            held = q;
+        }
+        let ring_m = shape.radius_m * self.rest_scale;
+        Some(self.params.r_safe_m + shape.params.margin_m + ring_m * held as f32 / QUANTA as f32)
+    }
+
     /// The tube-shaped formation's half-width now, fraction of the ring's radius (1: the ring,
     /// or the shape off).
     pub fn shape_fraction(&self) -> f32 {

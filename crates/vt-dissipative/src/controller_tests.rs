@@ -413,6 +413,61 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
     }
 }
 
+/// Issue 28: the half-width a planner must give the shaped formation. In a tube of that width
+/// the look flies a stadium that keeps the floor where the UAVs fly; in any narrower one the
+/// stadium it would fly does not (or it is the narrowest, which no tube narrower can shape
+/// further). Without a floor, or without a shape, nothing is asked beyond the planner's own.
+#[test]
+fn the_planner_is_asked_for_the_width_the_separated_stadium_keeps_its_floor_in() {
+    use crate::shape::{min_quantum, quantum};
+    let n = 10;
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let tangent = Vec2::new(1.0, 0.0);
+    let mut plain = team(n, &uavs, &load).remove(0);
+    assert_eq!(plain.shaped_need_half_width_m(&tangent), None, "no shape");
+    plain.set_shape(ShapeParams::default(), &f, None).unwrap();
+    assert_eq!(plain.shaped_need_half_width_m(&tangent), None, "no floor");
+    for floor in [1.3_f32, 1.6, 2.0] {
+        let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: floor, min_cos_sum: 0.0 };
+        let mut c = team(n, &uavs, &load).remove(0);
+        c.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+        let need = c.shaped_need_half_width_m(&tangent).unwrap();
+        let shape = c.shape.as_ref().unwrap();
+        let ring = shape.radius_m * c.rest_scale;
+        let room = |w: f32| w - c.params.r_safe_m - shape.params.margin_m;
+        let h = c.params.tray.height_above_load_m;
+        // At the need (plus rounding) the quantum flown keeps the floor, and so does every wider one.
+        let q_need = quantum(room(need + 1e-4), ring, min_quantum(n));
+        for q in q_need..=QUANTA {
+            assert!(shape.keeps_floor(q, tangent, n, h, &c.scale), "floor {floor}: quantum {q} at or above the need's {q_need}");
+        }
+        // Just below it, the quantum flown breaks the floor, unless the need is the narrowest shape.
+        let q_below = quantum(room(need - 1e-3), ring, min_quantum(n));
+        if q_below < q_need {
+            assert!(!shape.keeps_floor(q_below, tangent, n, h, &c.scale), "floor {floor}: quantum {q_below} below the need");
+        } else {
+            assert_eq!(q_need, min_quantum(n), "floor {floor}");
+        }
+        assert!(need > c.params.r_safe_m + shape.params.margin_m && need <= c.params.r_safe_m + shape.params.margin_m + ring + 1e-4, "floor {floor}: {need}");
+        // A higher floor never asks for less.
+        if floor > 1.3 {
+            let low = ShapeSeparation { separation_m: 1.3, ..sep };
+            let mut d = team(n, &uavs, &load).remove(0);
+            d.set_shape(ShapeParams::default(), &f, Some(low)).unwrap();
+            assert!(need >= d.shaped_need_half_width_m(&tangent).unwrap(), "floor {floor}");
+        }
+    }
+    // A floor no stadium keeps (the ring itself breaks it) asks for the ring's whole width.
+    let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 5.0, min_cos_sum: 0.0 };
+    let mut c = team(n, &uavs, &load).remove(0);
+    c.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+    let shape = c.shape.as_ref().unwrap();
+    let full = c.params.r_safe_m + shape.params.margin_m + shape.radius_m * c.rest_scale;
+    assert_eq!(c.shaped_need_half_width_m(&tangent), Some(full));
+    assert_eq!(c.shaped_need_half_width_m(&Vec2::new(f32::NAN, 0.0)), None, "a degenerate frame asks nothing");
+}
+
 /// Every UAV derives the same stadium: each spring's rest length is the same at both ends,
 /// the tray centre's are the same in every replica; the wide tube leaves the ring bit for bit,
 /// and without `set_shape` a look changes nothing.

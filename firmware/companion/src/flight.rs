@@ -674,6 +674,18 @@ impl Flight {
         true
     }
 
+    /// Issue 28: the narrowest tube half-width the formation shaped to the tube keeps its
+    /// separation floor in, m (`DissipativeController::shaped_need_half_width_m`, the stadium
+    /// framed by `tube`'s direction at `load_xy_m` before the first look); `None` when no
+    /// shape with a floor is flown. A re-plan asks the planner for at least this much.
+    pub fn shaped_need_half_width_m(&self, tube: &CompanionTube, load_xy_m: vt_tube::Vec2) -> Option<f32> {
+        let Some(HighLevel::Dissipative(c)) = self.high.as_ref() else {
+            return None;
+        };
+        let tangent = tube.locate(load_xy_m, 0).map_or(vt_tube::Vec2::new(1.0, 0.0), |sec| sec.tangent);
+        c.shaped_need_half_width_m(&tangent)
+    }
+
     /// This UAV declined a newer tube and keeps flying its own (issue 28): the set-down's watch
     /// waits until it switches.
     pub fn tube_declined(&mut self) {

@@ -365,18 +365,19 @@ impl Perception {
     /// # Errors
     /// As [`Self::replan`].
     pub fn replan_from(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32, space: &mut PlannerSpace, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
-        let p = self.prepare(tube, load_m, backoff_m, now_ms, space)?;
+        let p = self.prepare(tube, load_m, backoff_m, 0.0, now_ms, space)?;
         space.plan(&p, check)
     }
 
     /// The first part of [`Self::replan_from`], on the map: the schedule restarts and the
-    /// trigger clears, the start is placed `backoff_m` behind the load along `tube`, and the
-    /// map's cells are copied into `space`; [`PlannerSpace::plan`] does the rest, on `space`
-    /// alone.
+    /// trigger clears, the start is placed `backoff_m` behind the load along `tube`, the
+    /// planner asks for the half-width the flown formation needs (`need_m`, m;
+    /// [`Self::plan_params`]), and the map's cells are copied into `space`;
+    /// [`PlannerSpace::plan`] does the rest, on `space` alone.
     ///
     /// # Errors
     /// The map does not fit the planner's grid.
-    pub fn prepare(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, now_ms: u32, space: &mut PlannerSpace) -> Result<Prepared, PlanError> {
+    pub fn prepare(&mut self, tube: &CompanionTube, load_m: &Vec3, backoff_m: f32, need_m: f32, now_ms: u32, space: &mut PlannerSpace) -> Result<Prepared, PlanError> {
         self.blocked = false;
         self.backoff_m = backoff_m;
         self.last_plan_ms = Some(now_ms);
@@ -391,8 +392,19 @@ impl Perception {
             origin_m: self.map.origin_m(),
             start_m,
             goal_m: vt_plan::Vec2::new(self.cfg.goal_m[0], self.cfg.goal_m[1]),
-            params: self.cfg.plan,
+            params: self.plan_params(need_m),
         })
+    }
+
+    /// The planner's parameters for a formation that needs `need_m` of half-width (m; the
+    /// configured `PR_HALF_W` when it asks for less, or for a non-finite figure): at most the
+    /// configured widest half-width, which the planner requires to hold the need.
+    pub fn plan_params(&self, need_m: f32) -> PlanParams {
+        let mut p = self.cfg.plan;
+        if need_m.is_finite() && need_m > p.need_half_width_m {
+            p.need_half_width_m = vt_fpu::min(need_m, p.max_half_width_m);
+        }
+        p
     }
 
     /// Whether the team should switch from `current` to `planned` (the load at `load_m`): an

@@ -152,6 +152,37 @@ fn no_route_is_an_error_not_a_tube() {
     assert!(matches!(r, Err(PlanError::TooNarrow { .. })), "{r:?}");
 }
 
+/// A re-plan asks for the half-width the flown formation needs (`Crew::need_half_width_m`) when
+/// that is more than `PR_HALF_W`: a gap the configured need fits but the formation's does not
+/// gives no route, never a tube the shaped formation cannot keep its floor in.
+#[test]
+fn a_replan_asks_for_the_width_the_formation_needs() {
+    let mut p = Box::new(Perception::new(config()).unwrap());
+    let tube = straight(10.0, 3.0);
+    // A wall across the world at x = 25 with a 5.6 m gap between circle edges, centred on y = 10.
+    let wall: Vec<(V2, f32)> = (0..23).map(|k| k as f32 * 0.9).filter(|y| (y - 10.0).abs() > 3.4).map(|y| (V2::new(25.0, y), 0.6)).collect();
+    for y in [4.0, 7.0, 10.0, 13.0, 16.0] {
+        p.integrate(&scan(V2::new(19.0, y), &wall), Some(&tube), 15.0);
+    }
+    let load = Vec3::new(18.0, 10.0, 3.0);
+    let mut space = Box::new(PlannerSpace::zeroed());
+    let mut check = Box::new(CompanionTube::placeholder());
+    let mut plan = |p: &mut Perception, need_m: f32| {
+        let prepared = p.prepare(&tube, &load, BACKOFF_M, need_m, 0, &mut space).unwrap();
+        space.plan(&prepared, &mut check)
+    };
+    let fits = plan(&mut p, 0.0).expect("the configured 1.6 m fits the gap");
+    assert!(fits.bottleneck.half_width_m >= 1.6, "{:?}", fits.bottleneck);
+    assert!(matches!(plan(&mut p, 2.6), Err(PlanError::TooNarrow { .. })), "a formation that needs 2.6 m gets no route");
+    // Asking for less than `PR_HALF_W`, or for nothing finite, leaves the configured need; no
+    // need beyond the configured widest half-width.
+    for need in [0.0, 1.0, f32::NAN, f32::INFINITY] {
+        assert_eq!(p.plan_params(need), config().plan, "{need}");
+    }
+    assert_eq!(p.plan_params(2.6).need_half_width_m, 2.6);
+    assert_eq!(p.plan_params(9.0).need_half_width_m, config().plan.max_half_width_m);
+}
+
 #[test]
 fn a_tube_is_kept_when_it_would_leave_a_uav_or_the_load_outside_or_bring_the_barrier_closer() {
     let (wide, narrow, off) = (straight(10.0, 3.0), straight(10.0, 1.6), straight(14.0, 3.0));

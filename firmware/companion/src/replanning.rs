@@ -51,6 +51,9 @@ pub trait Crew<'t> {
     fn team_no_route(&self) -> bool;
     /// The velocity limit `v_m`, m/s.
     fn v_max_mps(&self) -> f32;
+    /// The half-width the flown formation needs of a planned tube, m, with the load at
+    /// `load_m` (`Flight::shaped_need_half_width_m`; 0: nothing beyond `PR_HALF_W`).
+    fn need_half_width_m(&self, load_m: &Vec3) -> f32;
 }
 
 /// How far inside a planned tube every member must be for the plan to go over, m: the barrier's
@@ -451,7 +454,8 @@ impl<'t, 'p> Replanning<'t, 'p> {
         }
         let space = self.space.as_deref_mut()?;
         let backoff = if core::mem::take(&mut self.from_load) { 0.0 } else { BACKOFF_M };
-        Some((self.map.prepare(tube, load_m, backoff, now_ms, space), backoff))
+        let need_m = c.need_half_width_m(load_m);
+        Some((self.map.prepare(tube, load_m, backoff, need_m, now_ms, space), backoff))
     }
 
     /// The check of a search's result: offered when worth a switch and holding every member

@@ -141,6 +141,28 @@ impl<const N: usize> TubeShape<N> {
             return self.radius_m;
         }
         let mut angles = [0.0f32; N];
+        let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
+        separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
+    }
+
+    /// Whether the stadium of quantum `q` keeps every pair of UAVs at the separation floor where
+    /// they fly, at the half-length [`Self::half_length_for`] gives it (a narrow stadium may not
+    /// reach the floor before the capacity stops its lengthening). The ring, and a shape without
+    /// a floor, keep it.
+    pub(super) fn keeps_floor(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> bool {
+        if q >= QUANTA || self.separation_m <= 0.0 {
+            return true;
+        }
+        let mut angles = [0.0f32; N];
+        let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
+        let b = self.radius_m * q as f32 / QUANTA as f32;
+        let a = separated_half_length_m(&team, &limits, self.radius_m, b);
+        team.min_distance_m(a, b, limits.separation_scale) >= limits.separation_m
+    }
+
+    /// The team and its limits as the stadium's separation check needs them (shape.rs), the
+    /// node angles from `frame` written into `angles`.
+    fn stadium_team<'a>(&'a self, angles: &'a mut [f32; N], frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> (StadiumTeam<'a>, StadiumLimits) {
         for (a, p) in angles.iter_mut().zip(self.nodes_m.iter()).take(n) {
             *a = self.angle_rad(p, frame);
         }
@@ -153,6 +175,6 @@ impl<const N: usize> TubeShape<N> {
         // The floor at the smallest scale the capacity-aware formation may fly, the capacity at
         // the scale it aims for (capacity.rs).
         let limits = StadiumLimits { separation_m: self.separation_m, separation_scale: scale.scale_min(), min_cos_sum: self.min_cos_sum, capacity_scale: scale.scale_target() };
-        separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
+        (team, limits)
     }
 }

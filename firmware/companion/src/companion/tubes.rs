@@ -3,7 +3,7 @@
 
 use super::{Companion, Core};
 use crate::replanning::Crew;
-use crate::{CompanionTube, Param};
+use crate::{CompanionTube, Param, Vec3};
 
 impl<'t> Companion<'t> {
     /// The tube flown (`None`: none uploaded or accepted yet).
@@ -64,6 +64,12 @@ impl<'t> Crew<'t> for Core<'t> {
     fn v_max_mps(&self) -> f32 {
         self.params.get(Param::VMax)
     }
+    fn need_half_width_m(&self, load_m: &Vec3) -> f32 {
+        let Some(fl) = self.flight.as_ref() else {
+            return 0.0;
+        };
+        fl.shaped_need_half_width_m(self.tube, load_m.xy()).unwrap_or(0.0)
+    }
 }
 
 impl<'t> Crew<'t> for Companion<'t> {
@@ -87,5 +93,8 @@ impl<'t> Crew<'t> for Companion<'t> {
     }
     fn v_max_mps(&self) -> f32 {
         Crew::v_max_mps(&self.core)
+    }
+    fn need_half_width_m(&self, load_m: &Vec3) -> f32 {
+        Crew::need_half_width_m(&self.core, load_m)
     }
 }
