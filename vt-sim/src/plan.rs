@@ -80,9 +80,38 @@ pub fn fill_planned_tube(s: &mut Scenario, text: &str, source_name: &str) -> Res
         crate::scenario::MapKnowledge::Known => m.clone(),
         crate::scenario::MapKnowledge::Unknown => LoadedMap { source_name: format!("{} (bounds only)", m.source_name), map: crate::map::Map::Geometric { bounds_m: m.bounds_m(), shapes: Vec::new() } },
     };
-    let t = known.plan(spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", known.source_name)))?;
-    s.tube.waypoints = waypoints_f64(&t);
+    let t = plan_for_team(s, &known, spec.start, spec.goal, &params).map_err(|e| err(format!("{}: {e}", known.source_name)))?;
     Ok(Some(PlanScene { map: m, tube: t }))
+}
+
+/// Plans on `m` for the team of `s` (whose `tube.waypoints` it fills with the result): with
+/// `params`, then, for a team with bodies flying the formation shaped to the tube, again with
+/// the width its separated stadium keeps the floor in when that is more (the team placed on the
+/// first plan; docs/design.md, "The width the shaped formation needs").
+///
+/// # Errors
+/// The planner's, naming the shaped formation's width when it asked for it.
+fn plan_for_team(s: &mut Scenario, m: &LoadedMap, start: [f64; 2], goal: [f64; 2], params: &vt_plan::PlanParams) -> Result<PlannedTube, String> {
+    let t = m.plan(start, goal, params).map_err(|e| e.to_string())?;
+    s.tube.waypoints = waypoints_f64(&t);
+    let Some(need) = planned_tube(s).and_then(|tube| crate::sim::shaped_need_m(s, &tube)) else {
+        return Ok(t);
+    };
+    if need <= f64::from(params.need_half_width_m) + 1e-4 {
+        return Ok(t);
+    }
+    let mut wider = *params;
+    wider.need_half_width_m = need.min(f64::from(params.max_half_width_m)) as f32;
+    let t = m.plan(start, goal, &wider).map_err(|e| {
+        format!("{e} (bodies declared and the formation shaped to the tube: its pairs keep their floor only in {need:.2} m of half-width; docs/design.md, \"The width the shaped formation needs\")")
+    })?;
+    s.tube.waypoints = waypoints_f64(&t);
+    Ok(t)
+}
+
+/// The tube `s.tube.waypoints` give, when vt-tube builds it (`None`: validation says why).
+fn planned_tube(s: &Scenario) -> Option<crate::scenario::SimTube> {
+    crate::scenario::SimTube::from_waypoints(&s.tube.waypoints_f32()).ok()
 }
 
 /// The planner parameters of a scenario's plan: the team's (`map::params_for`) with
@@ -137,11 +166,11 @@ pub struct PlanOutcome {
 /// # Errors
 /// `Err((message, exit code))`: 2 for bad input (map, team, terminals, too narrow).
 pub fn run_cli(map_path: &Path, start: [f64; 2], goal: [f64; 2], team: Option<&Path>) -> Result<PlanOutcome, String> {
-    let team = crate::scenario::load(team).map_err(|e| e.to_string())?;
+    let mut team = crate::scenario::load(team).map_err(|e| e.to_string())?;
     let m = LoadedMap::load(map_path).map_err(|e| e.to_string())?;
     let params = map::params_for(&team.scenario);
     let t0 = std::time::Instant::now();
-    let tube = m.plan(start, goal, &params).map_err(|e| format!("{}: {e}", m.source_name))?;
+    let tube = plan_for_team(&mut team.scenario, &m, start, goal, &params).map_err(|e| format!("{}: {e}", m.source_name))?;
     let plan_ms = t0.elapsed().as_secs_f64() * 1e3;
     let toml = map::tube_toml(&tube, &m.source_name, start, goal);
     Ok(PlanOutcome { map: m, tube, toml, plan_ms })

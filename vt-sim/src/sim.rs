@@ -196,6 +196,25 @@ fn lead_params(s: &Scenario, rated_n: f64) -> Option<vt_companion::Params> {
     crate::companion::params_for(s, 0, ControllerKind::Dissipative, rated_n, false).ok()
 }
 
+/// The tube half-width the formation shaped to `tube` keeps its separation floor in, m, as UAV
+/// 0's companion arms it from the take-off on `tube` (`vt_companion::shaped_need_at_arming_m`,
+/// the one law; docs/design.md, "The width the shaped formation needs"): what a planner must give
+/// a team with bodies declared and `[controller.shape]` on. `None` otherwise, or when the arming
+/// would refuse (its own error says why).
+pub fn shaped_need_m(s: &Scenario, tube: &SimTube) -> Option<f64> {
+    if s.uavs.body_radius_m.is_none() || !s.controller.shape.enabled {
+        return None;
+    }
+    let rated = s.cables.rated_n;
+    let to = takeoff(s, tube, rated);
+    let params = lead_params(s, rated)?;
+    let f32v = |p: &V3| vt_companion::Vec3::new(p.x as f32, p.y as f32, p.z as f32);
+    let uavs: Vec<vt_companion::Vec3> = to.uav_pos_m.iter().map(f32v).collect();
+    let load = f32v(&to.load_pos_m);
+    let tangent = tube.locate(load.xy(), 0)?.tangent;
+    vt_companion::shaped_need_at_arming_m(&params, &uavs, &load, tangent).map(f64::from)
+}
+
 /// What the pre-flight check sees of `s` with cables rated `rated_n` (N) at the take-off lean
 /// ([`takeoff_cos_lean`]): the companion's own `Params::feasibility`.
 pub fn feasibility_at_takeoff(s: &Scenario, rated_n: f64) -> Option<FeasibilityParams> {

@@ -219,6 +219,13 @@ pub struct DissipativeController<const N: usize> {
     shape: Option<TubeShape<N>>,
 }
 
+/// How far above the separation floor a formation squeezed narrower than its narrowest stadium
+/// must keep its pairs, m ([`DissipativeController::shaped_need_half_width_m`]): what flights
+/// close below the static geometry (0.13 m for the paper team at the narrowest stadium, 0.15 m
+/// at the next, up to about 0.25 m behind PX4's stock gains; docs/design.md, "The width the
+/// shaped formation needs").
+pub const SQUEEZE_GUARD_M: f32 = 0.25;
+
 /// What the tube-shaped formation needs to keep the capacity-aware formation's separation
 /// floor (shape.rs, [`separated_half_length_m`]).
 #[derive(Debug, Clone, Copy)]
@@ -434,17 +441,28 @@ impl<const N: usize> DissipativeController<N> {
         if !(frame.iter().all(|x| x.is_finite()) && vt_fpu::norm(&frame) > 0.0) {
             return None;
         }
-        let floor_q = min_quantum(self.n);
+        let (floor_q, h) = (min_quantum(self.n), self.params.tray.height_above_load_m);
         // Down from the ring: the first quantum whose stadium cannot keep the floor ends the scan.
         let mut held = QUANTA;
         for q in (floor_q..QUANTA).rev() {
-            if !shape.keeps_floor(q, frame, self.n, self.params.tray.height_above_load_m, &self.scale) {
+            if !shape.keeps_floor(q, frame, self.n, h, &self.scale) {
                 break;
             }
             held = q;
         }
+        // Narrower than the narrowest stadium the tube keeping squeezes it sideways: as far as
+        // its pairs keep the floor with SQUEEZE_GUARD_M to spare.
+        let mut width_q = held as f32;
+        if held == floor_q {
+            for q in (1..floor_q).rev() {
+                if !shape.squeeze_keeps_floor(floor_q, q as f32 / floor_q as f32, frame, self.n, h, &self.scale) {
+                    break;
+                }
+                width_q = q as f32;
+            }
+        }
         let ring_m = shape.radius_m * self.rest_scale;
-        Some(self.params.r_safe_m + shape.params.margin_m + ring_m * held as f32 / QUANTA as f32)
+        Some(self.params.r_safe_m + shape.params.margin_m + ring_m * width_q / QUANTA as f32)
     }
 
     /// The tube-shaped formation's half-width now, fraction of the ring's radius (1: the ring,

@@ -458,6 +458,21 @@ fn the_planner_is_asked_for_the_width_the_separated_stadium_keeps_its_floor_in()
             assert!(need >= d.shaped_need_half_width_m(&tangent).unwrap(), "floor {floor}");
         }
     }
+    // Three UAVs: the stadium narrows only to 28 of 32 and keeps the floor there; a tube
+    // narrower squeezes it sideways, which their pairs take down to the floor plus the guard.
+    let (uavs3, load3) = takeoff(3, 4.0);
+    let f3 = Formation::<N>::from_takeoff(&uavs3, &load3, &params().tray).unwrap();
+    let sep = ShapeSeparation { takeoff_m: &uavs3, load_m: load3, separation_m: 1.3, min_cos_sum: 0.0 };
+    let mut c = team(3, &uavs3, &load3).remove(0);
+    c.set_shape(ShapeParams::default(), &f3, Some(sep)).unwrap();
+    let need = c.shaped_need_half_width_m(&tangent).unwrap();
+    let shape = c.shape.as_ref().unwrap();
+    let (ring, base, h) = (shape.radius_m * c.rest_scale, c.params.r_safe_m + shape.params.margin_m, c.params.tray.height_above_load_m);
+    let fq = min_quantum(3);
+    assert!(need < base + ring * fq as f32 / QUANTA as f32 - 0.1, "squeezed below the narrowest stadium: {need}");
+    let k = (need - base) / ring * QUANTA as f32 / fq as f32;
+    assert!(shape.squeeze_keeps_floor(fq, k + 1e-4, tangent, 3, h, &c.scale), "at the need: {k}");
+    assert!(!shape.squeeze_keeps_floor(fq, k - 1.0 / fq as f32, tangent, 3, h, &c.scale), "a step narrower: {k}");
     // A floor no stadium keeps (the ring itself breaks it) asks for the ring's whole width.
     let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 5.0, min_cos_sum: 0.0 };
     let mut c = team(n, &uavs, &load).remove(0);

@@ -149,8 +149,11 @@ pub struct StadiumLimits {
 impl<'a> StadiumTeam<'a> {
     /// Node `k`'s offset from the load node on the stadium of half-length `a_m` and half-width
     /// `b_m` (node space, m).
-    fn offset(&self, k: usize, a_m: f32, b_m: f32) -> Option<Vec2> {
-        self.angles_rad.get(k).map(|&th| stadium_point(th, a_m, b_m) - self.load_m)
+    fn offset(&self, k: usize, a_m: f32, b_m: f32, squeeze: f32) -> Option<Vec2> {
+        self.angles_rad.get(k).map(|&th| {
+            let p = stadium_point(th, a_m, b_m);
+            Vec2::new(p.x, p.y * squeeze) - self.load_m
+        })
     }
 
     /// The smallest distance between two UAVs (m, 3-D) where they fly at scale `lambda`: UAV
@@ -159,12 +162,20 @@ impl<'a> StadiumTeam<'a> {
     /// measures it: the tray projection puts a UAV below its node), with the nodes on the
     /// stadium of half-length `a_m` and half-width `b_m`; infinity for fewer than two UAVs.
     pub fn min_distance_m(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
+        self.squeezed_min_distance_m(a_m, b_m, lambda, 1.0)
+    }
+
+    /// [`Self::min_distance_m`] with the stadium squeezed sideways: every node's lateral offset
+    /// times `squeeze` (1: the stadium itself, bit for bit). A tube narrower than the
+    /// narrowest stadium squeezes the formation this way (the tube keeping, eq:2-14, acts
+    /// sideways).
+    pub fn squeezed_min_distance_m(&self, a_m: f32, b_m: f32, lambda: f32, squeeze: f32) -> f32 {
         let mut best2 = f32::INFINITY;
         let n = self.angles_rad.len().min(self.lengths_mm.len());
         for i in 0..n {
-            let Some(pi) = self.position(i, a_m, b_m, lambda) else { break };
+            let Some(pi) = self.position(i, a_m, b_m, lambda, squeeze) else { break };
             for j in i + 1..n {
-                let Some(pj) = self.position(j, a_m, b_m, lambda) else { break };
+                let Some(pj) = self.position(j, a_m, b_m, lambda, squeeze) else { break };
                 best2 = vt_fpu::min(best2, (pi - pj).norm_squared());
             }
         }
@@ -173,8 +184,8 @@ impl<'a> StadiumTeam<'a> {
 
     /// UAV `k` where it flies about the load at scale `lambda`, m (module docs of capacity.rs).
     #[inline(never)]
-    fn position(&self, k: usize, a_m: f32, b_m: f32, lambda: f32) -> Option<Vec3> {
-        let d = self.offset(k, a_m, b_m)?;
+    fn position(&self, k: usize, a_m: f32, b_m: f32, lambda: f32, squeeze: f32) -> Option<Vec3> {
+        let d = self.offset(k, a_m, b_m, squeeze)?;
         let len_m = f32::from(*self.lengths_mm.get(k)?) * 1e-3;
         Some(crate::capacity::uav_rel(d, len_m, lambda, self.tray_height_m))
     }
@@ -182,7 +193,7 @@ impl<'a> StadiumTeam<'a> {
     /// `sum_i cos theta_i` with the nodes on the stadium at scale `lambda` (the team's vertical
     /// capacity over one UAV's, capacity.rs: `cos theta = H / sqrt(H^2 + lambda^2 |d|^2)`).
     pub fn cos_sum(&self, a_m: f32, b_m: f32, lambda: f32) -> f32 {
-        (0..self.angles_rad.len()).filter_map(|k| self.offset(k, a_m, b_m)).fold(0.0, |s, d| s + crate::capacity::lean_cos(vt_fpu::norm(&d), lambda, self.tray_height_m))
+        (0..self.angles_rad.len()).filter_map(|k| self.offset(k, a_m, b_m, 1.0)).fold(0.0, |s, d| s + crate::capacity::lean_cos(vt_fpu::norm(&d), lambda, self.tray_height_m))
     }
 }
 

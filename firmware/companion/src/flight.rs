@@ -761,6 +761,23 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
     })
 }
 
+/// Issue 28 and 27 §1: the narrowest tube half-width the formation UAV `PR`/`VT_ID` of `params`
+/// would arm with from `takeoff` and `load_pos_m` keeps its separation floor in, m
+/// (`DissipativeController::shaped_need_half_width_m`, framed by the tube's direction
+/// `tangent_xy` at the load, as the first look frames an air start's). A planner on a known map
+/// asks for it before the flight; aboard, a re-plan asks the armed formation
+/// ([`Flight::shaped_need_half_width_m`]). `None` without a shape with a floor, for the
+/// baseline, or when the arming would refuse (its own error says why at the start).
+#[cfg(feature = "std")]
+pub fn shaped_need_at_arming_m(params: &Params, takeoff: &[Vec3], load_pos_m: &Vec3, tangent_xy: vt_tube::Vec2) -> Option<f32> {
+    let n = params.get_u32(Param::NUavs) as usize;
+    let id = params.get_u32(Param::Id) as usize;
+    match arm(params, id, n, takeoff.get(..n)?, load_pos_m, None).ok()? {
+        HighLevel::Dissipative(c) => c.shaped_need_half_width_m(&tangent_xy),
+        HighLevel::Baseline(_) => None,
+    }
+}
+
 #[cfg(test)]
 #[path = "flight_tests.rs"]
 pub(crate) mod tests;

@@ -43,6 +43,8 @@ pub mod scans;
 
 pub use companion::{Companion, Io, Mode, Request, Source};
 pub use flight::{Flight, HoldReasons, MemberBits};
+#[cfg(feature = "std")]
+pub use flight::shaped_need_at_arming_m;
 pub use framer::{Frame, Framer, LinkCounters};
 pub use mission::{Item, MissionResult, MissionUpload};
 pub use params::{Param, ParamError, Params, AUTO};

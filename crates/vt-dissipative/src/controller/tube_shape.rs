@@ -146,9 +146,11 @@ impl<const N: usize> TubeShape<N> {
     }
 
     /// Whether the stadium of quantum `q` keeps every pair of UAVs at the separation floor where
-    /// they fly, at the half-length [`Self::half_length_for`] gives it (a narrow stadium may not
-    /// reach the floor before the capacity stops its lengthening). The ring, and a shape without
-    /// a floor, keep it.
+    /// they fly at the scale the capacity-aware formation aims for (`lambda*`), at the
+    /// half-length [`Self::half_length_for`] gives it (a narrow stadium may not reach the floor
+    /// before the capacity stops its lengthening; the length itself is chosen at the smallest
+    /// scale the law may fly, a contraction for an overload, which a plan need not be sized
+    /// for). The ring, and a shape without a floor, keep it.
     pub(super) fn keeps_floor(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> bool {
         if q >= QUANTA || self.separation_m <= 0.0 {
             return true;
@@ -157,7 +159,22 @@ impl<const N: usize> TubeShape<N> {
         let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
         let b = self.radius_m * q as f32 / QUANTA as f32;
         let a = separated_half_length_m(&team, &limits, self.radius_m, b);
-        team.min_distance_m(a, b, limits.separation_scale) >= limits.separation_m
+        team.min_distance_m(a, b, limits.capacity_scale) >= limits.separation_m
+    }
+
+    /// Whether the narrowest stadium `q` squeezed sideways by `squeeze` (a tube narrower than it,
+    /// [`crate::shape::StadiumTeam::squeezed_min_distance_m`]) keeps every pair of UAVs at the
+    /// separation floor plus [`super::SQUEEZE_GUARD_M`] where they fly at the scale the
+    /// formation aims for.
+    pub(super) fn squeeze_keeps_floor(&self, q: i32, squeeze: f32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> bool {
+        if self.separation_m <= 0.0 {
+            return true;
+        }
+        let mut angles = [0.0f32; N];
+        let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
+        let b = self.radius_m * q as f32 / QUANTA as f32;
+        let a = separated_half_length_m(&team, &limits, self.radius_m, b);
+        team.squeezed_min_distance_m(a, b, limits.capacity_scale, squeeze) >= limits.separation_m + super::SQUEEZE_GUARD_M
     }
 
     /// The team and its limits as the stadium's separation check needs them (shape.rs), the
