@@ -423,9 +423,9 @@ impl<const N: usize> DissipativeController<N> {
 
     /// The narrowest tube half-width in which the formation shaped to the tube keeps its
     /// separation floor by construction, m: `r_safe + margin + r q / QUANTA` for the narrowest
-    /// quantum `q` from which every wider stadium's pairs keep the floor where they fly
-    /// ([`crate::shape::separated_half_length_m`]: a narrower stadium lengthens, until the
-    /// capacity stops it). A planner that gives the team less asks the formation for a shape
+    /// width `q` (quanta) from which every wider stadium's pairs keep the floor where they fly,
+    /// or, below the narrowest stadium, the squeezed one's with a guard
+    /// (`TubeShape::floor_width_quanta`). A planner that gives the team less asks the formation for a shape
     /// it cannot fly apart (docs/design.md, "The width the shaped formation needs"). `None`
     /// without a shape or a floor (bodies not declared). The stadium's frame is the first look's,
     /// or before it `tangent` (the tube's direction at the load). Out of line and cold: a few
@@ -441,26 +441,7 @@ impl<const N: usize> DissipativeController<N> {
         if !(frame.iter().all(|x| x.is_finite()) && vt_fpu::norm(&frame) > 0.0) {
             return None;
         }
-        let (floor_q, h) = (min_quantum(self.n), self.params.tray.height_above_load_m);
-        // Down from the ring: the first quantum whose stadium cannot keep the floor ends the scan.
-        let mut held = QUANTA;
-        for q in (floor_q..QUANTA).rev() {
-            if !shape.keeps_floor(q, frame, self.n, h, &self.scale) {
-                break;
-            }
-            held = q;
-        }
-        // Narrower than the narrowest stadium the tube keeping squeezes it sideways: as far as
-        // its pairs keep the floor with SQUEEZE_GUARD_M to spare.
-        let mut width_q = held as f32;
-        if held == floor_q {
-            for q in (1..floor_q).rev() {
-                if !shape.squeeze_keeps_floor(floor_q, q as f32 / floor_q as f32, frame, self.n, h, &self.scale) {
-                    break;
-                }
-                width_q = q as f32;
-            }
-        }
+        let width_q = shape.floor_width_quanta(min_quantum(self.n), frame, self.n, self.params.tray.height_above_load_m, &self.scale);
         let ring_m = shape.radius_m * self.rest_scale;
         Some(self.params.r_safe_m + shape.params.margin_m + ring_m * width_q / QUANTA as f32)
     }

@@ -145,36 +145,55 @@ impl<const N: usize> TubeShape<N> {
         separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
     }
 
-    /// Whether the stadium of quantum `q` keeps every pair of UAVs at the separation floor where
-    /// they fly at the scale the capacity-aware formation aims for (`lambda*`), at the
-    /// half-length [`Self::half_length_for`] gives it (a narrow stadium may not reach the floor
-    /// before the capacity stops its lengthening; the length itself is chosen at the smallest
-    /// scale the law may fly, a contraction for an overload, which a plan need not be sized
-    /// for). The ring, and a shape without a floor, keep it.
-    pub(super) fn keeps_floor(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> bool {
-        if q >= QUANTA || self.separation_m <= 0.0 {
-            return true;
+    /// The narrowest tube the formation keeps its separation floor in, in quanta of the ring's
+    /// radius (the planner's need, [`super::DissipativeController::shaped_need_half_width_m`]):
+    /// down from the ring, the last stadium whose pairs keep the floor where they fly at the
+    /// scale the capacity-aware formation aims for (`lambda*`), at the half-length
+    /// [`Self::half_length_for`] gives it (a narrow stadium may not reach the floor before the
+    /// capacity stops its lengthening; that length is chosen at the smallest scale the law may
+    /// fly, a contraction for an overload, which a plan need not be sized for). When every
+    /// stadium keeps it, the narrowest one (`floor_q`) squeezed sideways in steps of a quantum,
+    /// as far as its pairs keep the floor plus [`super::SQUEEZE_GUARD_M`]. [`QUANTA`] without a
+    /// floor.
+    pub(super) fn floor_width_quanta(&self, floor_q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
+        if self.separation_m <= 0.0 {
+            return QUANTA as f32;
         }
         let mut angles = [0.0f32; N];
         let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
-        let b = self.radius_m * q as f32 / QUANTA as f32;
-        let a = separated_half_length_m(&team, &limits, self.radius_m, b);
-        team.min_distance_m(a, b, limits.capacity_scale) >= limits.separation_m
+        let stadium = |q: i32| {
+            let b = self.radius_m * q as f32 / QUANTA as f32;
+            (separated_half_length_m(&team, &limits, self.radius_m, b), b)
+        };
+        let mut held = QUANTA;
+        for q in (floor_q..QUANTA).rev() {
+            let (a, b) = stadium(q);
+            if team.min_distance_m(a, b, limits.capacity_scale) < limits.separation_m {
+                return held as f32;
+            }
+            held = q;
+        }
+        let (a, b) = stadium(floor_q);
+        let mut width = floor_q as f32;
+        for q in (1..floor_q).rev() {
+            if team.squeezed_min_distance_m(a, b, limits.capacity_scale, q as f32 / floor_q as f32) < limits.separation_m + super::SQUEEZE_GUARD_M {
+                break;
+            }
+            width = q as f32;
+        }
+        width
     }
 
-    /// Whether the narrowest stadium `q` squeezed sideways by `squeeze` (a tube narrower than it,
-    /// [`crate::shape::StadiumTeam::squeezed_min_distance_m`]) keeps every pair of UAVs at the
-    /// separation floor plus [`super::SQUEEZE_GUARD_M`] where they fly at the scale the
-    /// formation aims for.
-    pub(super) fn squeeze_keeps_floor(&self, q: i32, squeeze: f32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> bool {
-        if self.separation_m <= 0.0 {
-            return true;
-        }
+    /// The closest pair of UAVs where they fly at `lambda*`, m, the stadium of quantum `q` at the
+    /// half-length [`Self::half_length_for`] gives it and squeezed sideways by `squeeze` (the
+    /// tests' view of [`Self::floor_width_quanta`]).
+    #[cfg(test)]
+    pub(super) fn flown_min_distance_m(&self, q: i32, squeeze: f32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
         let mut angles = [0.0f32; N];
         let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
         let b = self.radius_m * q as f32 / QUANTA as f32;
         let a = separated_half_length_m(&team, &limits, self.radius_m, b);
-        team.squeezed_min_distance_m(a, b, limits.capacity_scale, squeeze) >= limits.separation_m + super::SQUEEZE_GUARD_M
+        team.squeezed_min_distance_m(a, b, limits.capacity_scale, squeeze)
     }
 
     /// The team and its limits as the stadium's separation check needs them (shape.rs), the
