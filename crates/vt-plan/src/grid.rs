@@ -11,7 +11,7 @@
 //! parabola is always the larger (see `square_pass`).
 #![allow(clippy::indexing_slicing)] // kernels only; every slice length is checked on entry
 
-use crate::{ClearanceMap, PlanError, Vec2};
+use crate::{ClearanceMap, NodeIndex, PlanError, Vec2};
 
 /// Cell centres around a query on each side beyond the nearest two.
 const RING: usize = 1;
@@ -19,6 +19,12 @@ const RING: usize = 1;
 const SIDE: usize = 2 + 2 * RING;
 /// `sqrt(2) / 2`: distance from a cell's centre to its corner, in cells.
 const HALF_DIAGONAL_CELLS: f32 = core::f32::consts::FRAC_1_SQRT_2;
+/// Twice `union_depth`'s rounding guard, cells: how far below the simplest bound the union's
+/// answer may come out.
+const UNION_GUARD_CELLS: f32 = 2e-4;
+/// How far a stored distance may lie below the exact one (the eighths' rounding down), plus
+/// the union's rounding guard, cells: the upper bounds' allowance.
+const FIELD_ROUNDING_CELLS: f32 = 0.125 + 1e-4;
 
 /// Distance transform of a `width x height` grid to its occupied squares, in place.
 ///
@@ -305,41 +311,11 @@ fn square_pass(f: &[f32], d: &mut [f32], h: &mut [f32], v: &mut [usize], z: &mut
 /// sites at `pos(s) = s + offset`. Infinite heights take no part in the envelope. `v`: the
 /// envelope's sites, `h.len()` long; `z`: its boundaries, `h.len() + 1` long.
 fn envelope(h: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32], offset: f32) {
-    let pos = |s: usize| s as f32 + offset;
-    let mut k: usize = 0;
-    let mut any = false;
-    for (q, &hq) in h.iter().enumerate() {
-        if !hq.is_finite() {
-            continue;
-        }
-        if !any {
-            any = true;
-            v[0] = q;
-            z[0] = f32::NEG_INFINITY;
-            z[1] = f32::INFINITY;
-            continue;
-        }
-        let qf = pos(q);
-        loop {
-            let p = v[k];
-            let pf = pos(p);
-            let s = ((hq + qf * qf) - (h[p] + pf * pf)) / (2.0 * (qf - pf));
-            // z[0] = -inf: the envelope never empties.
-            if k > 0 && s <= z[k] {
-                k -= 1;
-                continue;
-            }
-            k += 1;
-            v[k] = q;
-            z[k] = s;
-            z[k + 1] = f32::INFINITY;
-            break;
-        }
-    }
-    if !any {
+    if !lower_envelope(h, v, z, offset) {
         d.iter_mut().for_each(|x| *x = f32::INFINITY);
         return;
     }
+    let pos = |s: usize| s as f32 + offset;
     let mut k = 0usize;
     for (x, dx_out) in d.iter_mut().enumerate() {
         let xf = x as f32;
@@ -352,12 +328,56 @@ fn envelope(h: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32], offset: f3
     }
 }
 
+/// The lower envelope of the parabolas `(x - pos(s))^2 + h(s)`, `pos(s) = s + offset`, over the
+/// sites of finite height (F&H's construction): site `v[k]` is lowest on `z[k]..z[k + 1]`, the
+/// last boundary `+inf`. `v`: `h.len()` long; `z`: `h.len() + 1`. False (and `v`, `z`
+/// untouched) when every height is infinite.
+pub(crate) fn lower_envelope<I: NodeIndex>(h: &[f32], v: &mut [I], z: &mut [f32], offset: f32) -> bool {
+    let pos = |s: usize| s as f32 + offset;
+    let mut k: usize = 0;
+    let mut any = false;
+    for (q, &hq) in h.iter().enumerate() {
+        if !hq.is_finite() {
+            continue;
+        }
+        if !any {
+            any = true;
+            v[0] = I::from_node(q);
+            z[0] = f32::NEG_INFINITY;
+            z[1] = f32::INFINITY;
+            continue;
+        }
+        let qf = pos(q);
+        loop {
+            let p = v[k].node();
+            let pf = pos(p);
+            let s = ((hq + qf * qf) - (h[p] + pf * pf)) / (2.0 * (qf - pf));
+            // z[0] = -inf: the envelope never empties.
+            if k > 0 && s <= z[k] {
+                k -= 1;
+                continue;
+            }
+            k += 1;
+            v[k] = I::from_node(q);
+            z[k] = s;
+            z[k + 1] = f32::INFINITY;
+            break;
+        }
+    }
+    any
+}
+
 /// The distances a [`GridMap`] reads, cells: exact `f32` ([`distance_transform`]) or `u8`
 /// eighths of a cell rounded down ([`distance_transform_eighths`], a quarter of the memory).
 pub trait DistanceCells {
     /// Distance from cell `k`'s centre (row-major) to the nearest occupied square, cells, or a
     /// lower bound of it; `None` outside the slice.
     fn distance_cells(&self, k: usize) -> Option<f32>;
+    /// Whether cell `k` is occupied (its distance is zero); `None` outside the slice.
+    #[inline]
+    fn is_occupied(&self, k: usize) -> Option<bool> {
+        self.distance_cells(k).map(|d| d <= 0.0)
+    }
 }
 
 impl DistanceCells for [f32] {
@@ -377,6 +397,11 @@ impl DistanceCells for [u8] {
     fn distance_cells(&self, k: usize) -> Option<f32> {
         self.get(k).map(|&q| f32::from(q) * 0.125)
     }
+
+    #[inline]
+    fn is_occupied(&self, k: usize) -> Option<bool> {
+        self.get(k).map(|&q| q == 0)
+    }
 }
 
 impl DistanceCells for [u16] {
@@ -386,6 +411,11 @@ impl DistanceCells for [u16] {
     #[inline]
     fn distance_cells(&self, k: usize) -> Option<f32> {
         self.get(k).map(|&q| if q == SQUARES_NONE { f32::INFINITY } else { vt_fpu::sqrt(f32::from(q) * 0.25) })
+    }
+
+    #[inline]
+    fn is_occupied(&self, k: usize) -> Option<bool> {
+        self.get(k).map(|&q| q == 0)
     }
 }
 
@@ -415,6 +445,23 @@ impl<C: ?Sized + DistanceCells> GridMap<'_, C> {
     }
 }
 
+impl<C: ?Sized + DistanceCells> GridMap<'_, C> {
+    /// Minus the distance from `rel` (centre coordinates: centre `(i, j)` at `(i, j)`) to its
+    /// cell's centre and the half diagonal, m, when that cell is occupied (a point outside the
+    /// grid counts in the edge cell nearest it); `None` when it is free. Both grid dimensions
+    /// must be non-zero.
+    pub(crate) fn inside_occupied_m(&self, rel: Vec2) -> Option<f32> {
+        let own = |x: f32, n: usize| -> usize { if x < -0.5 { 0 } else { ((x + 0.5) as usize).min(n - 1) } };
+        let (io, jo) = (own(rel.x, self.width), own(rel.y, self.height));
+        if self.dist_cells.is_occupied(jo * self.width + io) == Some(true) {
+            let c = Vec2::new(io as f32, jo as f32);
+            Some(-(vt_fpu::norm(&(rel - c)) + HALF_DIAGONAL_CELLS) * self.resolution_m)
+        } else {
+            None
+        }
+    }
+}
+
 impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
     fn bounds_m(&self) -> (Vec2, Vec2) {
         let size = Vec2::new(self.width as f32, self.height as f32) * self.resolution_m;
@@ -433,14 +480,86 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
         self.clearance_capped_m(p_m, f32::INFINITY)
     }
 
+    /// The exact distance to the occupied squares at every node, in one sweep of the grid
+    /// (`node_clearance`): at least the union of discs' bound.
+    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &crate::Lattice, out: &mut [f32], space: crate::SweepSpace<'_, I>) -> bool {
+        crate::node_clearance::lattice_clearances_m(self, lat, out, space)
+    }
+
     /// As [`Self::clearance_m`], but a point whose simplest bound, `max_k r_k - |p - c_k|`,
     /// already reaches `cap_m` gets that bound without the union's boundary being searched.
     fn clearance_capped_m(&self, p_m: Vec2, cap_m: f32) -> f32 {
+        let (rel, discs, depth) = match self.discs_around(p_m) {
+            Ok(d) => d,
+            Err(answer) => return answer,
+        };
         let res = self.resolution_m;
-        // Position in centre coordinates: centre (i, j) sits at (i, j).
+        let simple = depth.iter().copied().fold(f32::NEG_INFINITY, vt_fpu::max);
+        if simple * res >= cap_m {
+            return simple * res;
+        }
+        // The grid's extent in centre coordinates: no occupied square lies beyond it.
+        let (lo, hi) = (Vec2::new(-0.5, -0.5), Vec2::new(self.width as f32 - 0.5, self.height as f32 - 0.5));
+        vt_fpu::max(union_depth(&discs, &depth, rel, lo, hi), 0.0) * res
+    }
+
+    /// From the 2 x 2 discs around the point alone (any disc bounds the distance both ways):
+    /// below, the simplest bound `max_k r_k - |p - c_k|`, and where that stays under `enough_m`,
+    /// the distance to the part of the grid the four discs leave uncovered, which holds the
+    /// 16-disc union's, less the union's rounding guard twice over; above, the nearest disc's far
+    /// side `min_k r_k + |p - c_k|`, which the distance to the occupied squares, and so the
+    /// query, never exceeds (plus an eighth of a cell for a field rounded down). The union's
+    /// bound counts only up to `cap_m`, where the query may answer its simplest bound.
+    fn clearance_capped_bounds_m(&self, p_m: Vec2, cap_m: f32, enough_m: f32) -> (f32, f32) {
+        let res = self.resolution_m;
         let rel = (p_m - self.origin_m) / res - Vec2::new(0.5, 0.5);
         if !(rel.x.is_finite() && rel.y.is_finite()) || self.width == 0 || self.height == 0 {
-            return f32::NEG_INFINITY;
+            return (f32::NEG_INFINITY, f32::NEG_INFINITY);
+        }
+        let low = |x: f32, n: usize| -> usize { if x < 0.0 { 0 } else { (x as usize).min(n - 1) } };
+        let (i0, j0) = (low(rel.x, self.width), low(rel.y, self.height));
+        let mut discs = [(Vec2::zeros(), 0.0f32); 4];
+        let mut depth = [0.0f32; 4];
+        for (k, (slot, dk)) in discs.iter_mut().zip(depth.iter_mut()).enumerate() {
+            let (i, j) = ((i0 + k % 2).min(self.width - 1), (j0 + k / 2).min(self.height - 1));
+            let Some(r) = self.dist_cells.distance_cells(j * self.width + i) else {
+                return (f32::NEG_INFINITY, f32::NEG_INFINITY);
+            };
+            if r == f32::INFINITY {
+                return (f32::INFINITY, f32::INFINITY); // no occupied cell anywhere
+            }
+            let c = Vec2::new(i as f32, j as f32);
+            *slot = (c, r);
+            *dk = r - vt_fpu::norm(&(rel - c));
+        }
+        if let Some(inside) = self.inside_occupied_m(rel) {
+            return (inside, inside);
+        }
+        let far = discs.iter().zip(depth.iter()).map(|((_, r), d)| 2.0 * r - d).fold(f32::INFINITY, vt_fpu::min);
+        let upper = (far + FIELD_ROUNDING_CELLS) * res;
+        let simple = depth.iter().copied().fold(f32::NEG_INFINITY, vt_fpu::max);
+        // The query's union may come out below the simplest bound by its rounding guard.
+        if simple * res >= enough_m {
+            return (vt_fpu::max(simple - UNION_GUARD_CELLS, 0.0) * res, upper);
+        }
+        let (lo, hi) = (Vec2::new(-0.5, -0.5), Vec2::new(self.width as f32 - 0.5, self.height as f32 - 0.5));
+        let near = vt_fpu::max(union_depth(&discs, &depth, rel, lo, hi) - UNION_GUARD_CELLS, 0.0) * res;
+        // At or above the cap the query may answer its simplest bound instead of the union.
+        (vt_fpu::max(vt_fpu::max(simple - UNION_GUARD_CELLS, 0.0) * res, vt_fpu::min(near, cap_m)), upper)
+    }
+}
+
+impl<C: ?Sized + DistanceCells> GridMap<'_, C> {
+    /// The query's position in centre coordinates (centre `(i, j)` at `(i, j)`), the 4 x 4
+    /// discs around it and how deep it lies in each (`r_k - |p - c_k|`, cells); `Err` with the
+    /// query's answer where it needs no disc: `-inf` for a position that is not finite or an
+    /// empty grid, `+inf` when no cell is occupied, the inside value in an occupied cell.
+    #[allow(clippy::type_complexity)] // the three arrays the two bounds share
+    fn discs_around(&self, p_m: Vec2) -> Result<(Vec2, [(Vec2, f32); SIDE * SIDE], [f32; SIDE * SIDE]), f32> {
+        let res = self.resolution_m;
+        let rel = (p_m - self.origin_m) / res - Vec2::new(0.5, 0.5);
+        if !(rel.x.is_finite() && rel.y.is_finite()) || self.width == 0 || self.height == 0 {
+            return Err(f32::NEG_INFINITY);
         }
         let lattice = |x: f32, n: usize| -> usize {
             let lo = if x < 0.0 { 0 } else { (x as usize).min(n - 1) };
@@ -451,32 +570,22 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
         for (k, slot) in discs.iter_mut().enumerate() {
             let (i, j) = ((i0 + k % SIDE).min(self.width - 1), (j0 + k / SIDE).min(self.height - 1));
             let Some(r) = self.dist_cells.distance_cells(j * self.width + i) else {
-                return f32::NEG_INFINITY;
+                return Err(f32::NEG_INFINITY);
             };
             if r == f32::INFINITY {
-                return f32::INFINITY; // no occupied cell anywhere
+                return Err(f32::INFINITY); // no occupied cell anywhere
             }
             *slot = (Vec2::new(i as f32, j as f32), r);
         }
-        // Inside an occupied cell: minus the distance to the cell's centre and its half diagonal.
-        let own = |x: f32, n: usize| -> usize { if x < -0.5 { 0 } else { ((x + 0.5) as usize).min(n - 1) } };
-        let (io, jo) = (own(rel.x, self.width), own(rel.y, self.height));
-        if self.dist_cells.distance_cells(jo * self.width + io).is_some_and(|d| d <= 0.0) {
-            let c = Vec2::new(io as f32, jo as f32);
-            return -(vt_fpu::norm(&(rel - c)) + HALF_DIAGONAL_CELLS) * res;
+        if let Some(inside) = self.inside_occupied_m(rel) {
+            return Err(inside);
         }
         // Disc k holds the ball of radius `depth[k] = r_k - |p - c_k|` around p.
         let mut depth = [0.0f32; SIDE * SIDE];
         for (dk, (c, r)) in depth.iter_mut().zip(discs.iter()) {
             *dk = r - vt_fpu::norm(&(rel - c));
         }
-        let simple = depth.iter().copied().fold(f32::NEG_INFINITY, vt_fpu::max);
-        if simple * res >= cap_m {
-            return simple * res;
-        }
-        // The grid's extent in centre coordinates: no occupied square lies beyond it.
-        let (lo, hi) = (Vec2::new(-0.5, -0.5), Vec2::new(self.width as f32 - 0.5, self.height as f32 - 0.5));
-        vt_fpu::max(union_depth(&discs, &depth, rel, lo, hi), 0.0) * res
+        Ok((rel, discs, depth))
     }
 }
 
@@ -488,7 +597,7 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
 /// boundary: the point of a circle nearest `p`, a crossing of two circles, a crossing of a
 /// circle and an edge, the foot of `p` on an edge, or a corner, whichever no disc covers.
 /// `depth[k] = r_k - |p - c_k|`: how far inside disc k `p` lies (negative outside).
-fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], depth: &[f32; SIDE * SIDE], p: Vec2, lo: Vec2, hi: Vec2) -> f32 {
+fn union_depth<const N: usize>(discs: &[(Vec2, f32); N], depth: &[f32; N], p: Vec2, lo: Vec2, hi: Vec2) -> f32 {
     /// A candidate point counts as covered, or outside the rectangle, only this far in or out
     /// (cells), so rounding can only lower the bound.
     const TOL: f32 = 1e-4;
@@ -517,8 +626,8 @@ fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], depth: &[f32; SIDE * SIDE], p
     // Every point of circle k is at least `gap[k]` from p: visit the circles nearest first and
     // stop at the first whose gap cannot beat the best so far (crossings lie on both circles).
     let gap = depth.map(f32::abs);
-    let mut order = [0usize; SIDE * SIDE];
-    for k in 0..SIDE * SIDE {
+    let mut order = [0usize; N];
+    for k in 0..N {
         // Insertion sort, ascending gap (16 entries).
         let mut at = k;
         while at > 0 && gap[order[at - 1]] > gap[k] {
@@ -582,6 +691,10 @@ fn union_depth(discs: &[(Vec2, f32); SIDE * SIDE], depth: &[f32; SIDE * SIDE], p
     }
     best
 }
+
+#[cfg(test)]
+#[path = "grid_bounds_tests.rs"]
+mod bounds_tests;
 
 #[cfg(test)]
 mod tests {

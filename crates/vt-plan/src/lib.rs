@@ -25,6 +25,7 @@ pub mod corridor;
 mod error;
 pub mod grid;
 pub mod map;
+mod node_clearance;
 pub mod planner;
 pub mod search;
 
@@ -33,7 +34,9 @@ pub use error::PlanError;
 pub use grid::{distance_transform, distance_transform_eighths, distance_transform_squares, DistanceCells, GridMap, EIGHTHS_FAR, SQUARES_FAR, SQUARES_NONE};
 pub use map::{ClearanceMap, Obstacle, ObstacleMap};
 pub use planner::{plan, plan_in, Bottleneck, PlanParams, PlannedTube};
+pub use node_clearance::SweepSpace;
 pub use search::{Lattice, NodeIndex, Workspace};
 
 /// 2-D vector, metres.
 pub type Vec2 = nalgebra::Vector2<f32>;
+

@@ -4,7 +4,7 @@
 //! conservative one from a distance transform ([`crate::GridMap`]). The map's rectangle bounds
 //! where the generator curve may go; its edges are not obstacles (docs/planning.md).
 
-use crate::Vec2;
+use crate::{Lattice, NodeIndex, SweepSpace, Vec2};
 
 /// Anything the planner can ask "how far is the nearest obstacle from here?".
 pub trait ClearanceMap {
@@ -19,6 +19,22 @@ pub trait ClearanceMap {
     fn clearance_capped_m(&self, p_m: Vec2, cap_m: f32) -> f32 {
         let _ = cap_m;
         self.clearance_m(p_m)
+    }
+    /// A lower and an upper bound of [`Self::clearance_capped_m`]'s answer at `p_m`, m,
+    /// cheaper than the answer where the map can give them (the answer twice by default); the
+    /// map may stop tightening the lower one once it reaches `enough_m`.
+    fn clearance_capped_bounds_m(&self, p_m: Vec2, cap_m: f32, enough_m: f32) -> (f32, f32) {
+        let _ = enough_m;
+        let c = self.clearance_capped_m(p_m, cap_m);
+        (c, c)
+    }
+    /// The clearance at every node of `lat`, m, into `out[..lat.len()]`, when the map has a
+    /// faster way than a query a node: each value never above the true distance, and at least
+    /// [`Self::clearance_capped_m`]'s but for a rounding guard (1e-4 cells on a grid). False, with `out` untouched,
+    /// when it has none (the default) or `space` is too small.
+    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut [f32], space: SweepSpace<'_, I>) -> bool {
+        let _ = (lat, out, space);
+        false
     }
     /// Whether `p_m` lies inside the map rectangle.
     fn contains(&self, p_m: Vec2) -> bool {

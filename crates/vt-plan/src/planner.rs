@@ -234,15 +234,21 @@ pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
     let slack = lat.spacing_m;
     let mut last_err = too_narrow(start_m, r_start);
     // The disc radii depend on the map, the lattice, the margin and the cap, not on the need:
-    // the second pass keeps those the first one computed.
-    let mut radii_cached = false;
+    // the second pass keeps those the first one computed. A grid gives them all at once, exact
+    // (docs/planning.md, "Node radii in one sweep"); other maps, node by node as the search
+    // reaches them.
+    let mut radii_cached = search::sweep_radii(map, &lat, &rule, ws);
     for search_need in [need + slack, need] {
         let rule_k = RadiusRule { need_m: search_need, ..rule };
-        let usable = |p: Vec2| lat.around(p).into_iter().flatten().find(|&k| rule_k.radius_m(map, lat.point_m(k)) >= search_need);
-        // The widest lattice node next to a terminal that has none wide enough.
-        let best_near = |p: Vec2| {
-            lat.around(p).into_iter().flatten().map(|k| rule_k.radius_m(map, lat.point_m(k))).fold(f32::NEG_INFINITY, f32::max)
+        // The cache holds a previous plan's radii until a search of this one resets it.
+        let cached = radii_cached;
+        let node_radius = |k: usize| {
+            let r = if cached { search::cached_radius(ws, k) } else { f32::NAN };
+            if r.is_nan() { rule_k.radius_m(map, lat.point_m(k)) } else { r }
         };
+        let usable = |p: Vec2| lat.around(p).into_iter().flatten().find(|&k| node_radius(k) >= search_need);
+        // The widest lattice node next to a terminal that has none wide enough.
+        let best_near = |p: Vec2| lat.around(p).into_iter().flatten().map(node_radius).fold(f32::NEG_INFINITY, f32::max);
         let (first, last) = match (usable(start_m), usable(goal_m)) {
             (Some(f), Some(l)) => (f, l),
             (None, _) => {
@@ -454,16 +460,15 @@ fn fit_widths<M: ClearanceMap>(
     }
     let spline = Spline::<MAX_WAYPOINTS>::new(&tmp)?;
     let delta = 0.5 * lattice_m;
-    let mut piece_min: heapless::Vec<f32, MAX_WAYPOINTS> = heapless::Vec::new();
-    for j in 0..spline.len().saturating_sub(1) {
+    let need = params.need_half_width_m;
+    // Sample k of piece j: its point, fold allowance and slack.
+    let samples = |j: usize| {
         let (u0, u1) = (spline.knot(j), spline.knot(j + 1));
-        let len = spline.arc_length(u0, u1);
-        let m = libm::ceilf(len / delta).max(1.0) as usize;
+        let m = libm::ceilf(spline.arc_length(u0, u1) / delta).max(1.0) as usize;
         let du = (u1 - u0) / m as f32;
-        let mut worst = (f32::INFINITY, Vec2::zeros());
-        let mut worst_fold = false;
+        let spline = &spline;
         let mut prev_step = 0.0f32;
-        for k in 0..=m {
+        (0..=m).map(move |k| {
             let u = if k == m { u1 } else { u0 + du * k as f32 };
             let step = if k < m { spline.arc_length(u, u + du) } else { 0.0 };
             let (pos, d1, d2) = spline.eval(u);
@@ -471,19 +476,53 @@ fn fit_widths<M: ClearanceMap>(
             let kappa = if speed > 0.0 { (d1.x * d2.y - d1.y * d2.x) / (speed * speed * speed) } else { 0.0 };
             let fold = if kappa != 0.0 { FOLD_FRACTION / kappa.abs() } else { f32::INFINITY };
             let slack = params.margin_m + 0.5 * step.max(prev_step);
-            let clear = vt_fpu::min(params.max_half_width_m, map.clearance_capped_m(pos, params.max_half_width_m + slack) - slack);
-            let allow = vt_fpu::min(clear, fold);
-            let allow = if allow.is_nan() { f32::NEG_INFINITY } else { allow };
-            if allow < worst.0 {
-                worst = (allow, pos);
-                worst_fold = fold < clear;
-            }
             prev_step = step;
+            (pos, fold, slack)
+        })
+    };
+    let cap = |slack: f32| params.max_half_width_m + slack;
+    let allowance = |clear: f32, slack: f32, fold: f32| vt_fpu::min(vt_fpu::min(params.max_half_width_m, clear - slack), fold);
+    // The exact allowance at a sample, and whether the fold bounds it (`-inf` for NaN).
+    let exact = |pos: Vec2, fold: f32, slack: f32| {
+        let clear = vt_fpu::min(params.max_half_width_m, map.clearance_capped_m(pos, cap(slack)) - slack);
+        let allow = vt_fpu::min(clear, fold);
+        (if allow.is_nan() { f32::NEG_INFINITY } else { allow }, fold < clear)
+    };
+    // A lower bound of the allowance, tightened until it reaches `enough` (an allowance).
+    let lower = |pos: Vec2, fold: f32, slack: f32, enough: f32| allowance(map.clearance_capped_bounds_m(pos, cap(slack), enough + slack).0, slack, fold);
+    // A piece's narrowest sample (the first of equals) and its position. The map's cheap upper
+    // bounds give a width the narrowest does not exceed; a sample whose lower bound lies above
+    // it, or above the narrowest so far, cannot be the narrowest, so its exact query is skipped
+    // (the same widths bit for bit; docs/planning.md, "Fitting with bounds").
+    let narrowest = |j: usize| {
+        let upper = |(pos, fold, slack): (Vec2, f32, f32)| allowance(map.clearance_capped_bounds_m(pos, cap(slack), f32::NEG_INFINITY).1, slack, fold);
+        let above = samples(j).map(upper).fold(f32::INFINITY, vt_fpu::min);
+        let mut worst = (f32::INFINITY, Vec2::zeros(), false);
+        for (pos, fold, slack) in samples(j) {
+            let bar = vt_fpu::min(above, worst.0);
+            if lower(pos, fold, slack, bar) > bar {
+                continue;
+            }
+            let (allow, by_fold) = exact(pos, fold, slack);
+            if allow < worst.0 {
+                worst = (allow, pos, by_fold);
+            }
         }
-        if worst.0 < params.need_half_width_m {
-            return Ok(Fit::Strays { piece: j, at_m: worst.1, fold: worst_fold });
+        worst
+    };
+    let pieces = spline.len().saturating_sub(1);
+    // First the earliest piece that cannot hold the need: only a sample whose lower bound lies
+    // below the need can show it, so the others need no exact query.
+    for j in 0..pieces {
+        let strays = samples(j).any(|(pos, fold, slack)| lower(pos, fold, slack, need) < need && exact(pos, fold, slack).0 < need);
+        if strays {
+            let (_, at_m, fold) = narrowest(j);
+            return Ok(Fit::Strays { piece: j, at_m, fold });
         }
-        piece_min.push(worst.0).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
+    }
+    let mut piece_min: heapless::Vec<f32, MAX_WAYPOINTS> = heapless::Vec::new();
+    for j in 0..pieces {
+        piece_min.push(narrowest(j).0).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
     }
     let mut widths: heapless::Vec<f32, MAX_WAYPOINTS> = heapless::Vec::new();
     for i in 0..wps.len() {

@@ -13,7 +13,7 @@
 //! index, so the result is deterministic.
 #![allow(clippy::indexing_slicing)] // kernels only; every index is < Lattice::len() <= Workspace::capacity(), checked on entry
 
-use crate::{ClearanceMap, PlanError, Vec2};
+use crate::{ClearanceMap, PlanError, SweepSpace, Vec2};
 
 /// A lattice node's index as the work space stores it (parents, the heap, heap positions):
 /// `u16` on the flight MCU (its 4,096 nodes in half the bytes), `u32` on the host.
@@ -49,6 +49,7 @@ macro_rules! node_index {
 }
 node_index!(u16);
 node_index!(u32);
+node_index!(usize);
 
 /// Marks "no parent" in a host work space (`u32` indices).
 pub const NO_PARENT: u32 = <u32 as NodeIndex>::NONE;
@@ -196,6 +197,13 @@ impl<'a, I: NodeIndex> Workspace<'a, I> {
         self.radius_m.len()
     }
 
+    /// The radii, and the search's other arrays lent to a map's lattice sweep (every search
+    /// clears what it reads first).
+    pub(crate) fn sweep_parts(&mut self) -> (&mut [f32], SweepSpace<'_, I>) {
+        let space = SweepSpace { floats: self.cost, bounds: self.key, sites: self.parent, below: self.heap, above: self.pos };
+        (self.radius_m, space)
+    }
+
     /// Clears the search state of the first `n` nodes; `keep_radii` keeps the cached radii.
     fn reset(&mut self, n: usize, keep_radii: bool) {
         if !keep_radii {
@@ -226,6 +234,27 @@ impl RadiusRule {
     pub fn radius_m<M: ClearanceMap>(&self, map: &M, p_m: Vec2) -> f32 {
         vt_fpu::min(self.max_radius_m, map.clearance_capped_m(p_m, self.max_radius_m + self.margin_m) - self.margin_m)
     }
+}
+
+/// Every node's disc radius from the map's lattice sweep, into the cache, when the map has one
+/// ([`ClearanceMap::lattice_clearances_m`]); whether it did. The searches then read the cache
+/// (`keep_radii`) and never query the map at a node.
+pub(crate) fn sweep_radii<M: ClearanceMap, I: NodeIndex>(map: &M, lat: &Lattice, rule: &RadiusRule, ws: &mut Workspace<'_, I>) -> bool {
+    let n = lat.len();
+    if n > ws.capacity() {
+        return false;
+    }
+    let (radii, space) = ws.sweep_parts();
+    let radii = &mut radii[..n];
+    if !map.lattice_clearances_m(lat, radii, space) {
+        return false;
+    }
+    for r in radii.iter_mut() {
+        let v = vt_fpu::min(rule.max_radius_m, *r - rule.margin_m);
+        // A NaN clearance (never from the maps here) counts as blocked, as in `radius_of`.
+        *r = if v.is_nan() { f32::NEG_INFINITY } else { v };
+    }
+    true
 }
 
 /// Indexed binary min-heap over node keys, ties broken by node index.
