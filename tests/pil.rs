@@ -255,8 +255,8 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     assert!(p.replans > 0 && p.tube_switches > 0, "{file}: {p:?}");
     // The re-plans' cost in flight, measured on the board under `-icount` (the report's
     // `replan_worst_instructions`): a full re-plan is millions of instructions. Issue 28's
-    // budget (16.8 M, 100 ms at 168 MHz) is met on the re-route (12.1 M) and NOT in the yard
-    // (18.3 M; 2026-12-02, session 37; the bench's field measures 11.3 M; docs/benchmarks.md).
+    // budget (16.8 M, 100 ms at 168 MHz) is met on the re-route (12.0 M) and NOT in the yard
+    // (17.5 M; 2026-12-02, session 37; the bench's field measures 11.3 M; docs/benchmarks.md).
     let worst = r.replan_worst_instructions.expect("re-plans measured under -icount");
     assert!(worst.is_finite() && worst > 1.0e6, "{file}: worst re-plan {worst} instructions");
     assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "{file}: clean link, no error counted");

@@ -322,8 +322,11 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
     push_gap(&mut wps, goal_m, path.len - 1)?;
 
     let mut last_at = start_m;
-    for _ in 0..=MAX_REFINEMENTS {
-        match fit_widths(map, &wps, params, lat.spacing_m)? {
+    // The refinement before this one: where in the list it inserted (true) or removed a
+    // waypoint, which, and where that fit strayed.
+    let mut before: Option<(usize, (Vec2, usize), bool, Vec2)> = None;
+    for round in 0..=MAX_REFINEMENTS {
+        let change = match fit_widths(map, &wps, params, lat.spacing_m)? {
             Fit::Widths(widths) => {
                 let mut out: heapless::Vec<Waypoint, MAX_WAYPOINTS> = heapless::Vec::new();
                 for ((p, _), w) in wps.iter().zip(widths.iter()) {
@@ -347,7 +350,7 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
                 }) else {
                     return Err(PlanError::CurveLeavesCorridor { x_m: at_m.x, y_m: at_m.y });
                 };
-                wps.remove(i);
+                (i, wps.remove(i), false)
             }
             Fit::Strays { piece, at_m, fold: false } => {
                 last_at = at_m;
@@ -373,12 +376,52 @@ fn fit_path<M: ClearanceMap, I: NodeIndex>(
                 let Some((bi, _)) = best else {
                     return Err(PlanError::CurveLeavesCorridor { x_m: at_m.x, y_m: at_m.y });
                 };
-                wps.insert(piece + 1, (path.point_at(bi), bi)).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
+                let added = (path.point_at(bi), bi);
+                wps.insert(piece + 1, added).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
+                (piece + 1, added, true)
+            }
+        };
+        // This refinement undid the one before (the same waypoint inserted and removed at the
+        // same place): the list is the one of two fits ago, so the fits alternate between the
+        // last two until the rounds run out, and the last round's stray is known now (the same
+        // answer as running them; docs/planning.md, "Half-widths").
+        if let Some((at, wp, inserted, strayed)) = before {
+            if at == change.0 && wp == change.1 && inserted != change.2 && shortcut::taken() {
+                let end = if (MAX_REFINEMENTS - round).is_multiple_of(2) { last_at } else { strayed };
+                return Err(PlanError::CurveLeavesCorridor { x_m: end.x, y_m: end.y });
             }
         }
+        before = Some((change.0, change.1, change.2, last_at));
     }
     Err(PlanError::CurveLeavesCorridor { x_m: last_at.x, y_m: last_at.y })
 }
+
+/// Whether the refinements' shortcut is taken: always, but in tests that compare it with the
+/// rounds run out (per test thread).
+mod shortcut {
+    #[cfg(test)]
+    extern crate std;
+    #[cfg(test)]
+    std::thread_local! {
+        /// Off in this thread, and how often it was taken.
+        pub(crate) static STATE: core::cell::Cell<(bool, usize)> = const { core::cell::Cell::new((false, 0)) };
+    }
+    /// True where the shortcut may be taken (counted in tests).
+    #[cfg(test)]
+    pub(super) fn taken() -> bool {
+        STATE.with(|s| {
+            let (off, n) = s.get();
+            s.set((off, n + usize::from(!off)));
+            !off
+        })
+    }
+    #[cfg(not(test))]
+    pub(super) const fn taken() -> bool {
+        true
+    }
+}
+#[cfg(test)]
+pub(crate) use shortcut::STATE as SHORTCUT_STATE;
 
 /// Appends a waypoint unless it is within [`MIN_WAYPOINT_GAP_M`] of the previous one.
 fn push_gap(wps: &mut heapless::Vec<(Vec2, usize), MAX_WAYPOINTS>, p: Vec2, index: usize) -> Result<(), PlanError> {
