@@ -261,7 +261,14 @@ pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
             }
         };
         // Search from the goal so that the parents lead from the start to the goal.
-        let found = search::astar_cached(map, &lat, &rule_k, ws, last, first, radii_cached)?;
+        // With every radius known (a grid's sweep), a first pass that cannot reach the start is
+        // known for it from a flood fill, at a fraction of the search's cost (the search opens
+        // every node it can reach first); the same answer, so the same plan.
+        let found = if radii_cached && search_need > need && !search::reachable(map, &lat, &rule_k, ws, last, first, true)? {
+            false
+        } else {
+            search::astar_cached(map, &lat, &rule_k, ws, last, first, radii_cached)?
+        };
         radii_cached = true;
         if !found {
             if search_need == need {

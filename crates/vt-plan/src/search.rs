@@ -352,6 +352,53 @@ pub(crate) fn cached_radius<I: NodeIndex>(ws: &Workspace<'_, I>, k: usize) -> f3
     ws.radius_m.get(k).copied().unwrap_or(f32::NAN)
 }
 
+/// Whether `to` can be reached from `from` over usable nodes (radius `>= rule.need_m`, the
+/// 8-neighbourhood): what [`astar_cached`] would answer, by a flood fill with no costs and no
+/// heap, on the radii in `ws` (`keep_radii` as there). Leaves the search state cleared for
+/// the next search but for the marks it set.
+///
+/// # Errors
+/// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
+pub(crate) fn reachable<M: ClearanceMap, I: NodeIndex>(
+    map: &M,
+    lat: &Lattice,
+    rule: &RadiusRule,
+    ws: &mut Workspace<'_, I>,
+    from: usize,
+    to: usize,
+    keep_radii: bool,
+) -> Result<bool, PlanError> {
+    let n = lat.len();
+    if n > ws.capacity() || from >= n || to >= n {
+        return Err(PlanError::WorkspaceTooSmall { needed: n });
+    }
+    ws.reset(n, keep_radii);
+    if radius_of(ws, lat, map, rule, from) < rule.need_m {
+        return Ok(false);
+    }
+    // The queue in `heap` (every node enters once: it is marked as it enters), the marks in `pos`.
+    ws.heap[0] = I::from_node(from);
+    ws.pos[from] = I::CLOSED;
+    let (mut head, mut tail) = (0usize, 1usize);
+    while head < tail {
+        let u = ws.heap[head].node();
+        head += 1;
+        if u == to {
+            return Ok(true);
+        }
+        for (di, dj, _) in NEIGHBOURS {
+            let Some(v) = lat.neighbour(u, di, dj) else { continue };
+            if ws.pos[v] == I::CLOSED || radius_of(ws, lat, map, rule, v) < rule.need_m {
+                continue;
+            }
+            ws.pos[v] = I::CLOSED;
+            ws.heap[tail] = I::from_node(v);
+            tail += 1;
+        }
+    }
+    Ok(false)
+}
+
 /// A* from `from` to `to` over usable nodes. On success the parents lead from `to` back to
 /// `from` (`parent[from] = NO_PARENT`); returns whether `to` was reached.
 ///
@@ -561,6 +608,32 @@ mod tests {
         let p = lat.point_m(k);
         assert!((p.x - 10.0).abs() <= 0.5 && p.y > 8.6, "{p:?}");
         assert!(r > 1.1 && r <= 1.4, "{r}");
+    }
+
+    /// The flood fill answers as the search does, at every need from a pass through the gap to
+    /// none, and between nodes walled off from each other.
+    #[test]
+    fn the_flood_fill_reaches_what_the_search_reaches() {
+        let obs = [
+            Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 },
+            Obstacle::Circle { center_m: Vec2::new(4.0, 5.0), radius_m: 1.5 },
+            Obstacle::Wall { a_m: Vec2::new(15.0, 4.0), b_m: Vec2::new(15.0, 11.0), thickness_m: 0.2 },
+        ];
+        let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+        let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
+        let (mut f, mut u) = (vec![0.0; 3 * 4096], vec![0u16; 3 * 4096]);
+        let mut ws = Workspace::new(&mut f, &mut u);
+        let at = |x: f32, y: f32| lat.around(Vec2::new(x, y))[0].unwrap();
+        let (mut reached, mut refused) = (0, 0);
+        for (from, to) in [(at(2.0, 2.0), at(18.0, 2.0)), (at(2.0, 8.0), at(12.0, 8.0)), (at(12.0, 8.0), at(18.0, 8.0)), (at(18.0, 9.0), at(2.0, 1.0))] {
+            for need in [0.2, 0.5, 0.7, 0.9, 1.2, 1.5, 3.0] {
+                let by_search = astar(&map, &lat, &rule(need), &mut ws, from, to).unwrap();
+                let by_fill = reachable(&map, &lat, &rule(need), &mut ws, from, to, true).unwrap();
+                assert_eq!(by_fill, by_search, "{from} -> {to} at {need}");
+                if by_search { reached += 1 } else { refused += 1 }
+            }
+        }
+        assert!(reached > 3 && refused > 3, "{reached} reached, {refused} refused");
     }
 
     /// The MCU's two-byte indices give the host's search, parent for parent.
