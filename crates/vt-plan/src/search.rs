@@ -352,6 +352,24 @@ pub(crate) fn cached_radius<I: NodeIndex>(ws: &Workspace<'_, I>, k: usize) -> f3
     ws.radius_m.get(k).copied().unwrap_or(f32::NAN)
 }
 
+/// A search's start: the lattice checked against the work space, the search state cleared
+/// (`keep_radii` keeps the cached radii); whether `from` is usable.
+fn begin_search<M: ClearanceMap, I: NodeIndex>(
+    map: &M,
+    lat: &Lattice,
+    rule: &RadiusRule,
+    ws: &mut Workspace<'_, I>,
+    [from, to]: [usize; 2],
+    keep_radii: bool,
+) -> Result<bool, PlanError> {
+    let n = lat.len();
+    if n > ws.capacity() || from >= n || to >= n {
+        return Err(PlanError::WorkspaceTooSmall { needed: n });
+    }
+    ws.reset(n, keep_radii);
+    Ok(radius_of(ws, lat, map, rule, from) >= rule.need_m)
+}
+
 /// Whether `to` can be reached from `from` over usable nodes (radius `>= rule.need_m`, the
 /// 8-neighbourhood): what [`astar_cached`] would answer, by a flood fill with no costs and no
 /// heap, on the radii in `ws` (`keep_radii` as there). Leaves the search state cleared for
@@ -368,12 +386,7 @@ pub(crate) fn reachable<M: ClearanceMap, I: NodeIndex>(
     to: usize,
     keep_radii: bool,
 ) -> Result<bool, PlanError> {
-    let n = lat.len();
-    if n > ws.capacity() || from >= n || to >= n {
-        return Err(PlanError::WorkspaceTooSmall { needed: n });
-    }
-    ws.reset(n, keep_radii);
-    if radius_of(ws, lat, map, rule, from) < rule.need_m {
+    if !begin_search(map, lat, rule, ws, [from, to], keep_radii)? {
         return Ok(false);
     }
     // The queue in `heap` (every node enters once: it is marked as it enters), the marks in `pos`.
@@ -427,16 +440,11 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
     to: usize,
     keep_radii: bool,
 ) -> Result<bool, PlanError> {
-    let n = lat.len();
-    if n > ws.capacity() || from >= n || to >= n {
-        return Err(PlanError::WorkspaceTooSmall { needed: n });
-    }
-    ws.reset(n, keep_radii);
-    let goal = lat.point_m(to);
-    let h = lat.spacing_m;
-    if radius_of(ws, lat, map, rule, from) < rule.need_m {
+    if !begin_search(map, lat, rule, ws, [from, to], keep_radii)? {
         return Ok(false);
     }
+    let goal = lat.point_m(to);
+    let h = lat.spacing_m;
     ws.cost[from] = 0.0;
     ws.key[from] = vt_fpu::norm(&(lat.point_m(from) - goal));
     let mut heap = Heap { ws, len: 0 };
