@@ -510,6 +510,10 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
     /// side `min_k r_k + |p - c_k|`, which the distance to the occupied squares, and so the
     /// query, never exceeds (plus an eighth of a cell for a field rounded down). The union's
     /// bound counts only up to `cap_m`, where the query may answer its simplest bound.
+    fn has_cheap_bounds(&self) -> bool {
+        true
+    }
+
     fn clearance_capped_bounds_m(&self, p_m: Vec2, cap_m: f32, enough_m: f32) -> (f32, f32) {
         let res = self.resolution_m;
         let rel = (p_m - self.origin_m) / res - Vec2::new(0.5, 0.5);

@@ -21,12 +21,17 @@ pub trait ClearanceMap {
         self.clearance_m(p_m)
     }
     /// A lower and an upper bound of [`Self::clearance_capped_m`]'s answer at `p_m`, m,
-    /// cheaper than the answer where the map can give them (the answer twice by default); the
-    /// map may stop tightening the lower one once it reaches `enough_m`.
+    /// cheaper than the answer, where the map has them ([`Self::has_cheap_bounds`]; none by
+    /// default: `(-inf, +inf)`); the map may stop tightening the lower one once it reaches
+    /// `enough_m`.
     fn clearance_capped_bounds_m(&self, p_m: Vec2, cap_m: f32, enough_m: f32) -> (f32, f32) {
-        let _ = enough_m;
-        let c = self.clearance_capped_m(p_m, cap_m);
-        (c, c)
+        let _ = (p_m, cap_m, enough_m);
+        (f32::NEG_INFINITY, f32::INFINITY)
+    }
+    /// Whether [`Self::clearance_capped_bounds_m`] gives bounds worth asking for (false by
+    /// default): the planner's fit then skips the queries they decide.
+    fn has_cheap_bounds(&self) -> bool {
+        false
     }
     /// The clearance at every node of `lat`, m, into `out[..lat.len()]`, when the map has a
     /// faster way than a query a node: each value never above the true distance, and at least

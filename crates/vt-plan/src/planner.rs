@@ -561,18 +561,25 @@ fn fit_widths<M: ClearanceMap>(
         worst
     };
     let pieces = spline.len().saturating_sub(1);
-    // First the earliest piece that cannot hold the need: only a sample whose lower bound lies
-    // below the need can show it, so the others need no exact query.
-    for j in 0..pieces {
-        let strays = samples(j).any(|(pos, fold, slack)| lower(pos, fold, slack, need) < need && exact(pos, fold, slack).0 < need);
-        if strays {
-            let (_, at_m, fold) = narrowest(j);
-            return Ok(Fit::Strays { piece: j, at_m, fold });
+    // With cheap bounds, first the earliest piece that cannot hold the need: only a sample
+    // whose lower bound lies below the need can show it, so the others need no exact query.
+    if map.has_cheap_bounds() {
+        for j in 0..pieces {
+            let strays = samples(j).any(|(pos, fold, slack)| lower(pos, fold, slack, need) < need && exact(pos, fold, slack).0 < need);
+            if strays {
+                let (_, at_m, fold) = narrowest(j);
+                return Ok(Fit::Strays { piece: j, at_m, fold });
+            }
         }
     }
+    // Each piece's narrowest (without bounds, the first piece below the need strays here).
     let mut piece_min: heapless::Vec<f32, MAX_WAYPOINTS> = heapless::Vec::new();
     for j in 0..pieces {
-        piece_min.push(narrowest(j).0).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
+        let (w, at_m, fold) = narrowest(j);
+        if w < need {
+            return Ok(Fit::Strays { piece: j, at_m, fold });
+        }
+        piece_min.push(w).map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
     }
     let mut widths: heapless::Vec<f32, MAX_WAYPOINTS> = heapless::Vec::new();
     for i in 0..wps.len() {
