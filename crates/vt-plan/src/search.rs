@@ -232,7 +232,12 @@ pub struct RadiusRule {
 impl RadiusRule {
     /// Free-disc radius at `p`: `min(clearance - margin, r_max)`, m.
     pub fn radius_m<M: ClearanceMap>(&self, map: &M, p_m: Vec2) -> f32 {
-        vt_fpu::min(self.max_radius_m, map.clearance_capped_m(p_m, self.max_radius_m + self.margin_m) - self.margin_m)
+        self.radius_of_clearance_m(map.clearance_capped_m(p_m, self.max_radius_m + self.margin_m))
+    }
+
+    /// Free-disc radius where the clearance is `clearance_m`: `min(clearance - margin, r_max)`, m.
+    fn radius_of_clearance_m(&self, clearance_m: f32) -> f32 {
+        vt_fpu::min(self.max_radius_m, clearance_m - self.margin_m)
     }
 }
 
@@ -250,7 +255,7 @@ pub(crate) fn sweep_radii<M: ClearanceMap, I: NodeIndex>(map: &M, lat: &Lattice,
         return false;
     }
     for r in radii.iter_mut() {
-        let v = vt_fpu::min(rule.max_radius_m, *r - rule.margin_m);
+        let v = rule.radius_of_clearance_m(*r);
         // A NaN clearance (never from the maps here) counts as blocked, as in `radius_of`.
         *r = if v.is_nan() { f32::NEG_INFINITY } else { v };
     }
