@@ -153,7 +153,8 @@ pub struct PerceptionSummary {
     pub tube_switches: u32,
     /// Offers a companion declined (it kept its tube), summed over the companions.
     pub tubes_kept: u32,
-    /// The flight ended with no route to the goal (the team held in place).
+    /// The flight failed for want of a route: the team held in place for it and the load
+    /// never reached the goal (held at the end, or the time ran out after it held).
     pub no_route: bool,
     /// The onboard occupancy map's RAM per companion, bytes.
     pub map_ram_bytes: usize,
@@ -344,7 +345,10 @@ impl Summary {
             self.success = false;
             self.failures.push(format!("touched an obstacle (clearance {:.2} m)", self.min_obstacle_clearance_m));
         }
-        if r.no_route {
+        // A team that held for want of a route and then probed a way through cells it had not
+        // seen yet, but never got to the goal, failed for want of a route all the same.
+        let no_route = r.no_route || (r.no_route_seen && !self.reached_end);
+        if no_route {
             self.success = false;
             self.outcome = "no_route".into();
             self.failures.insert(0, "no route to the goal on the map as seen: the team held in place".into());
@@ -354,7 +358,7 @@ impl Summary {
             planned: r.planned,
             tube_switches: r.switches,
             tubes_kept: r.kept,
-            no_route: r.no_route,
+            no_route,
             map_ram_bytes: r.map_ram_bytes,
             load_path_m,
             known_plan_path_m,

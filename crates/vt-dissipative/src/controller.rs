@@ -210,6 +210,9 @@ pub struct DissipativeController<const N: usize> {
     /// Where the UAV holds its horizontal position in team hold once a neighbour is missing
     /// (the anchor), world ENU, m.
     anchor_m: Option<Vec2>,
+    /// This team hold is anchored from its next step, every neighbour fresh or not (a hold for
+    /// an obstacle, [`DissipativeController::anchor_team_hold`]); cleared when the hold ends.
+    anchor_wanted: bool,
     /// How much wider than the tube this UAV's barriers see it while it joins a re-planned
     /// tube it was not yet inside, m (0: not joining; [`DissipativeController::join_tube`]).
     join_m: f32,
@@ -283,6 +286,7 @@ impl<const N: usize> DissipativeController<N> {
             team_hold: false,
             reseat: false,
             anchor_m: None,
+            anchor_wanted: false,
             join_m: 0.0,
             scale: FormationScale::NEUTRAL,
             shape: None,
@@ -306,6 +310,20 @@ impl<const N: usize> DissipativeController<N> {
         self.team_hold = hold;
         if !hold {
             self.anchor_m = None;
+            self.anchor_wanted = false;
+        }
+    }
+
+    /// Anchors the team hold in force (nothing outside one): from the next step the UAV holds
+    /// its own horizontal position where it is then, plus the tube keeping, as when a
+    /// neighbour goes missing, until the hold ends. For a hold in front of an obstacle (issue
+    /// 28's no-route hold; extension, docs/design.md, "The no-route hold holds in place"): a
+    /// tube planned on a map seen in part may hold what the team has seen since, and the
+    /// springs restoring the formation, which a narrow passage had squeezed, could carry a UAV
+    /// into it.
+    pub fn anchor_team_hold(&mut self) {
+        if self.team_hold {
+            self.anchor_wanted = true;
         }
     }
 
@@ -560,7 +578,7 @@ impl<const N: usize> DissipativeController<N> {
                     self.center_m = c;
                 }
             }
-            if status.neighbours_dropped > 0 && self.anchor_m.is_none() {
+            if (status.neighbours_dropped > 0 || self.anchor_wanted) && self.anchor_m.is_none() {
                 self.anchor_m = Some(m.own_pos_m.xy());
             }
         }

@@ -318,6 +318,48 @@ fn in_team_hold_a_missing_neighbour_anchors_the_uav_where_it_was() {
 }
 
 #[test]
+fn an_anchored_team_hold_holds_the_uav_where_it_was_with_every_neighbour_fresh() {
+    // The no-route hold (issue 28): UAV 0 of four, its formation squeezed (0.3 m off its
+    // place), is anchored while every neighbour is fresh. It holds where it was (the springs
+    // that would pull it back into the ring are off), until the hold ends; outside a hold the
+    // call does nothing.
+    let (uavs, load) = takeoff(4, 8.0);
+    let t = tube();
+    let all = neighbours(&uavs);
+    let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, own_cable_force_n: None };
+    let squeezed = uavs[0] + Vec3::new(0.3, 0.0, 0.0);
+    let mut nb = all.clone();
+    nb[0] = Some(squeezed);
+    let mut free = team(4, &uavs, &load).swap_remove(0);
+    free.set_team_hold(true);
+    let springs = free.update(&t, &m(squeezed, &nb, Vec3::zeros()), DT_S).vel_mps;
+    assert!(springs.xy().norm() > 0.05, "unanchored, the springs pull UAV 0 back into the formation: {springs:?}");
+    let mut c = team(4, &uavs, &load).swap_remove(0);
+    c.anchor_team_hold(); // no hold: nothing
+    c.set_team_hold(true);
+    assert_eq!(c.update(&t, &m(squeezed, &nb, Vec3::zeros()), DT_S).vel_mps, springs);
+    c.anchor_team_hold();
+    let held = c.update(&t, &m(squeezed, &nb, Vec3::zeros()), DT_S).vel_mps; // anchored here
+    // Where it holds, only the tube keeping is left: the same as a missing neighbour's anchor.
+    let mut lost = team(4, &uavs, &load).swap_remove(0);
+    lost.set_team_hold(true);
+    let partial = [Some(squeezed), Some(uavs[1]), None, Some(uavs[3])];
+    let keeping = lost.update(&t, &m(squeezed, &partial, Vec3::zeros()), DT_S).vel_mps;
+    assert!(keeping.xy().norm() < 0.05 && held.xy().norm() < 0.05, "held {held:?}, keeping {keeping:?}");
+    assert_relative_eq!(held.xy(), keeping.xy(), epsilon = 1e-6);
+    // Pushed 0.2 m on, it comes back to where it was anchored.
+    let pushed = squeezed + Vec3::new(0.2, 0.0, 0.0);
+    let back = c.update(&t, &m(pushed, &nb, Vec3::new(0.0, 0.5, 0.0)), DT_S).vel_mps;
+    assert!(back.x < -0.1, "back towards the anchor: {back:?}");
+    // The hold ends: unanchored again, the next hold is the springs' own.
+    c.set_team_hold(false);
+    c.set_team_hold(true);
+    let mut again = team(4, &uavs, &load).swap_remove(0);
+    again.set_team_hold(true);
+    assert_eq!(c.update(&t, &m(pushed, &nb, Vec3::zeros()), DT_S).vel_mps, again.update(&t, &m(pushed, &nb, Vec3::zeros()), DT_S).vel_mps);
+}
+
+#[test]
 fn team_hold_stops_the_virtual_system_in_its_formation_and_it_resumes() {
     // Transport for 600 steps (12 s), team hold for 500, transport to the end.
     let ((min_dt, min_sep, s_end), s) = fly_with_hold(6, 3000, 600..1100);

@@ -378,6 +378,12 @@ pub trait DistanceCells {
     fn is_occupied(&self, k: usize) -> Option<bool> {
         self.distance_cells(k).map(|d| d <= 0.0)
     }
+    /// Whether cell `k` holds the field's cap, a lower bound only (its disc's far side bounds
+    /// nothing from above); false outside the slice.
+    #[inline]
+    fn is_capped(&self, _k: usize) -> bool {
+        false
+    }
 }
 
 impl DistanceCells for [f32] {
@@ -402,6 +408,11 @@ impl DistanceCells for [u8] {
     fn is_occupied(&self, k: usize) -> Option<bool> {
         self.get(k).map(|&q| q == 0)
     }
+
+    #[inline]
+    fn is_capped(&self, k: usize) -> bool {
+        self.get(k) == Some(&EIGHTHS_FAR)
+    }
 }
 
 impl DistanceCells for [u16] {
@@ -416,6 +427,11 @@ impl DistanceCells for [u16] {
     #[inline]
     fn is_occupied(&self, k: usize) -> Option<bool> {
         self.get(k).map(|&q| q == 0)
+    }
+
+    #[inline]
+    fn is_capped(&self, k: usize) -> bool {
+        self.get(k) == Some(&SQUARES_FAR)
     }
 }
 
@@ -507,8 +523,9 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
     /// below, the simplest bound `max_k r_k - |p - c_k|`, and where that stays under `enough_m`,
     /// the distance to the part of the grid the four discs leave uncovered, which holds the
     /// 16-disc union's, less the union's rounding guard twice over; above, the nearest disc's far
-    /// side `min_k r_k + |p - c_k|`, which the distance to the occupied squares, and so the
-    /// query, never exceeds (plus an eighth of a cell for a field rounded down). The union's
+    /// side `min_k r_k + |p - c_k|` over the discs below the field's cap, which the distance to
+    /// the occupied squares, and so the query, never exceeds (plus an eighth of a cell for a
+    /// field rounded down; infinite when all four are at the cap). The union's
     /// bound counts only up to `cap_m`, where the query may answer its simplest bound.
     fn has_cheap_bounds(&self) -> bool {
         true
@@ -524,6 +541,8 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
         let (i0, j0) = (low(rel.x, self.width), low(rel.y, self.height));
         let mut discs = [(Vec2::zeros(), 0.0f32); 4];
         let mut depth = [0.0f32; 4];
+        // The far side of a disc at the field's cap bounds nothing from above.
+        let mut far = f32::INFINITY;
         for (k, (slot, dk)) in discs.iter_mut().zip(depth.iter_mut()).enumerate() {
             let (i, j) = ((i0 + k % 2).min(self.width - 1), (j0 + k / 2).min(self.height - 1));
             let Some(r) = self.dist_cells.distance_cells(j * self.width + i) else {
@@ -535,11 +554,13 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
             let c = Vec2::new(i as f32, j as f32);
             *slot = (c, r);
             *dk = r - vt_fpu::norm(&(rel - c));
+            if !self.dist_cells.is_capped(j * self.width + i) {
+                far = vt_fpu::min(far, 2.0 * r - *dk);
+            }
         }
         if let Some(inside) = self.inside_occupied_m(rel) {
             return (inside, inside);
         }
-        let far = discs.iter().zip(depth.iter()).map(|((_, r), d)| 2.0 * r - d).fold(f32::INFINITY, vt_fpu::min);
         let upper = (far + FIELD_ROUNDING_CELLS) * res;
         let simple = depth.iter().copied().fold(f32::NEG_INFINITY, vt_fpu::max);
         // The query's union may come out below the simplest bound by its rounding guard.

@@ -73,6 +73,31 @@ proptest! {
     }
 }
 
+/// Where the byte field holds its cap (31.875 cells and beyond, far from the one occupied
+/// cell), its discs bound nothing from above: the upper bound still holds the query, with a
+/// cap past the field's reach.
+#[test]
+fn the_upper_bound_holds_past_the_fields_cap() {
+    let (w, h) = (90, 90);
+    let mut e = vec![1u8; w * h];
+    e[0] = 0;
+    let m = w.max(h);
+    let (mut line, mut v, mut z) = (vec![0.0; 3 * m + 1], vec![0usize; m + 1], vec![0.0; m + 2]);
+    distance_transform_eighths(&mut e, w, h, &mut line, &mut v, &mut z).unwrap();
+    let g = grid(&e[..], w, h);
+    let mut capped = 0;
+    for i in 0..40 {
+        for j in 0..40 {
+            let p = Vec2::new(-1.0, 2.0) + Vec2::new(10.0 + 0.13 * i as f32, 10.0 + 0.11 * j as f32);
+            let c = g.clearance_capped_m(p, 1e3);
+            let (lo, hi) = g.clearance_capped_bounds_m(p, 1e3, f32::NEG_INFINITY);
+            assert!(lo <= c && c <= hi, "at {p:?}: {lo} <= {c} <= {hi}");
+            capped += usize::from(hi == f32::INFINITY);
+        }
+    }
+    assert!(capped > 0, "no point where all four discs are at the cap");
+}
+
 /// The grid with its clearance and its lattice sweep, but no cheap bounds: the fit then
 /// queries every sample.
 struct EverySample<'g, 'c>(&'g GridMap<'c, [u16]>);

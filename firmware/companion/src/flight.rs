@@ -230,6 +230,14 @@ impl HighLevel {
         }
     }
 
+    /// The dissipative controller's anchored team hold; the baseline's hold is its own (it
+    /// holds no formation a spring could restore).
+    fn anchor_team_hold(&mut self) {
+        if let Self::Dissipative(c) = self {
+            c.anchor_team_hold();
+        }
+    }
+
     fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
         match self {
             Self::Dissipative(c) => c.set_load_altitude_ref(z_m, sharing),
@@ -485,6 +493,11 @@ impl Flight {
             // Own and load usable: transport, or the team hold while the team holds (and in
             // every phase of a ground start but the transport).
             high.set_team_hold(holding || phase.passing_off());
+            // A hold for want of a route holds every UAV where it is (docs/design.md, "The
+            // no-route hold holds in place").
+            if holding && self.no_route != 0 {
+                high.anchor_team_hold();
+            }
             if let Some(z) = z_ref {
                 high.set_load_altitude_ref(z, phase.sharing());
             }

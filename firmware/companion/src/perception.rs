@@ -26,7 +26,7 @@ use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
 pub const MAP_CELLS: usize = 33_600;
-/// The planner's grid is this many map cells on a side coarser (0.5 m at 0.25 m cells).
+/// The planner's grid is this many map cells on a side coarser (1: the map's own cells).
 pub const PLAN_COARSEN: usize = 1;
 /// Cells of the planner's grid: the map's, coarsened, with room for the rounding up.
 pub const PLAN_CELLS: usize = MAP_CELLS / (PLAN_COARSEN * PLAN_COARSEN) + 512;
@@ -137,13 +137,13 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The planner's work space (about 140 KiB): the distance field (two bytes a cell,
-/// `vt_plan::distance_transform_squares`), the transform's envelope and the lattice search's
+/// The planner's work space (about 107 KiB): the distance field (one byte a cell, eighths of a
+/// cell rounded down, `vt_plan::distance_transform_eighths`), the transform's envelope and the lattice search's
 /// arrays (three `f32` and three `u16` a node), whose floats lend the transform its line
 /// buffers. Apart from the map, so a board can lend it to a task of lower priority while the
 /// map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
-    plan_cells: [u16; PLAN_CELLS],
+    plan_cells: [u8; PLAN_CELLS],
     envelope: [usize; PLAN_LINE + 1],
     /// The lattice's three `f32` a node; before the search, the distance transform's line
     /// buffers (`3 PLAN_LINE + 1` and `PLAN_LINE + 2` of them): the transform is done before
@@ -152,6 +152,8 @@ pub struct PlannerSpace {
     ints: [u16; 3 * LATTICE_NODES],
 }
 
+/// The field is the map's own grid (`OccupancyGrid::write_planner_bytes` does not coarsen).
+const _: () = assert!(PLAN_COARSEN == 1);
 /// The transform's line buffers fit in the lattice's floats.
 const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 3 * LATTICE_NODES);
 
@@ -180,7 +182,7 @@ impl PlannerSpace {
         // The transform's line buffers lent by the lattice (its first search resets them).
         let (line, rest) = self.floats.split_at_mut(3 * PLAN_LINE + 1);
         let breaks = rest.get_mut(..PLAN_LINE + 2).ok_or(PlanError::BadParams { field: "work space" })?;
-        vt_plan::distance_transform_squares(cells, p.width, p.height, line, &mut self.envelope, breaks)?;
+        vt_plan::distance_transform_eighths(cells, p.width, p.height, line, &mut self.envelope, breaks)?;
         let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
         let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
         vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
@@ -384,7 +386,7 @@ impl Perception {
         self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
         self.replans = self.replans.saturating_add(1);
         let start_m = start_point_at(tube, load_m, backoff_m);
-        let (width, height) = self.map.write_planner_words(PLAN_COARSEN, &mut space.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
+        let (width, height) = self.map.write_planner_bytes(&mut space.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
         Ok(Prepared {
             width,
             height,

@@ -156,7 +156,10 @@ impl PortPerception {
                     t.1 = *v;
                 }
             }
-            Rx::StatusText(_, text) if text == NO_ROUTE_TEXT => self.stats.no_route = true,
+            Rx::StatusText(_, text) if text == NO_ROUTE_TEXT => {
+                self.stats.no_route = true;
+                self.stats.no_route_seen = true;
+            }
             _ => {}
         }
     }

@@ -52,6 +52,9 @@ pub struct ReplanStats {
     pub kept: u32,
     /// The last re-plan found no route: the team holds.
     pub no_route: bool,
+    /// A re-plan found no route at some time of the flight: the team held (it may have
+    /// resumed since, when a later re-plan found a way through cells it had not yet seen).
+    pub no_route_seen: bool,
     /// The onboard map's RAM per companion, bytes.
     pub map_ram_bytes: usize,
 }
@@ -124,6 +127,7 @@ impl TeamPerception {
             switched |= r.switches > 0;
             if let Some(no_route) = r.no_route {
                 self.stats.no_route = no_route;
+                self.stats.no_route_seen |= no_route;
             }
             if r.offered {
                 offer = c.offer_sent().map(<[Waypoint]>::to_vec);
