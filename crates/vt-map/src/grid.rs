@@ -248,19 +248,6 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         self.write_coarse(coarsen, out, 0.0, f32::INFINITY)
     }
 
-    /// As [`Self::write_planner_cells`], in the input convention of
-    /// `vt_plan::distance_transform_squares`: `0` occupied, `1` free or unknown.
-    ///
-    /// # Errors
-    /// As [`Self::write_planner_cells`].
-    pub fn write_planner_words(
-        &self,
-        coarsen: usize,
-        out: &mut [u16],
-    ) -> Result<(usize, usize), MapError> {
-        self.write_coarse(coarsen, out, 0, 1)
-    }
-
     /// The planner's grid, `coarsen` times coarser, as `occupied` and `free` values.
     fn write_coarse<T: Copy>(
         &self,
@@ -432,13 +419,6 @@ mod tests {
         }
         assert_eq!(bytes[15], 9, "beyond the grid untouched");
         assert!(g.write_planner_bytes(&mut bytes[..14]).is_err());
-        let mut words = [9u16; 16];
-        assert_eq!(g.write_planner_words(1, &mut words), Ok((5, 3)));
-        for (k, (&w, &f)) in words.iter().zip(out.iter()).take(15).enumerate() {
-            assert_eq!(w, u16::from(f != 0.0), "cell {k}");
-        }
-        assert_eq!(words[15], 9, "beyond the grid untouched");
-        assert!(g.write_planner_words(1, &mut words[..14]).is_err());
         let mut out = [-1.0_f32; 6];
         assert_eq!(g.write_planner_cells(2, &mut out), Ok((3, 2)));
         assert_eq!(

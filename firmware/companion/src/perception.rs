@@ -17,8 +17,7 @@
 //!   UAV is suddenly "outside".
 //!
 //! The map and the planner's work space are sized for a 70 x 30 m world at 0.25 m
-//! ([`MAP_CELLS`]); the planner works on a grid [`PLAN_COARSEN`] times coarser, where a coarse
-//! cell is occupied when any of its cells is (conservative).
+//! ([`MAP_CELLS`]); the planner's distance field is on the map's own cells, one byte a cell.
 
 use crate::{CompanionTube, Vec3};
 use vt_map::{LogOddsParams, OccupancyGrid, Scan, SectorFold};
@@ -26,10 +25,8 @@ use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
 pub const MAP_CELLS: usize = 33_600;
-/// The planner's grid is this many map cells on a side coarser (1: the map's own cells).
-pub const PLAN_COARSEN: usize = 1;
-/// Cells of the planner's grid: the map's, coarsened, with room for the rounding up.
-pub const PLAN_CELLS: usize = MAP_CELLS / (PLAN_COARSEN * PLAN_COARSEN) + 512;
+/// Cells of the planner's grid: the map's own (`OccupancyGrid::write_planner_bytes`).
+pub const PLAN_CELLS: usize = MAP_CELLS;
 /// Longest row or column of the planner's grid (the distance transform's line buffers).
 pub const PLAN_LINE: usize = 512;
 /// Lattice nodes of the planner's search (a coarser lattice is used when the map needs more).
@@ -152,8 +149,6 @@ pub struct PlannerSpace {
     ints: [u16; 3 * LATTICE_NODES],
 }
 
-/// The field is the map's own grid (`OccupancyGrid::write_planner_bytes` does not coarsen).
-const _: () = assert!(PLAN_COARSEN == 1);
 /// The transform's line buffers fit in the lattice's floats.
 const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 3 * LATTICE_NODES);
 
@@ -390,7 +385,7 @@ impl Perception {
         Ok(Prepared {
             width,
             height,
-            resolution_m: self.map.resolution_m() * PLAN_COARSEN as f32,
+            resolution_m: self.map.resolution_m(),
             origin_m: self.map.origin_m(),
             start_m,
             goal_m: vt_plan::Vec2::new(self.cfg.goal_m[0], self.cfg.goal_m[1]),

@@ -151,15 +151,12 @@ impl PortPerception {
             Rx::Tubes(v) => {
                 if let Some(t) = self.totals.get_mut(i) {
                     if t.1[2] == 1.0 && v[2] == 0.0 {
-                        self.stats.no_route = false; // a route again
+                        self.stats.set_no_route(false); // a route again
                     }
                     t.1 = *v;
                 }
             }
-            Rx::StatusText(_, text) if text == NO_ROUTE_TEXT => {
-                self.stats.no_route = true;
-                self.stats.no_route_seen = true;
-            }
+            Rx::StatusText(_, text) if text == NO_ROUTE_TEXT => self.stats.set_no_route(true),
             _ => {}
         }
     }

@@ -59,6 +59,14 @@ pub struct ReplanStats {
     pub map_ram_bytes: usize,
 }
 
+impl ReplanStats {
+    /// Records whether the last re-plan found no route (and that one did, once it has).
+    pub fn set_no_route(&mut self, no_route: bool) {
+        self.no_route = no_route;
+        self.no_route_seen |= no_route;
+    }
+}
+
 /// The team network's side of issue 28 in SIL: each companion re-plans aboard
 /// (`vt_companion::Companion::attach_replanning`; every decision is the companion crate's);
 /// this relays what the firmware's link carries: the scans (`OBSTACLE_DISTANCE`) and the
@@ -126,8 +134,7 @@ impl TeamPerception {
             self.stats.kept += r.kept;
             switched |= r.switches > 0;
             if let Some(no_route) = r.no_route {
-                self.stats.no_route = no_route;
-                self.stats.no_route_seen |= no_route;
+                self.stats.set_no_route(no_route);
             }
             if r.offered {
                 offer = c.offer_sent().map(<[Waypoint]>::to_vec);
