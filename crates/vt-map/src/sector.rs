@@ -249,37 +249,12 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         // The width is the increment's magnitude: the same cosine, the sine's magnitude.
         let (c_w, s_w) = (c_inc, libm::fabsf(s_inc));
         let (s0, c0) = sin_cos(start);
-        let mut edge = Vec2::new(c0, s0);
-        let mut sectors: [Option<Usable>; MAX_BEAMS] = [None; MAX_BEAMS];
-        for (k, slot) in sectors.iter_mut().enumerate().take(beams) {
-            let lo = edge;
-            edge = rotate(edge, c_inc, s_inc);
-            let (range_m, hit_m) = match scan.returns.get(k) {
-                Some(&Return::Hit(r)) if r > 0.0 && r <= scan.max_range_m => (r, Some(r)),
-                Some(Return::Clear) => (scan.max_range_m, None),
-                _ => continue,
-            };
-            // Free space out to the hit (less half a cell diagonal) or the range. A beam longer
-            // than the fold's free range is cut there and its hit dropped, as OctoMap's
-            // `maxrange` does: a far hit is a guess on an arc too wide to place it, and the free
-            // space that would correct the guess stops short of it (a NaN free range inserts
-            // nothing).
-            let (radius, hit_m) = if range_m < fold.free_range_m {
-                (range_m / res - if hit_m.is_some() { HALF_DIAGONAL_CELLS } else { 0.0 }, hit_m)
-            } else {
-                (fold.free_range_m / res, None)
-            };
-            let hi = rotate(lo, c_w, s_w);
-            *slot = Some(Usable {
-                free: Sector { a, lo, hi, radius },
-                hit_m,
-            });
-        }
+        let sectors = Sectors { scan, a, first_edge: Vec2::new(c0, s0), c_inc, s_inc, c_w, s_w, res, free_range_m: fold.free_range_m };
         // The hit cells with their values from before the scan.
         let mut hits: heapless::Vec<(u32, i8), MAX_HIT_CELLS> = heapless::Vec::new();
         let (w, h) = (self.width, self.height);
-        for slot in sectors.iter().take(beams) {
-            let Some(Usable { free: sector, hit_m: Some(r) }) = *slot else {
+        for slot in sectors.iter() {
+            let Some(Usable { free: sector, hit_m: Some(r) }) = slot else {
                 continue;
             };
             let m = arc_points(width_rad, r, res, fold.spread_range_m);
@@ -310,7 +285,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         // Free space: the fan of the usable sectors, row by row (`crate::fan`), when they do
         // not overlap; otherwise each usable sector's cells.
         let (miss, floor) = (params.miss, params.min);
-        for slot in sectors.iter().take(beams) {
+        for slot in sectors.iter() {
             if slot.is_some() {
                 stats.beams_used += 1;
             } else {
@@ -319,7 +294,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         }
         let turned = width_rad * beams as f32;
         let fan_filled = turned <= core::f32::consts::TAU + FAN_CLOSE_RAD && {
-            let fan = fan_of(&sectors, beams, a, scan.increment_rad > 0.0, turned >= core::f32::consts::TAU - FAN_CLOSE_RAD);
+            let fan = fan_of(&sectors, a, scan.increment_rad > 0.0, turned >= core::f32::consts::TAU - FAN_CLOSE_RAD);
             let cells = &mut self.cells;
             let updated = &mut stats.cells_updated;
             fan.fill(w, h, |start, count| {
@@ -331,7 +306,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         };
         let one_by_one = if fan_filled { 0 } else { beams };
         for slot in sectors.iter().take(one_by_one) {
-            let Some(Usable { free: sector, .. }) = *slot else {
+            let Some(Usable { free: sector, .. }) = slot else {
                 continue;
             };
             let cells = &mut self.cells;
@@ -380,15 +355,15 @@ const FAN_CLOSE_RAD: f32 = 1e-3;
 /// The fan of a scan's usable sectors (`crate::fan`): their far corners in the order the scan
 /// turns (`ccw`: counter-clockwise), the sensor `a` between runs of them and, unless the scan
 /// `closes` a full circle with both its end sectors usable, at the ends.
-fn fan_of(sectors: &[Option<Usable>; MAX_BEAMS], beams: usize, a: Vec2, ccw: bool, closes: bool) -> Fan {
+fn fan_of(sectors: &Sectors<'_>, a: Vec2, ccw: bool, closes: bool) -> Fan {
     let mut fan = Fan::new();
-    let has_room = |k: usize| sectors.get(k).copied().flatten().is_some_and(|u| u.free.radius > 0.0);
-    let closed = closes && beams > 0 && has_room(0) && has_room(beams - 1);
+    let has_room = |u: Option<Option<Usable>>| u.flatten().is_some_and(|u| u.free.radius > 0.0);
+    let closed = closes && has_room(sectors.iter().next()) && has_room(sectors.iter().last());
     if !closed {
         fan.push(a);
     }
-    for slot in sectors.iter().take(beams) {
-        match *slot {
+    for slot in sectors.iter() {
+        match slot {
             Some(Usable { free, .. }) if free.radius > 0.0 => {
                 let (p, q) = (free.a + free.lo * free.radius, free.a + free.hi * free.radius);
                 let (first, second) = if ccw { (p, q) } else { (q, p) };
@@ -402,6 +377,56 @@ fn fan_of(sectors: &[Option<Usable>; MAX_BEAMS], beams: usize, a: Vec2, ccw: boo
         fan.push(a);
     }
     fan
+}
+
+/// A scan's sectors, made again for each pass over them rather than kept: the same rotations
+/// in the same order give the same bits, and the flight MCU's map update needs 2.6 KiB less
+/// stack (docs/benchmarks.md).
+#[derive(Clone, Copy)]
+struct Sectors<'s> {
+    scan: &'s Scan,
+    /// The sensor, cells.
+    a: Vec2,
+    /// The first sector's first edge, unit.
+    first_edge: Vec2,
+    /// Cosine and sine of the increment (one sector to the next).
+    c_inc: f32,
+    s_inc: f32,
+    /// Cosine and sine of the sector's width (its first edge to its second).
+    c_w: f32,
+    s_w: f32,
+    /// Cell side, m.
+    res: f32,
+    /// The fold's free range, m.
+    free_range_m: f32,
+}
+
+impl Sectors<'_> {
+    /// Each beam's sector, in scan order: `None` for a beam with no usable return.
+    fn iter(&self) -> impl Iterator<Item = Option<Usable>> + '_ {
+        let mut edge = self.first_edge;
+        self.scan.returns.iter().map(move |ret| {
+            let lo = edge;
+            edge = rotate(edge, self.c_inc, self.s_inc);
+            let (range_m, hit_m) = match *ret {
+                Return::Hit(r) if r > 0.0 && r <= self.scan.max_range_m => (r, Some(r)),
+                Return::Clear => (self.scan.max_range_m, None),
+                _ => return None,
+            };
+            // Free space out to the hit (less half a cell diagonal) or the range. A beam longer
+            // than the fold's free range is cut there and its hit dropped, as OctoMap's
+            // `maxrange` does: a far hit is a guess on an arc too wide to place it, and the free
+            // space that would correct the guess stops short of it (a NaN free range inserts
+            // nothing).
+            let (radius, hit_m) = if range_m < self.free_range_m {
+                (range_m / self.res - if hit_m.is_some() { HALF_DIAGONAL_CELLS } else { 0.0 }, hit_m)
+            } else {
+                (self.free_range_m / self.res, None)
+            };
+            let hi = rotate(lo, self.c_w, self.s_w);
+            Some(Usable { free: Sector { a: self.a, lo, hi, radius }, hit_m })
+        })
+    }
 }
 
 /// One usable sector of a scan: its free space and, for a hit, the hit's range (m).

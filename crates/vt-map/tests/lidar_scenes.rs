@@ -97,7 +97,7 @@ fn wall_scan_feeds_the_distance_transform() {
     assert_eq!((w, h), (SIDE / COARSEN, SIDE / COARSEN));
     let cells = &mut cells[..w * h];
     let n = w.max(h);
-    let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
+    let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
     distance_transform(cells, w, h, &mut line, &mut v, &mut z).unwrap();
     let map = GridMap {
         dist_cells: cells,

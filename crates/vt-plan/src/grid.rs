@@ -37,12 +37,12 @@ const FIELD_ROUNDING_CELLS: f32 = 0.125 + 1e-4;
 ///
 /// # Errors
 /// [`PlanError::BadParams`] when a slice is too short or the grid is empty.
-pub fn distance_transform(
+pub fn distance_transform<I: NodeIndex>(
     cells: &mut [f32],
     width: usize,
     height: usize,
     line: &mut [f32],
-    v: &mut [usize],
+    v: &mut [I],
     z: &mut [f32],
 ) -> Result<(), PlanError> {
     let n = check_sizes(cells.len(), width, height, line, v, z)?;
@@ -93,12 +93,12 @@ pub fn distance_transform(
 ///
 /// # Errors
 /// [`PlanError::BadParams`] when a slice is too short or the grid is empty.
-pub fn distance_transform_eighths(
+pub fn distance_transform_eighths<I: NodeIndex>(
     cells: &mut [u8],
     width: usize,
     height: usize,
     line: &mut [f32],
-    v: &mut [usize],
+    v: &mut [I],
     z: &mut [f32],
 ) -> Result<(), PlanError> {
     let n = check_sizes(cells.len(), width, height, line, v, z)?;
@@ -166,12 +166,12 @@ fn eighths(d2: f32) -> u8 {
 ///
 /// # Errors
 /// [`PlanError::BadParams`] when a slice is too short or the grid is empty.
-pub fn distance_transform_squares(
+pub fn distance_transform_squares<I: NodeIndex>(
     cells: &mut [u16],
     width: usize,
     height: usize,
     line: &mut [f32],
-    v: &mut [usize],
+    v: &mut [I],
     z: &mut [f32],
 ) -> Result<(), PlanError> {
     let n = check_sizes(cells.len(), width, height, line, v, z)?;
@@ -276,12 +276,12 @@ fn column_counts<T: ColumnCount>(cells: &mut [T], width: usize, height: usize) {
 
 /// The transforms' size checks: a non-empty `width x height` grid of `len` cells and work
 /// space for its longest line; returns that length.
-fn check_sizes(len: usize, width: usize, height: usize, line: &[f32], v: &[usize], z: &[f32]) -> Result<usize, PlanError> {
+fn check_sizes<I: NodeIndex>(len: usize, width: usize, height: usize, line: &[f32], v: &[I], z: &[f32]) -> Result<usize, PlanError> {
     let n = width.max(height);
     if width == 0 || height == 0 || width.checked_mul(height) != Some(len) {
         return Err(PlanError::BadParams { field: "cells" });
     }
-    if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 {
+    if line.len() < 3 * n + 1 || v.len() < n + 1 || z.len() < n + 2 || n + 1 > I::CAPACITY {
         return Err(PlanError::BadParams { field: "work space" });
     }
     Ok(n)
@@ -293,7 +293,7 @@ fn check_sizes(len: usize, width: usize, height: usize, line: &[f32], v: &[usize
 /// (the nearer parabola is the one on `q`'s side of `x`), so `d(x) = min(f(x), E(x))` with `E`
 /// the lower envelope of parabolas at the half-integer sites `k + 1/2`, `k = -1..n-1`, of height
 /// `min(f(k), f(k + 1))` (F&H's DT over those sites). `h`: `n + 1` long.
-fn square_pass(f: &[f32], d: &mut [f32], h: &mut [f32], v: &mut [usize], z: &mut [f32]) {
+fn square_pass<I: NodeIndex>(f: &[f32], d: &mut [f32], h: &mut [f32], v: &mut [I], z: &mut [f32]) {
     let n = f.len();
     let at = |k: usize| -> f32 { f.get(k).copied().unwrap_or(f32::INFINITY) };
     // Site s = k + 1/2 for k = -1..n-1 is stored at index k + 1 (position idx - 1/2).
@@ -310,7 +310,7 @@ fn square_pass(f: &[f32], d: &mut [f32], h: &mut [f32], v: &mut [usize], z: &mut
 /// F&H's DT: `d(x) = min_s (x - pos(s))^2 + h(s)` for integer `x` in `0..d.len()`, with the
 /// sites at `pos(s) = s + offset`. Infinite heights take no part in the envelope. `v`: the
 /// envelope's sites, `h.len()` long; `z`: its boundaries, `h.len() + 1` long.
-fn envelope(h: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32], offset: f32) {
+fn envelope<I: NodeIndex>(h: &[f32], d: &mut [f32], v: &mut [I], z: &mut [f32], offset: f32) {
     if !lower_envelope(h, v, z, offset) {
         d.iter_mut().for_each(|x| *x = f32::INFINITY);
         return;
@@ -322,7 +322,7 @@ fn envelope(h: &[f32], d: &mut [f32], v: &mut [usize], z: &mut [f32], offset: f3
         while z[k + 1] < xf {
             k += 1;
         }
-        let p = v[k];
+        let p = v[k].node();
         let dx = xf - pos(p);
         *dx_out = dx * dx + h[p];
     }

@@ -130,8 +130,8 @@ proptest! {
         let params = PlanParams { need_half_width_m: 0.5, margin_m: 0.3, max_half_width_m: 2.0, lattice_m: 0.25, clearance_weight: 0.5 };
         let (start, goal) = (Vec2::new(-0.5, 5.0), Vec2::new(28.5, 12.0));
         let run = |m: &dyn Fn(&mut Workspace<'_, u32>) -> Result<crate::PlannedTube, crate::PlanError>| {
-            let (mut fl, mut ints) = (vec![0.0f32; 3 * 8192], vec![0u32; 3 * 8192]);
-            m(&mut Workspace::new(&mut fl, &mut ints))
+            let (mut fl, mut ints, mut steps) = (vec![0.0f32; 3 * 8192], vec![0u32; 2 * 8192], vec![0u8; 4096]);
+            m(&mut Workspace::new(&mut fl, &mut ints, &mut steps))
         };
         let with = run(&|ws| plan(&g, start, goal, &params, ws));
         let without = run(&|ws| plan(&EverySample(&g), start, goal, &params, ws));
@@ -160,8 +160,8 @@ fn the_undone_refinement_answers_as_the_rounds_run_out() {
         let (start, goal) = (Vec2::new(-0.5, 5.0), Vec2::new(28.5, 12.0));
         let run = |off: bool| {
             crate::planner::SHORTCUT_STATE.with(|s| s.set((off, 0)));
-            let (mut fl, mut ints) = (vec![0.0f32; 3 * 8192], vec![0u32; 3 * 8192]);
-            let r = plan(&g, start, goal, &params, &mut Workspace::new(&mut fl, &mut ints));
+            let (mut fl, mut ints, mut steps) = (vec![0.0f32; 3 * 8192], vec![0u32; 2 * 8192], vec![0u8; 4096]);
+            let r = plan(&g, start, goal, &params, &mut Workspace::new(&mut fl, &mut ints, &mut steps));
             (r, crate::planner::SHORTCUT_STATE.with(|s| s.get().1))
         };
         let (with, n) = run(false);

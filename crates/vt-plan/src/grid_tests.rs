@@ -5,7 +5,7 @@ use proptest::prelude::*;
 
 fn edt(cells: &mut [f32], w: usize, h: usize) {
     let n = w.max(h);
-    let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
+    let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
     distance_transform(cells, w, h, &mut line, &mut v, &mut z).unwrap();
 }
 
@@ -28,10 +28,10 @@ fn empty_grid_is_infinite_and_bad_sizes_are_errors() {
     let mut cells = vec![1.0; 6];
     edt(&mut cells, 3, 2);
     assert!(cells.iter().all(|d| *d == f32::INFINITY));
-    let (mut line, mut v, mut z) = (vec![0.0; 2], vec![0; 1], vec![0.0; 1]);
+    let (mut line, mut v, mut z) = (vec![0.0; 2], vec![0usize; 1], vec![0.0; 1]);
     assert!(distance_transform(&mut cells, 3, 2, &mut line, &mut v, &mut z).is_err());
-    assert!(distance_transform(&mut cells, 4, 2, &mut [0.0; 13], &mut [0; 5], &mut [0.0; 6]).is_err());
-    assert!(distance_transform(&mut cells, 3, 2, &mut [0.0; 9], &mut [0; 4], &mut [0.0; 5]).is_err());
+    assert!(distance_transform(&mut cells, 4, 2, &mut [0.0; 13], &mut [0usize; 5], &mut [0.0; 6]).is_err());
+    assert!(distance_transform(&mut cells, 3, 2, &mut [0.0; 9], &mut [0usize; 4], &mut [0.0; 5]).is_err());
 }
 
 /// Distance in cells from the point `(x, y)` (centre coordinates) to the square of cell `(a, b)`.
@@ -58,7 +58,7 @@ fn squares_cap_far_distances_from_below() {
     let (w, h) = (300, 2);
     let mut words = vec![1u16; w * h];
     words[0] = 0;
-    let (mut line, mut v, mut z) = (vec![0.0; 3 * w + 1], vec![0; w + 1], vec![0.0; w + 2]);
+    let (mut line, mut v, mut z) = (vec![0.0; 3 * w + 1], vec![0usize; w + 1], vec![0.0; w + 2]);
     distance_transform_squares(&mut words, w, h, &mut line, &mut v, &mut z).unwrap();
     let mut exact: Vec<f32> = words.iter().map(|_| f32::INFINITY).collect();
     exact[0] = 0.0;
@@ -78,7 +78,7 @@ fn squares_cap_far_distances_from_below() {
     assert_eq!(empty[..].distance_cells(0), Some(f32::INFINITY));
     let tall = 1usize << 16;
     let mut column = vec![1u16; tall];
-    let (mut line, mut v, mut z) = (vec![0.0; 3 * tall + 1], vec![0; tall + 1], vec![0.0; tall + 2]);
+    let (mut line, mut v, mut z) = (vec![0.0; 3 * tall + 1], vec![0usize; tall + 1], vec![0.0; tall + 2]);
     assert!(distance_transform_squares(&mut column, 1, tall, &mut line, &mut v, &mut z).is_err());
 }
 
@@ -105,8 +105,12 @@ proptest! {
         let mut bytes: Vec<u8> = (0..w * h).map(|k| u8::from(bits[k] != 0)).collect();
         edt(&mut exact, w, h);
         let n = w.max(h);
-        let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
+        let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
+        let mut with_u16_sites = bytes.clone();
         distance_transform_eighths(&mut bytes, w, h, &mut line, &mut v, &mut z).unwrap();
+        // The flight MCU's two-byte envelope sites give the same field.
+        distance_transform_eighths(&mut with_u16_sites, w, h, &mut line, &mut vec![0u16; n + 1], &mut z).unwrap();
+        prop_assert_eq!(&with_u16_sites, &bytes);
         for k in 0..w * h {
             let want = if exact[k] >= 31.875 { EIGHTHS_FAR } else { (f64::from(exact[k]) * 8.0 + 1e-9).floor() as u8 };
             prop_assert_eq!(bytes[k], want, "cell {} exact {}", k, exact[k]);
@@ -133,7 +137,7 @@ proptest! {
         let mut words: Vec<u16> = (0..w * h).map(|k| u16::from(bits[k] != 0)).collect();
         edt(&mut exact, w, h);
         let n = w.max(h);
-        let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0; n + 1], vec![0.0; n + 2]);
+        let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
         distance_transform_squares(&mut words, w, h, &mut line, &mut v, &mut z).unwrap();
         for (k, e) in exact.iter().enumerate() {
             let back = words[..].distance_cells(k).unwrap();

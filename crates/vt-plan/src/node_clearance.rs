@@ -154,8 +154,9 @@ mod tests {
 
     /// The sweep over a lattice of `grid`, through a planner's work space.
     fn sweep<C: ?Sized + DistanceCells>(grid: &GridMap<'_, C>, lat: &Lattice) -> Option<Vec<f32>> {
-        let (mut floats, mut ints) = (vec![0.0f32; 3 * lat.len().max(2 * grid.width + 2)], vec![0u32; 3 * lat.len().max(2 * grid.width + 2)]);
-        let mut ws: Workspace<'_, u32> = Workspace::new(&mut floats, &mut ints);
+        let cap = lat.len().max(2 * grid.width + 2);
+        let (mut floats, mut ints, mut steps) = (vec![0.0f32; 3 * cap], vec![0u32; 2 * cap], vec![0u8; Workspace::<u32>::parent_bytes(cap)]);
+        let mut ws: Workspace<'_, u32> = Workspace::new(&mut floats, &mut ints, &mut steps);
         let (radii, space) = ws.sweep_parts();
         let mut out = vec![f32::NAN; lat.len()];
         let _ = radii;

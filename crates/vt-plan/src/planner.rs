@@ -123,9 +123,9 @@ impl<I: NodeIndex> Path<'_, '_, '_, I> {
         match a {
             At::Start => Some(At::Node(self.first)),
             At::Node(k) if k == self.last => Some(At::Goal),
-            At::Node(k) => match self.ws.parent.get(k).copied() {
-                Some(p) if p != I::NONE => Some(At::Node(p.node())),
-                _ => Some(At::Goal),
+            At::Node(k) => match self.ws.parent(self.lat, k) {
+                Some(p) => Some(At::Node(p)),
+                None => Some(At::Goal),
             },
             At::Goal => None,
         }
@@ -621,8 +621,8 @@ mod tests {
 
     fn plan_on(map: &ObstacleMap<'_>, start: Vec2, goal: Vec2, p: &PlanParams) -> Result<PlannedTube, PlanError> {
         let cap = 1 << 16;
-        let (mut f, mut u) = (vec![0.0; 3 * cap], vec![0u32; 3 * cap]);
-        plan(map, start, goal, p, &mut Workspace::new(&mut f, &mut u))
+        let (mut f, mut u, mut s) = (vec![0.0; 3 * cap], vec![0u32; 2 * cap], vec![0u8; Workspace::<u32>::parent_bytes(cap)]);
+        plan(map, start, goal, p, &mut Workspace::new(&mut f, &mut u, &mut s))
     }
 
     #[test]

@@ -15,10 +15,10 @@
 
 use crate::{ClearanceMap, PlanError, SweepSpace, Vec2};
 
-/// A lattice node's index as the work space stores it (parents, the heap, heap positions):
+/// A lattice node's index as the work space stores it (the heap and heap positions):
 /// `u16` on the flight MCU (its 4,096 nodes in half the bytes), `u32` on the host.
 pub trait NodeIndex: Copy + Ord + core::fmt::Debug {
-    /// No parent; a node not in the open set.
+    /// A node not in the open set.
     const NONE: Self;
     /// A node taken out of the open set for good.
     const CLOSED: Self;
@@ -51,8 +51,6 @@ node_index!(u16);
 node_index!(u32);
 node_index!(usize);
 
-/// Marks "no parent" in a host work space (`u32` indices).
-pub const NO_PARENT: u32 = <u32 as NodeIndex>::NONE;
 /// The 8 neighbour offsets and their lengths in lattice steps.
 const NEIGHBOURS: [(i32, i32, f32); 8] = [
     (1, 0, 1.0),
@@ -166,30 +164,56 @@ impl Lattice {
     }
 }
 
-/// The planner's work space, borrowed from the caller: 3 `f32` and 3 indices `I` per lattice
-/// node.
+/// The planner's work space, borrowed from the caller: per lattice node 3 `f32`, 2 indices `I`
+/// and half a byte ([`Workspace::parent_bytes`]).
 #[derive(Debug)]
 pub struct Workspace<'a, I: NodeIndex = u32> {
     radius_m: &'a mut [f32],
     cost: &'a mut [f32],
     key: &'a mut [f32],
-    /// Parent of each node in the last search ([`NO_PARENT`] for none).
-    pub(crate) parent: &'a mut [I],
+    /// The step that reached each node in the last search, two nodes a byte (node `2 m` in the
+    /// low nibble of byte `m`): 0 for none, `d + 1` for `NEIGHBOURS[d]`. A step names the
+    /// parent as well as its index would (the parent is the node one step back), in a quarter
+    /// of a `u16`: 6 KiB less for the flight MCU's 4,096 nodes (docs/planning.md).
+    steps: &'a mut [u8],
     heap: &'a mut [I],
     pos: &'a mut [I],
 }
 
 impl<'a, I: NodeIndex> Workspace<'a, I> {
-    /// Splits caller buffers: `floats` holds `3 capacity` values, `ints` `3 capacity`.
-    pub fn new(floats: &'a mut [f32], ints: &'a mut [I]) -> Self {
-        let cap = (floats.len() / 3).min(ints.len() / 3).min(I::CAPACITY);
+    /// Bytes of parent steps a work space of `nodes` nodes needs.
+    pub const fn parent_bytes(nodes: usize) -> usize {
+        nodes.div_ceil(2)
+    }
+
+    /// Splits caller buffers: `floats` holds `3 capacity` values, `ints` `2 capacity` and
+    /// `steps` [`Self::parent_bytes`]`(capacity)`.
+    pub fn new(floats: &'a mut [f32], ints: &'a mut [I], steps: &'a mut [u8]) -> Self {
+        let cap = (floats.len() / 3).min(ints.len() / 2).min(steps.len().saturating_mul(2)).min(I::CAPACITY);
         let (radius_m, rest) = floats.split_at_mut(cap);
         let (cost, rest) = rest.split_at_mut(cap);
         let key = rest.split_at_mut(cap).0;
-        let (parent, rest) = ints.split_at_mut(cap);
-        let (heap, rest) = rest.split_at_mut(cap);
+        let (heap, rest) = ints.split_at_mut(cap);
         let pos = rest.split_at_mut(cap).0;
-        Self { radius_m, cost, key, parent, heap, pos }
+        let steps = steps.split_at_mut(Self::parent_bytes(cap)).0;
+        Self { radius_m, cost, key, steps, heap, pos }
+    }
+
+    /// Records that node `v` was reached by `NEIGHBOURS[d]` (`None`: it has no parent).
+    #[inline]
+    fn set_step(&mut self, v: usize, d: Option<usize>) {
+        let code = d.map_or(0, |d| (d + 1) as u8) & 0xF;
+        if let Some(b) = self.steps.get_mut(v / 2) {
+            *b = if v.is_multiple_of(2) { (*b & 0xF0) | code } else { (*b & 0x0F) | (code << 4) };
+        }
+    }
+
+    /// The parent of node `v` in the last search on `lat` (`None` for none).
+    pub(crate) fn parent(&self, lat: &Lattice, v: usize) -> Option<usize> {
+        let b = self.steps.get(v / 2).copied()?;
+        let code = if v.is_multiple_of(2) { b & 0x0F } else { b >> 4 };
+        let (di, dj, _) = NEIGHBOURS.get(usize::from(code).checked_sub(1)?)?;
+        lat.neighbour(v, -di, -dj)
     }
 
     /// Lattice nodes this work space can hold.
@@ -200,7 +224,8 @@ impl<'a, I: NodeIndex> Workspace<'a, I> {
     /// The radii, and the search's other arrays lent to a map's lattice sweep (every search
     /// clears what it reads first).
     pub(crate) fn sweep_parts(&mut self) -> (&mut [f32], SweepSpace<'_, I>) {
-        let space = SweepSpace { floats: self.cost, bounds: self.key, sites: self.parent, below: self.heap, above: self.pos };
+        let (below, above) = self.heap.split_at_mut(self.heap.len() / 2);
+        let space = SweepSpace { floats: self.cost, bounds: self.key, sites: self.pos, below, above };
         (self.radius_m, space)
     }
 
@@ -211,7 +236,7 @@ impl<'a, I: NodeIndex> Workspace<'a, I> {
         }
         self.cost[..n].fill(f32::INFINITY);
         self.key[..n].fill(f32::INFINITY);
-        self.parent[..n].fill(I::NONE);
+        self.steps[..Self::parent_bytes(n)].fill(0);
         self.pos[..n].fill(I::NONE);
     }
 }
@@ -418,7 +443,7 @@ pub(crate) fn reachable<M: ClearanceMap, I: NodeIndex>(
 }
 
 /// A* from `from` to `to` over usable nodes. On success the parents lead from `to` back to
-/// `from` (`parent[from] = NO_PARENT`); returns whether `to` was reached.
+/// `from` (`from` has none); returns whether `to` was reached.
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
@@ -460,7 +485,7 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
         }
         let ru = heap.ws.radius_m[u];
         let gu = heap.ws.cost[u];
-        for (di, dj, len) in NEIGHBOURS {
+        for (d, &(di, dj, len)) in NEIGHBOURS.iter().enumerate() {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
             if heap.ws.pos[v] == I::CLOSED {
                 continue;
@@ -475,7 +500,7 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
             if g < heap.ws.cost[v] {
                 heap.ws.cost[v] = g;
                 heap.ws.key[v] = g + vt_fpu::norm(&(lat.point_m(v) - goal));
-                heap.ws.parent[v] = I::from_node(u);
+                heap.ws.set_step(v, Some(d));
                 heap.push_or_decrease(v);
             }
         }
@@ -513,7 +538,7 @@ pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex>(
             break;
         }
         let bu = heap.ws.cost[u];
-        for (di, dj, _) in NEIGHBOURS {
+        for (d, &(di, dj, _)) in NEIGHBOURS.iter().enumerate() {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
             if heap.ws.pos[v] == I::CLOSED {
                 continue;
@@ -522,12 +547,12 @@ pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex>(
             if heap.ws.cost[v] == f32::INFINITY || b > heap.ws.cost[v] {
                 heap.ws.cost[v] = b;
                 heap.ws.key[v] = -b;
-                heap.ws.parent[v] = I::from_node(u);
+                heap.ws.set_step(v, Some(d));
                 heap.push_or_decrease(v);
             }
         }
     }
-    Ok(narrowest_on_path(ws, to, n))
+    Ok(narrowest_on_path(ws, lat, to, n))
 }
 
 /// The narrowest passage between `from` and `to`: the widest-path bottleneck `b`
@@ -551,14 +576,14 @@ pub fn narrowest_passage<M: ClearanceMap, I: NodeIndex>(
     }
     let at_b = RadiusRule { need_m: b, ..*rule };
     if astar_cached(map, lat, &at_b, ws, from, to, true)? {
-        Ok(narrowest_on_path(ws, to, lat.len()))
+        Ok(narrowest_on_path(ws, lat, to, lat.len()))
     } else {
         Ok((k, b))
     }
 }
 
 /// Walks the parents back from `to`: the first node with the smallest radius.
-fn narrowest_on_path<I: NodeIndex>(ws: &Workspace<'_, I>, to: usize, n: usize) -> (usize, f32) {
+fn narrowest_on_path<I: NodeIndex>(ws: &Workspace<'_, I>, lat: &Lattice, to: usize, n: usize) -> (usize, f32) {
     let mut k = to;
     let mut worst = (to, ws.radius_m[to]);
     for _ in 0..n {
@@ -566,9 +591,9 @@ fn narrowest_on_path<I: NodeIndex>(ws: &Workspace<'_, I>, to: usize, n: usize) -
         if r < worst.1 {
             worst = (k, r);
         }
-        match ws.parent[k] {
-            p if p == I::NONE => break,
-            p => k = p.node(),
+        match ws.parent(lat, k) {
+            None => break,
+            Some(p) => k = p,
         }
     }
     worst
@@ -601,17 +626,17 @@ mod tests {
         let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
         let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
         let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
-        let (mut f, mut u) = (vec![0.0; 3 * 4096], vec![0; 3 * 4096]);
-        let mut ws = Workspace::new(&mut f, &mut u);
+        let (mut f, mut u, mut s) = (vec![0.0; 3 * 4096], vec![0; 2 * 4096], vec![0; 2048]);
+        let mut ws: Workspace<'_, u32> = Workspace::new(&mut f, &mut u, &mut s);
         let from = lat.around(Vec2::new(2.0, 2.0))[0].unwrap();
         let to = lat.around(Vec2::new(18.0, 2.0))[0].unwrap();
         assert!(astar(&map, &lat, &rule(0.5), &mut ws, from, to).unwrap());
         // The path passes above the wall's end.
         let mut k = to;
         let mut top = f32::MIN;
-        while ws.parent[k] != NO_PARENT {
+        while let Some(p) = ws.parent(&lat, k) {
             top = top.max(lat.point_m(k).y);
-            k = ws.parent[k] as usize;
+            k = p;
         }
         assert_eq!(k, from);
         assert!(top > 8.6);
@@ -634,8 +659,8 @@ mod tests {
         ];
         let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
         let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
-        let (mut f, mut u) = (vec![0.0; 3 * 4096], vec![0u16; 3 * 4096]);
-        let mut ws = Workspace::new(&mut f, &mut u);
+        let (mut f, mut u, mut s) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+        let mut ws = Workspace::new(&mut f, &mut u, &mut s);
         let at = |x: f32, y: f32| lat.around(Vec2::new(x, y))[0].unwrap();
         let (mut reached, mut refused) = (0, 0);
         for (from, to) in [(at(2.0, 2.0), at(18.0, 2.0)), (at(2.0, 8.0), at(12.0, 8.0)), (at(12.0, 8.0), at(18.0, 8.0)), (at(18.0, 9.0), at(2.0, 1.0))] {
@@ -655,25 +680,24 @@ mod tests {
         let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
         let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
         let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
-        let (mut f4, mut u4) = (vec![0.0; 3 * 4096], vec![0u32; 3 * 4096]);
-        let (mut f2, mut u2) = (vec![0.0; 3 * 4096], vec![0u16; 3 * 4096]);
-        let mut w4 = Workspace::new(&mut f4, &mut u4);
-        let mut w2 = Workspace::new(&mut f2, &mut u2);
+        let (mut f4, mut u4, mut s4) = (vec![0.0; 3 * 4096], vec![0u32; 2 * 4096], vec![0; 2048]);
+        let (mut f2, mut u2, mut s2) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+        let mut w4 = Workspace::new(&mut f4, &mut u4, &mut s4);
+        let mut w2 = Workspace::new(&mut f2, &mut u2, &mut s2);
         assert_eq!(w2.capacity(), 4096);
         let from = lat.around(Vec2::new(2.0, 2.0))[0].unwrap();
         let to = lat.around(Vec2::new(18.0, 2.0))[0].unwrap();
         assert!(astar(&map, &lat, &rule(0.5), &mut w4, from, to).unwrap());
         assert!(astar(&map, &lat, &rule(0.5), &mut w2, from, to).unwrap());
+        let mut with_parent = 0;
         for k in 0..lat.len() {
-            let (p4, p2) = (w4.parent[k], w2.parent[k]);
-            assert_eq!(p4 == NO_PARENT, p2 == u16::MAX, "node {k}");
-            if p4 != NO_PARENT {
-                assert_eq!(p4 as usize, usize::from(p2), "node {k}");
-            }
+            assert_eq!(w4.parent(&lat, k), w2.parent(&lat, k), "node {k}");
+            with_parent += usize::from(w4.parent(&lat, k).is_some());
         }
+        assert!(with_parent > 100, "{with_parent} nodes with a parent");
         assert_eq!(narrowest_passage(&map, &lat, &rule(1.5), &mut w4, from, to).unwrap(), narrowest_passage(&map, &lat, &rule(1.5), &mut w2, from, to).unwrap());
         // A work space never takes more nodes than its indices can name beside their marks.
-        let (mut f, mut u) = (vec![0.0; 3 * 70_000], vec![0u16; 3 * 70_000]);
-        assert_eq!(Workspace::new(&mut f, &mut u).capacity(), usize::from(u16::MAX) - 2);
+        let (mut f, mut u, mut s) = (vec![0.0; 3 * 70_000], vec![0u16; 2 * 70_000], vec![0; 35_000]);
+        assert_eq!(Workspace::new(&mut f, &mut u, &mut s).capacity(), usize::from(u16::MAX) - 2);
     }
 }

@@ -134,32 +134,36 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The planner's work space (about 107 KiB): the distance field (one byte a cell, eighths of a
-/// cell rounded down, `vt_plan::distance_transform_eighths`), the transform's envelope and the lattice search's
-/// arrays (three `f32` and three `u16` a node), whose floats lend the transform its line
+/// The planner's work space (about 101 KiB): the distance field (one byte a cell, eighths of a
+/// cell rounded down, `vt_plan::distance_transform_eighths`) and the lattice search's
+/// arrays (three `f32`, two `u16` and a parent step in half a byte a node), which lend the transform its line
 /// buffers. Apart from the map, so a board can lend it to a task of lower priority while the
 /// map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
     plan_cells: [u8; PLAN_CELLS],
-    envelope: [usize; PLAN_LINE + 1],
     /// The lattice's three `f32` a node; before the search, the distance transform's line
     /// buffers (`3 PLAN_LINE + 1` and `PLAN_LINE + 2` of them): the transform is done before
     /// the search starts, and every search clears what it reads first.
     floats: [f32; 3 * LATTICE_NODES],
-    ints: [u16; 3 * LATTICE_NODES],
+    /// The lattice's two `u16` a node; before the search, the transform's envelope
+    /// (`PLAN_LINE + 1` sites).
+    ints: [u16; 2 * LATTICE_NODES],
+    /// The search's parents, a step in half a byte a node.
+    steps: [u8; Workspace::<u16>::parent_bytes(LATTICE_NODES)],
 }
 
-/// The transform's line buffers fit in the lattice's floats.
-const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 3 * LATTICE_NODES);
+/// The transform's line buffers fit in the lattice's floats, its envelope in the lattice's
+/// indices.
+const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 3 * LATTICE_NODES && PLAN_LINE < 2 * LATTICE_NODES);
 
 impl PlannerSpace {
     /// Storage, every byte zero (`.bss` in a firmware's `static`).
     pub const fn zeroed() -> Self {
         Self {
             plan_cells: [0; PLAN_CELLS],
-            envelope: [0; PLAN_LINE + 1],
             floats: [0.0; 3 * LATTICE_NODES],
-            ints: [0; 3 * LATTICE_NODES],
+            ints: [0; 2 * LATTICE_NODES],
+            steps: [0; Workspace::<u16>::parent_bytes(LATTICE_NODES)],
         }
     }
 
@@ -177,9 +181,10 @@ impl PlannerSpace {
         // The transform's line buffers lent by the lattice (its first search resets them).
         let (line, rest) = self.floats.split_at_mut(3 * PLAN_LINE + 1);
         let breaks = rest.get_mut(..PLAN_LINE + 2).ok_or(PlanError::BadParams { field: "work space" })?;
-        vt_plan::distance_transform_eighths(cells, p.width, p.height, line, &mut self.envelope, breaks)?;
+        let sites = self.ints.get_mut(..=PLAN_LINE).ok_or(PlanError::BadParams { field: "work space" })?;
+        vt_plan::distance_transform_eighths(cells, p.width, p.height, line, sites, breaks)?;
         let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
-        let mut ws = Workspace::new(&mut self.floats, &mut self.ints);
+        let mut ws = Workspace::new(&mut self.floats, &mut self.ints, &mut self.steps);
         vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
     }
 }

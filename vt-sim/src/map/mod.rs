@@ -242,8 +242,8 @@ fn plan_on(m: &dyn DynClearance, start: Vec2, goal: Vec2, params: &PlanParams) -
     let h = params.lattice_m.max(1e-3);
     let nodes = ((size.x / h).max(0.0) as usize + 1).saturating_mul((size.y / h).max(0.0) as usize + 1);
     let cap = nodes.clamp(4, MAX_LATTICE_NODES);
-    let (mut floats, mut ints) = (vec![0.0f32; 3 * cap], vec![0u32; 3 * cap]);
-    vt_plan::plan(&DynMap(m), start, goal, params, &mut Workspace::new(&mut floats, &mut ints))
+    let (mut floats, mut ints, mut steps) = (vec![0.0f32; 3 * cap], vec![0u32; 2 * cap], vec![0u8; Workspace::<u32>::parent_bytes(cap)]);
+    vt_plan::plan(&DynMap(m), start, goal, params, &mut Workspace::new(&mut floats, &mut ints, &mut steps))
 }
 
 /// The planned tube as a scenario `[tube]` table (TOML), with the bottleneck as a comment.
