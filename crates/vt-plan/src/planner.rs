@@ -497,6 +497,9 @@ enum Fit {
 /// Fits the spline through the waypoints and returns each waypoint's half-width: the smallest
 /// allowance `min(clearance - margin - step/2, w_max, FOLD_FRACTION/|kappa|)` over the pieces
 /// on either side (the smoothstep between two waypoints stays within their widths).
+// Out of line: inlined, its spline and waypoints stayed in `fit_path`'s frame beside the check
+// tube's build, which has a spline of its own (672 B more of the flight MCU's deepest stack).
+#[inline(never)]
 fn fit_widths<M: ClearanceMap>(
     map: &M,
     wps: &[(Vec2, usize)],
