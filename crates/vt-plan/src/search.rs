@@ -199,10 +199,10 @@ impl<'a, I: NodeIndex> Workspace<'a, I> {
         Self { radius_m, cost, key, steps, heap, pos }
     }
 
-    /// Records that node `v` was reached by `NEIGHBOURS[d]` (`None`: it has no parent).
+    /// Records that node `v` was reached by `NEIGHBOURS[d]` (a search's reset clears every step).
     #[inline]
-    fn set_step(&mut self, v: usize, d: Option<usize>) {
-        let code = d.map_or(0, |d| (d + 1) as u8) & 0xF;
+    fn set_step(&mut self, v: usize, d: usize) {
+        let code = (d + 1) as u8 & 0xF;
         if let Some(b) = self.steps.get_mut(v / 2) {
             *b = if v.is_multiple_of(2) { (*b & 0xF0) | code } else { (*b & 0x0F) | (code << 4) };
         }
@@ -500,7 +500,7 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
             if g < heap.ws.cost[v] {
                 heap.ws.cost[v] = g;
                 heap.ws.key[v] = g + vt_fpu::norm(&(lat.point_m(v) - goal));
-                heap.ws.set_step(v, Some(d));
+                heap.ws.set_step(v, d);
                 heap.push_or_decrease(v);
             }
         }
@@ -547,7 +547,7 @@ pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex>(
             if heap.ws.cost[v] == f32::INFINITY || b > heap.ws.cost[v] {
                 heap.ws.cost[v] = b;
                 heap.ws.key[v] = -b;
-                heap.ws.set_step(v, Some(d));
+                heap.ws.set_step(v, d);
                 heap.push_or_decrease(v);
             }
         }
