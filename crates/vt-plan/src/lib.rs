@@ -35,7 +35,7 @@ pub use grid::{distance_transform, distance_transform_eighths, distance_transfor
 pub use map::{ClearanceMap, Obstacle, ObstacleMap};
 pub use planner::{plan, plan_in, Bottleneck, PlanParams, PlannedTube};
 pub use node_clearance::SweepSpace;
-pub use search::{Lattice, NodeIndex, Workspace};
+pub use search::{Lattice, NodeIndex, RadiusCell, Workspace};
 
 /// 2-D vector, metres.
 pub type Vec2 = nalgebra::Vector2<f32>;

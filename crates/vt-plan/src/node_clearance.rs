@@ -142,7 +142,7 @@ pub(crate) fn lattice_clearances_m<C: ?Sized + DistanceCells, I: NodeIndex>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{distance_transform, distance_transform_squares, ClearanceMap, Workspace};
+    use crate::{distance_transform, distance_transform_squares, ClearanceMap};
     use proptest::prelude::*;
 
     /// Distance from `(x, y)` (centre coordinates) to the square of cell `(a, b)`, cells.
@@ -152,14 +152,13 @@ mod tests {
         (gx * gx + gy * gy).sqrt()
     }
 
-    /// The sweep over a lattice of `grid`, through a planner's work space.
+    /// The sweep over a lattice of `grid`, in a work space of the sizes it needs.
     fn sweep<C: ?Sized + DistanceCells>(grid: &GridMap<'_, C>, lat: &Lattice) -> Option<Vec<f32>> {
-        let cap = lat.len().max(2 * grid.width + 2);
-        let (mut floats, mut ints, mut steps) = (vec![0.0f32; 3 * cap], vec![0u32; 2 * cap], vec![0u8; Workspace::<u32>::parent_bytes(cap)]);
-        let mut ws: Workspace<'_, u32> = Workspace::new(&mut floats, &mut ints, &mut steps);
-        let (radii, space) = ws.sweep_parts();
+        let w = grid.width;
+        let (mut floats, mut bounds) = (vec![0.0f32; 2 * w + 1], vec![0.0f32; w + 2]);
+        let (mut sites, mut below, mut above) = (vec![0u32; w + 1], vec![0u32; w], vec![0u32; w]);
+        let space = SweepSpace { floats: &mut floats, bounds: &mut bounds, sites: &mut sites, below: &mut below, above: &mut above };
         let mut out = vec![f32::NAN; lat.len()];
-        let _ = radii;
         lattice_clearances_m(grid, lat, &mut out, space).then_some(out)
     }
 

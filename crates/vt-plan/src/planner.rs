@@ -13,7 +13,7 @@
 //! - `vt_tube::Tube::from_waypoints` accepts the result (else an error is returned).
 
 use crate::corridor::{Disc, MAX_DISCS};
-use crate::search::{self, Lattice, NodeIndex, RadiusRule, Workspace};
+use crate::search::{self, Lattice, NodeIndex, RadiusCell, RadiusRule, Workspace};
 use crate::{ClearanceMap, PlanError, Vec2};
 use vt_tube::spline::Spline;
 use vt_tube::tube::MAX_WAYPOINTS;
@@ -106,8 +106,8 @@ enum At {
 }
 
 /// The searched path: start, lattice nodes (following parents), goal.
-struct Path<'p, 'w, 'a, I: NodeIndex> {
-    ws: &'p Workspace<'w, I>,
+struct Path<'p, 'w, 'a, I: NodeIndex, R: RadiusCell> {
+    ws: &'p Workspace<'w, I, R>,
     lat: &'a Lattice,
     start: Vec2,
     goal: Vec2,
@@ -118,7 +118,7 @@ struct Path<'p, 'w, 'a, I: NodeIndex> {
     len: usize,
 }
 
-impl<I: NodeIndex> Path<'_, '_, '_, I> {
+impl<I: NodeIndex, R: RadiusCell> Path<'_, '_, '_, I, R> {
     fn next(&self, a: At) -> Option<At> {
         match a {
             At::Start => Some(At::Node(self.first)),
@@ -161,12 +161,12 @@ impl<I: NodeIndex> Path<'_, '_, '_, I> {
 /// the required half-width; [`PlanError::TooManyDiscs`], [`PlanError::CurveLeavesCorridor`],
 /// [`PlanError::Tube`] when the result cannot be made valid; [`PlanError::BadParams`],
 /// [`PlanError::WorkspaceTooSmall`].
-pub fn plan<M: ClearanceMap, I: NodeIndex>(
+pub fn plan<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     start_m: Vec2,
     goal_m: Vec2,
     params: &PlanParams,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
 ) -> Result<PlannedTube, PlanError> {
     plan_in(map, start_m, goal_m, params, ws, &mut Tube::<DEFAULT_SAMPLES>::placeholder(), |x| x)
 }
@@ -179,12 +179,12 @@ pub fn plan<M: ClearanceMap, I: NodeIndex>(
 ///
 /// # Errors
 /// As [`plan`].
-pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
+pub fn plan_in<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     start_m: Vec2,
     goal_m: Vec2,
     params: &PlanParams,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     check: &mut Tube<DEFAULT_SAMPLES>,
     snap: fn(f32) -> f32,
 ) -> Result<PlannedTube, PlanError> {
@@ -293,10 +293,10 @@ pub fn plan_in<M: ClearanceMap, I: NodeIndex>(
 
 /// Corridor, curve and widths along the lattice path found by the search (parents in `ws`).
 #[allow(clippy::too_many_arguments)] // the search's result, the terminals and the tube's storage and grid
-fn fit_path<M: ClearanceMap, I: NodeIndex>(
+fn fit_path<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
-    ws: &Workspace<'_, I>,
+    ws: &Workspace<'_, I, R>,
     params: &PlanParams,
     [start_m, goal_m]: [Vec2; 2],
     [r_start, r_goal]: [f32; 2],
@@ -441,7 +441,7 @@ fn push_gap(wps: &mut heapless::Vec<(Vec2, usize), MAX_WAYPOINTS>, p: Vec2, inde
 /// Greedy disc chain along the path: from the current disc, the farthest path point whose
 /// disc chains to it ([`Disc::chains_to`]) with every path point in between inside the two
 /// discs; at least the next point (progress).
-fn chain<I: NodeIndex>(path: &Path<'_, '_, '_, I>, need: f32) -> Result<heapless::Vec<Disc, MAX_DISCS>, PlanError> {
+fn chain<I: NodeIndex, R: RadiusCell>(path: &Path<'_, '_, '_, I, R>, need: f32) -> Result<heapless::Vec<Disc, MAX_DISCS>, PlanError> {
     let mut discs: heapless::Vec<Disc, MAX_DISCS> = heapless::Vec::new();
     let full = PlanError::TooManyDiscs { capacity: MAX_DISCS };
     let mut cur = (At::Start, 0usize);

@@ -164,11 +164,88 @@ impl Lattice {
     }
 }
 
-/// The planner's work space, borrowed from the caller: per lattice node 3 `f32`, 2 indices `I`
-/// and half a byte ([`Workspace::parent_bytes`]).
+/// How a work space keeps a node's disc radius: `f32` as computed (the host), or `u8`, the
+/// clearance rounded down to 1/254 of `max_radius + margin` (the flight MCU: 3 bytes a node
+/// fewer; docs/planning.md, "Radii in a byte").
+pub trait RadiusCell: Copy + core::fmt::Debug {
+    /// A radius not computed yet.
+    const UNKNOWN: Self;
+    /// The cell of radius `r_m` (NaN-free) under `rule`'s margin and cap: never decodes above
+    /// it, but below `-margin` (a clearance below 0, inside an obstacle), which decodes to
+    /// `-margin`, blocked for every need.
+    fn encode(r_m: f32, rule: &RadiusRule) -> Self;
+    /// The radius, m (NaN: not computed).
+    fn decode(self, rule: &RadiusRule) -> f32;
+    /// The cells as the `f32` radii a map's sweep writes into directly, when they are.
+    fn as_radii_m(cells: &mut [Self]) -> Option<&mut [f32]>;
+}
+
+impl RadiusCell for f32 {
+    const UNKNOWN: Self = f32::NAN;
+    #[inline]
+    fn encode(r_m: f32, _: &RadiusRule) -> Self {
+        r_m
+    }
+    #[inline]
+    fn decode(self, _: &RadiusRule) -> f32 {
+        self
+    }
+    fn as_radii_m(cells: &mut [Self]) -> Option<&mut [f32]> {
+        Some(cells)
+    }
+}
+
+/// Codes of a `u8` radius cell below [`RadiusCell::UNKNOWN`].
+const BYTE_CODES: f32 = 254.0;
+
+/// A `u8` cell's unit: `(max_radius + margin) / 254`, m.
+#[inline]
+fn byte_unit_m(rule: &RadiusRule) -> f32 {
+    (rule.max_radius_m + rule.margin_m) * (1.0 / BYTE_CODES)
+}
+
+/// The radius a `u8` code stands for: `min(r_max, code unit - margin)`, m.
+#[inline]
+fn byte_radius_m(code: u8, rule: &RadiusRule) -> f32 {
+    vt_fpu::min(rule.max_radius_m, f32::from(code) * byte_unit_m(rule) - rule.margin_m)
+}
+
+impl RadiusCell for u8 {
+    const UNKNOWN: Self = u8::MAX;
+    fn encode(r_m: f32, rule: &RadiusRule) -> Self {
+        let unit = byte_unit_m(rule);
+        let q = (r_m + rule.margin_m) / unit;
+        // Below every code, or a degenerate unit: 0, the most blocked radius.
+        if !(q > 0.0 && unit > 0.0 && unit.is_finite()) {
+            return 0;
+        }
+        let mut code = if q >= BYTE_CODES { BYTE_CODES as u8 } else { q as u8 };
+        // Rounded down, so a node is never wider than its clearance says.
+        while code > 0 && byte_radius_m(code, rule) > r_m {
+            code -= 1;
+        }
+        code
+    }
+    #[inline]
+    fn decode(self, rule: &RadiusRule) -> f32 {
+        if self == Self::UNKNOWN {
+            f32::NAN
+        } else {
+            byte_radius_m(self, rule)
+        }
+    }
+    fn as_radii_m(_: &mut [Self]) -> Option<&mut [f32]> {
+        None
+    }
+}
+
+/// The planner's work space, borrowed from the caller: per lattice node a radius cell `R`,
+/// 2 `f32`, 2 indices `I` and half a byte ([`Workspace::parent_bytes`]).
 #[derive(Debug)]
-pub struct Workspace<'a, I: NodeIndex = u32> {
-    radius_m: &'a mut [f32],
+pub struct Workspace<'a, I: NodeIndex = u32, R: RadiusCell = f32> {
+    radius: &'a mut [R],
+    /// The rule the radii were encoded under (a `u8` cell's unit; kept radii share it).
+    rule: RadiusRule,
     cost: &'a mut [f32],
     key: &'a mut [f32],
     /// The step that reached each node in the last search, two nodes a byte (node `2 m` in the
@@ -180,23 +257,34 @@ pub struct Workspace<'a, I: NodeIndex = u32> {
     pos: &'a mut [I],
 }
 
-impl<'a, I: NodeIndex> Workspace<'a, I> {
+impl<'a, I: NodeIndex> Workspace<'a, I, f32> {
+    /// Splits caller buffers: `floats` holds `3 capacity` values (the radii among them),
+    /// `ints` `2 capacity` and `steps` [`Self::parent_bytes`]`(capacity)`.
+    pub fn new(floats: &'a mut [f32], ints: &'a mut [I], steps: &'a mut [u8]) -> Self {
+        let cap = floats.len() / 3;
+        let (radius, rest) = floats.split_at_mut(cap);
+        Self::with_radii(radius, rest, ints, steps)
+    }
+}
+
+impl<'a, I: NodeIndex, R: RadiusCell> Workspace<'a, I, R> {
     /// Bytes of parent steps a work space of `nodes` nodes needs.
     pub const fn parent_bytes(nodes: usize) -> usize {
         nodes.div_ceil(2)
     }
 
-    /// Splits caller buffers: `floats` holds `3 capacity` values, `ints` `2 capacity` and
-    /// `steps` [`Self::parent_bytes`]`(capacity)`.
-    pub fn new(floats: &'a mut [f32], ints: &'a mut [I], steps: &'a mut [u8]) -> Self {
-        let cap = (floats.len() / 3).min(ints.len() / 2).min(steps.len().saturating_mul(2)).min(I::CAPACITY);
-        let (radius_m, rest) = floats.split_at_mut(cap);
-        let (cost, rest) = rest.split_at_mut(cap);
+    /// Splits caller buffers: `radii` holds `capacity` cells, `floats` `2 capacity` values,
+    /// `ints` `2 capacity` and `steps` [`Self::parent_bytes`]`(capacity)`.
+    pub fn with_radii(radii: &'a mut [R], floats: &'a mut [f32], ints: &'a mut [I], steps: &'a mut [u8]) -> Self {
+        let cap = radii.len().min(floats.len() / 2).min(ints.len() / 2).min(steps.len().saturating_mul(2)).min(I::CAPACITY);
+        let radius = radii.split_at_mut(cap).0;
+        let (cost, rest) = floats.split_at_mut(cap);
         let key = rest.split_at_mut(cap).0;
         let (heap, rest) = ints.split_at_mut(cap);
         let pos = rest.split_at_mut(cap).0;
         let steps = steps.split_at_mut(Self::parent_bytes(cap)).0;
-        Self { radius_m, cost, key, steps, heap, pos }
+        let rule = RadiusRule { margin_m: 0.0, max_radius_m: 0.0, need_m: 0.0, clearance_weight: 0.0 };
+        Self { radius, rule, cost, key, steps, heap, pos }
     }
 
     /// Records that node `v` was reached by `NEIGHBOURS[d]` (a search's reset clears every step).
@@ -218,21 +306,19 @@ impl<'a, I: NodeIndex> Workspace<'a, I> {
 
     /// Lattice nodes this work space can hold.
     pub fn capacity(&self) -> usize {
-        self.radius_m.len()
+        self.radius.len()
     }
 
-    /// The radii, and the search's other arrays lent to a map's lattice sweep (every search
-    /// clears what it reads first).
-    pub(crate) fn sweep_parts(&mut self) -> (&mut [f32], SweepSpace<'_, I>) {
-        let (below, above) = self.heap.split_at_mut(self.heap.len() / 2);
-        let space = SweepSpace { floats: self.cost, bounds: self.key, sites: self.pos, below, above };
-        (self.radius_m, space)
+    /// Node `k`'s cached radius, m (NaN: not computed).
+    #[inline]
+    fn radius_at(&self, k: usize) -> f32 {
+        self.radius[k].decode(&self.rule)
     }
 
     /// Clears the search state of the first `n` nodes; `keep_radii` keeps the cached radii.
     fn reset(&mut self, n: usize, keep_radii: bool) {
         if !keep_radii {
-            self.radius_m[..n].fill(f32::NAN);
+            self.radius[..n].fill(R::UNKNOWN);
         }
         self.cost[..n].fill(f32::INFINITY);
         self.key[..n].fill(f32::INFINITY);
@@ -269,31 +355,53 @@ impl RadiusRule {
 /// Every node's disc radius from the map's lattice sweep, into the cache, when the map has one
 /// ([`ClearanceMap::lattice_clearances_m`]); whether it did. The searches then read the cache
 /// (`keep_radii`) and never query the map at a node.
-pub(crate) fn sweep_radii<M: ClearanceMap, I: NodeIndex>(map: &M, lat: &Lattice, rule: &RadiusRule, ws: &mut Workspace<'_, I>) -> bool {
+pub(crate) fn sweep_radii<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(map: &M, lat: &Lattice, rule: &RadiusRule, ws: &mut Workspace<'_, I, R>) -> bool {
     let n = lat.len();
     if n > ws.capacity() {
         return false;
     }
-    let (radii, space) = ws.sweep_parts();
-    let radii = &mut radii[..n];
-    if !map.lattice_clearances_m(lat, radii, space) {
-        return false;
-    }
-    for r in radii.iter_mut() {
-        let v = rule.radius_of_clearance_m(*r);
-        // A NaN clearance (never from the maps here) counts as blocked, as in `radius_of`.
-        *r = if v.is_nan() { f32::NEG_INFINITY } else { v };
+    ws.rule = *rule;
+    let Workspace { radius, cost, key, heap, pos, .. } = ws;
+    let (below, above) = heap.split_at_mut(heap.len() / 2);
+    // A NaN clearance (never from the maps here) counts as blocked, as in `radius_of`.
+    let radius_of = |c: f32| {
+        let v = rule.radius_of_clearance_m(c);
+        if v.is_nan() { f32::NEG_INFINITY } else { v }
+    };
+    if let Some(radii) = R::as_radii_m(radius) {
+        // `f32` cells: the sweep writes the radii in place, with the rest of the search's
+        // arrays as its work space.
+        let radii = &mut radii[..n];
+        let space = SweepSpace { floats: cost, bounds: key, sites: pos, below, above };
+        if !map.lattice_clearances_m(lat, radii, space) {
+            return false;
+        }
+        for r in radii.iter_mut() {
+            *r = radius_of(*r);
+        }
+    } else {
+        // Narrower cells: the clearances go to the costs, then into the cells; the sweep works
+        // in the keys (two thirds as `V_y` and heights, a third as the bounds).
+        let (floats, bounds) = key.split_at_mut(2 * key.len() / 3);
+        let out = &mut cost[..n];
+        let space = SweepSpace { floats, bounds, sites: pos, below, above };
+        if !map.lattice_clearances_m(lat, out, space) {
+            return false;
+        }
+        for (cell, c) in radius[..n].iter_mut().zip(out.iter()) {
+            *cell = R::encode(radius_of(*c), rule);
+        }
     }
     true
 }
 
 /// Indexed binary min-heap over node keys, ties broken by node index.
-struct Heap<'w, 'a, I: NodeIndex> {
-    ws: &'w mut Workspace<'a, I>,
+struct Heap<'w, 'a, I: NodeIndex, R: RadiusCell> {
+    ws: &'w mut Workspace<'a, I, R>,
     len: usize,
 }
 
-impl<I: NodeIndex> Heap<'_, '_, I> {
+impl<I: NodeIndex, R: RadiusCell> Heap<'_, '_, I, R> {
     fn less(&self, a: I, b: I) -> bool {
         let (ka, kb) = (self.ws.key[a.node()], self.ws.key[b.node()]);
         ka < kb || (ka == kb && a < b)
@@ -364,37 +472,41 @@ impl<I: NodeIndex> Heap<'_, '_, I> {
     }
 }
 
-fn radius_of<M: ClearanceMap, I: NodeIndex>(ws: &mut Workspace<'_, I>, lat: &Lattice, map: &M, rule: &RadiusRule, k: usize) -> f32 {
-    let r = ws.radius_m[k];
+fn radius_of<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(ws: &mut Workspace<'_, I, R>, lat: &Lattice, map: &M, rule: &RadiusRule, k: usize) -> f32 {
+    let r = ws.radius_at(k);
     if r.is_nan() {
         let r = rule.radius_m(map, lat.point_m(k));
         // A NaN clearance (never from the maps here) counts as blocked.
         let r = if r.is_nan() { f32::NEG_INFINITY } else { r };
-        ws.radius_m[k] = r;
-        r
+        let cell = R::encode(r, &ws.rule);
+        ws.radius[k] = cell;
+        cell.decode(&ws.rule)
     } else {
         r
     }
 }
 
 /// Cached disc radius of node `k` after a search (NaN if never evaluated).
-pub(crate) fn cached_radius<I: NodeIndex>(ws: &Workspace<'_, I>, k: usize) -> f32 {
-    ws.radius_m.get(k).copied().unwrap_or(f32::NAN)
+pub(crate) fn cached_radius<I: NodeIndex, R: RadiusCell>(ws: &Workspace<'_, I, R>, k: usize) -> f32 {
+    if k < ws.capacity() { ws.radius_at(k) } else { f32::NAN }
 }
 
 /// A search's start: the lattice checked against the work space, the search state cleared
 /// (`keep_radii` keeps the cached radii); whether `from` is usable.
-fn begin_search<M: ClearanceMap, I: NodeIndex>(
+fn begin_search<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     [from, to]: [usize; 2],
     keep_radii: bool,
 ) -> Result<bool, PlanError> {
     let n = lat.len();
     if n > ws.capacity() || from >= n || to >= n {
         return Err(PlanError::WorkspaceTooSmall { needed: n });
+    }
+    if !keep_radii {
+        ws.rule = *rule;
     }
     ws.reset(n, keep_radii);
     Ok(radius_of(ws, lat, map, rule, from) >= rule.need_m)
@@ -407,11 +519,11 @@ fn begin_search<M: ClearanceMap, I: NodeIndex>(
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub(crate) fn reachable<M: ClearanceMap, I: NodeIndex>(
+pub(crate) fn reachable<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     from: usize,
     to: usize,
     keep_radii: bool,
@@ -447,11 +559,11 @@ pub(crate) fn reachable<M: ClearanceMap, I: NodeIndex>(
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub fn astar<M: ClearanceMap, I: NodeIndex>(
+pub fn astar<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     from: usize,
     to: usize,
 ) -> Result<bool, PlanError> {
@@ -461,11 +573,11 @@ pub fn astar<M: ClearanceMap, I: NodeIndex>(
 /// [`astar`], keeping the disc radii a previous search on the same map, lattice and rule
 /// (margin and cap; the need may differ) left in `ws` when `keep_radii`: the planner's
 /// second pass and the narrowest-passage search reuse them.
-pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
+pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     from: usize,
     to: usize,
     keep_radii: bool,
@@ -483,7 +595,7 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
         if u == to {
             return Ok(true);
         }
-        let ru = heap.ws.radius_m[u];
+        let ru = heap.ws.radius_at(u);
         let gu = heap.ws.cost[u];
         for (d, &(di, dj, len)) in NEIGHBOURS.iter().enumerate() {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
@@ -514,11 +626,11 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex>(
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex>(
+pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     from: usize,
     to: usize,
 ) -> Result<(usize, f32), PlanError> {
@@ -562,11 +674,11 @@ pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex>(
 ///
 /// # Errors
 /// [`PlanError::WorkspaceTooSmall`] when the lattice exceeds the work space.
-pub fn narrowest_passage<M: ClearanceMap, I: NodeIndex>(
+pub fn narrowest_passage<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     map: &M,
     lat: &Lattice,
     rule: &RadiusRule,
-    ws: &mut Workspace<'_, I>,
+    ws: &mut Workspace<'_, I, R>,
     from: usize,
     to: usize,
 ) -> Result<(usize, f32), PlanError> {
@@ -583,11 +695,11 @@ pub fn narrowest_passage<M: ClearanceMap, I: NodeIndex>(
 }
 
 /// Walks the parents back from `to`: the first node with the smallest radius.
-fn narrowest_on_path<I: NodeIndex>(ws: &Workspace<'_, I>, lat: &Lattice, to: usize, n: usize) -> (usize, f32) {
+fn narrowest_on_path<I: NodeIndex, R: RadiusCell>(ws: &Workspace<'_, I, R>, lat: &Lattice, to: usize, n: usize) -> (usize, f32) {
     let mut k = to;
-    let mut worst = (to, ws.radius_m[to]);
+    let mut worst = (to, ws.radius_at(to));
     for _ in 0..n {
-        let r = ws.radius_m[k];
+        let r = ws.radius_at(k);
         if r < worst.1 {
             worst = (k, r);
         }
@@ -672,6 +784,81 @@ mod tests {
             }
         }
         assert!(reached > 3 && refused > 3, "{reached} reached, {refused} refused");
+    }
+
+    /// A byte cell never stands for more than the radius it was given (inside an obstacle, for
+    /// `-margin`), and for less by at most one unit (`(r_max + margin) / 254`) inside
+    /// `[-margin, r_max]`; unknown is NaN.
+    #[test]
+    fn byte_radii_round_down_by_less_than_a_unit() {
+        let rule = RadiusRule { margin_m: 0.3, max_radius_m: 5.5, need_m: 1.0, clearance_weight: 0.5 };
+        let unit = (5.5 + 0.3) / 254.0;
+        assert!(<u8 as RadiusCell>::UNKNOWN.decode(&rule).is_nan());
+        for k in 0..=20_000 {
+            let r = -0.5 + 6.5 * k as f32 / 20_000.0;
+            let back = u8::encode(r, &rule).decode(&rule);
+            assert!(back <= r.max(-0.3), "{r} -> {back}");
+            if (-0.3..=5.5).contains(&r) {
+                assert!(back > r - unit - 1e-5, "{r} -> {back}");
+            }
+        }
+        assert_eq!(u8::encode(f32::NEG_INFINITY, &rule), 0);
+        assert_eq!(u8::encode(f32::INFINITY, &rule).decode(&rule), 5.5);
+        let zero = RadiusRule { margin_m: 0.0, max_radius_m: 0.0, ..rule };
+        assert_eq!(u8::encode(1.0, &zero), 0, "a degenerate unit blocks");
+    }
+
+    /// The MCU's byte radii search as the host's `f32` ones but for needs within a unit of a
+    /// passage: the same routes found and refused, the narrowest passage at most a unit
+    /// narrower.
+    #[test]
+    fn byte_radii_search_as_f32_ones_within_a_unit() {
+        let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
+        let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+        let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
+        let (mut f4, mut u4, mut s4) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+        let (mut r1, mut f1, mut u1, mut s1) = (vec![0u8; 4096], vec![0.0; 2 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+        let mut w4 = Workspace::new(&mut f4, &mut u4, &mut s4);
+        let mut w1 = Workspace::with_radii(&mut r1, &mut f1, &mut u1, &mut s1);
+        assert_eq!(w1.capacity(), 4096);
+        let from = lat.around(Vec2::new(2.0, 2.0))[0].unwrap();
+        let to = lat.around(Vec2::new(18.0, 2.0))[0].unwrap();
+        let unit = 5.0 / 254.0;
+        let (_, gap) = narrowest_passage(&map, &lat, &rule(1.5), &mut w4, from, to).unwrap();
+        let (_, gap1) = narrowest_passage(&map, &lat, &rule(1.5), &mut w1, from, to).unwrap();
+        assert!(gap1 <= gap && gap1 > gap - unit - 1e-5, "{gap1} against {gap}");
+        for need in [0.3, 0.8, gap - 2.0 * unit, gap + 0.01, 2.0] {
+            let a = astar(&map, &lat, &rule(need), &mut w4, from, to).unwrap();
+            let b = astar(&map, &lat, &rule(need), &mut w1, from, to).unwrap();
+            assert_eq!(a, b, "need {need}");
+        }
+    }
+
+    /// On a grid, the byte cells' sweep (through the costs and keys) gives every node the
+    /// encoding of the `f32` sweep's radius, exactly.
+    #[test]
+    fn the_byte_sweep_encodes_the_f32_sweep() {
+        let (w, h) = (60usize, 40usize);
+        let occ = |i: usize, j: usize| (i * 7 + j * 13).is_multiple_of(23) || (i == 30 && j < 30);
+        let mut f: Vec<f32> = (0..w * h).map(|c| if occ(c % w, c / w) { 0.0 } else { f32::INFINITY }).collect();
+        let n = w.max(h);
+        let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
+        crate::distance_transform(&mut f, w, h, &mut line, &mut v, &mut z).unwrap();
+        let grid = crate::GridMap { dist_cells: &f[..], width: w, height: h, resolution_m: 0.25, origin_m: Vec2::new(-1.0, 2.0) };
+        let lat = Lattice::covering(Vec2::new(-1.0, 2.0), Vec2::new(14.0, 12.0), 0.3, 4096).unwrap();
+        let rule = RadiusRule { margin_m: 0.2, max_radius_m: 2.0, need_m: 0.5, clearance_weight: 0.5 };
+        let (mut f4, mut u4, mut s4) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+        let (mut r1, mut f1, mut u1, mut s1) = (vec![0u8; 4096], vec![0.0; 2 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+        let mut w4 = Workspace::new(&mut f4, &mut u4, &mut s4);
+        let mut w1 = Workspace::with_radii(&mut r1, &mut f1, &mut u1, &mut s1);
+        assert!(sweep_radii(&grid, &lat, &rule, &mut w4) && sweep_radii(&grid, &lat, &rule, &mut w1));
+        let mut blocked = 0;
+        for k in 0..lat.len() {
+            let r = cached_radius(&w4, k);
+            assert_eq!(cached_radius(&w1, k).to_bits(), u8::encode(r, &rule).decode(&rule).to_bits(), "node {k}");
+            blocked += usize::from(r < 0.0);
+        }
+        assert!(blocked > 10 && blocked < lat.len() / 2, "{blocked} blocked nodes");
     }
 
     /// The MCU's two-byte indices give the host's search, parent for parent.

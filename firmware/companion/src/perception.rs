@@ -141,10 +141,12 @@ pub enum Keep {
 /// map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
     plan_cells: [u8; PLAN_CELLS],
-    /// The lattice's three `f32` a node; before the search, the distance transform's line
+    /// The lattice's disc radii, a byte a node (`vt_plan::RadiusCell` for `u8`).
+    radii: [u8; LATTICE_NODES],
+    /// The lattice's two `f32` a node; before the search, the distance transform's line
     /// buffers (`3 PLAN_LINE + 1` and `PLAN_LINE + 2` of them): the transform is done before
     /// the search starts, and every search clears what it reads first.
-    floats: [f32; 3 * LATTICE_NODES],
+    floats: [f32; 2 * LATTICE_NODES],
     /// The lattice's two `u16` a node; before the search, the transform's envelope
     /// (`PLAN_LINE + 1` sites).
     ints: [u16; 2 * LATTICE_NODES],
@@ -154,14 +156,15 @@ pub struct PlannerSpace {
 
 /// The transform's line buffers fit in the lattice's floats, its envelope in the lattice's
 /// indices.
-const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 3 * LATTICE_NODES && PLAN_LINE < 2 * LATTICE_NODES);
+const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 2 * LATTICE_NODES && PLAN_LINE < 2 * LATTICE_NODES);
 
 impl PlannerSpace {
     /// Storage, every byte zero (`.bss` in a firmware's `static`).
     pub const fn zeroed() -> Self {
         Self {
             plan_cells: [0; PLAN_CELLS],
-            floats: [0.0; 3 * LATTICE_NODES],
+            radii: [0; LATTICE_NODES],
+            floats: [0.0; 2 * LATTICE_NODES],
             ints: [0; 2 * LATTICE_NODES],
             steps: [0; Workspace::<u16>::parent_bytes(LATTICE_NODES)],
         }
@@ -184,7 +187,7 @@ impl PlannerSpace {
         let sites = self.ints.get_mut(..=PLAN_LINE).ok_or(PlanError::BadParams { field: "work space" })?;
         vt_plan::distance_transform_eighths(cells, p.width, p.height, line, sites, breaks)?;
         let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
-        let mut ws = Workspace::new(&mut self.floats, &mut self.ints, &mut self.steps);
+        let mut ws = Workspace::with_radii(&mut self.radii, &mut self.floats, &mut self.ints, &mut self.steps);
         vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
     }
 }
