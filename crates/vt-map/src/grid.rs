@@ -208,23 +208,26 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         self.cells().iter().filter(|&&l| l > 0).count()
     }
 
-    /// The occupied cells as the input of `vt_plan::distance_transform_eighths`, into `out`:
-    /// `0` for an occupied cell (log-odds > 0), `1` for any other (unknown counts as free, as
-    /// in [`Self::write_planner_cells`]), at this grid's resolution. Returns `(width, height)`.
+    /// The occupied cells (log-odds > 0) as bits, into `out`: cell `k` (row-major) in bit
+    /// `k % 32` of word `k / 32`, set when occupied (unknown counts as free, as in
+    /// [`Self::write_planner_cells`]): the input of `vt_plan::OccupancyMap`, at this grid's
+    /// resolution. The words past the grid's last cell are cleared up to the end of its last
+    /// word; the rest of `out` is untouched. Returns `(width, height)`.
     ///
     /// # Errors
-    /// [`MapError::EmptyGrid`] before `reset`; [`MapError::OutputTooShort`] when `out` is
-    /// shorter than the grid.
-    pub fn write_planner_bytes(&self, out: &mut [u8]) -> Result<(usize, usize), MapError> {
+    /// [`MapError::EmptyGrid`] before `reset`; [`MapError::OutputTooShort`] when `out` holds
+    /// fewer words than the grid needs.
+    pub fn write_planner_bits(&self, out: &mut [u32]) -> Result<(usize, usize), MapError> {
         if self.width == 0 || self.height == 0 {
             return Err(MapError::EmptyGrid);
         }
         let cells = self.cells();
-        let Some(dst) = out.get_mut(..cells.len()) else {
-            return Err(MapError::OutputTooShort { needed: cells.len(), len: out.len() });
+        let words = cells.len().div_ceil(32);
+        let Some(dst) = out.get_mut(..words) else {
+            return Err(MapError::OutputTooShort { needed: words, len: out.len() });
         };
-        for (d, &l) in dst.iter_mut().zip(cells) {
-            *d = u8::from(l <= 0);
+        for (d, chunk) in dst.iter_mut().zip(cells.chunks(32)) {
+            *d = chunk.iter().enumerate().fold(0u32, |acc, (b, &l)| acc | (u32::from(l > 0) << b));
         }
         Ok((self.width, self.height))
     }
@@ -392,6 +395,25 @@ mod tests {
     }
 
     #[test]
+    fn planner_bits_cross_their_words() {
+        let mut g = OccupancyGrid::<210>::new(70, 3, RES_M, Vec2::new(0.0, 0.0)).unwrap();
+        let occupied = [0usize, 31, 32, 63, 64, 69, 70, 139, 209];
+        for &k in &occupied {
+            g.cells[k] = 1;
+        }
+        g.cells[5] = -3; // free
+        let mut bits = [0u32; 7];
+        assert_eq!(g.write_planner_bits(&mut bits), Ok((70, 3)));
+        for k in 0..210 {
+            assert_eq!(bits[k / 32] >> (k % 32) & 1 == 1, occupied.contains(&k), "cell {k}");
+        }
+        assert_eq!(
+            g.write_planner_bits(&mut bits[..6]),
+            Err(MapError::OutputTooShort { needed: 7, len: 6 })
+        );
+    }
+
+    #[test]
     fn planner_cells_fine_and_coarse() {
         let mut g = OccupancyGrid::<100>::new(5, 3, RES_M, Vec2::new(0.0, 0.0)).unwrap();
         let occupied = [(1, 0), (4, 2)];
@@ -412,13 +434,14 @@ mod tests {
             }
         }
         assert_eq!(out[15], -1.0, "beyond the grid untouched");
-        let mut bytes = [9u8; 16];
-        assert_eq!(g.write_planner_bytes(&mut bytes), Ok((5, 3)));
-        for (k, (&b, &f)) in bytes.iter().zip(out.iter()).take(15).enumerate() {
-            assert_eq!(b == 0, f == 0.0, "cell {k}");
+        let mut bits = [u32::MAX; 2];
+        assert_eq!(g.write_planner_bits(&mut bits), Ok((5, 3)));
+        for (k, &f) in out.iter().take(15).enumerate() {
+            assert_eq!(bits[0] >> k & 1 == 1, f == 0.0, "cell {k}");
         }
-        assert_eq!(bytes[15], 9, "beyond the grid untouched");
-        assert!(g.write_planner_bytes(&mut bytes[..14]).is_err());
+        assert_eq!(bits[0] >> 15, 0, "the last word cleared past the grid");
+        assert_eq!(bits[1], u32::MAX, "beyond the last word untouched");
+        assert!(g.write_planner_bits(&mut bits[..0]).is_err());
         let mut out = [-1.0_f32; 6];
         assert_eq!(g.write_planner_cells(2, &mut out), Ok((3, 2)));
         assert_eq!(

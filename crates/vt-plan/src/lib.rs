@@ -5,7 +5,8 @@
 //!
 //! 1. [`ClearanceMap`]: the distance from a point to the nearest obstacle, exact for geometric
 //!    obstacles ([`ObstacleMap`]: circles, polygons, walls) or from a Euclidean distance
-//!    transform for occupancy grids ([`GridMap`], [`distance_transform`]).
+//!    transform for occupancy grids ([`GridMap`], [`distance_transform`]), or exact from an
+//!    occupancy grid in bits ([`OccupancyMap`], the flight MCU's).
 //! 2. [`search`]: A* over a square lattice of candidate disc centres; a node is usable when its
 //!    free disc (clearance less a margin, capped) holds the required half-width. When no chain
 //!    exists, a widest-path search names the narrowest passage.
@@ -26,6 +27,7 @@ mod error;
 pub mod grid;
 pub mod map;
 mod node_clearance;
+pub mod occupancy;
 pub mod planner;
 pub mod search;
 
@@ -35,6 +37,7 @@ pub use grid::{distance_transform, distance_transform_eighths, distance_transfor
 pub use map::{ClearanceMap, Obstacle, ObstacleMap};
 pub use planner::{plan, plan_in, Bottleneck, PlanParams, PlannedTube};
 pub use node_clearance::SweepSpace;
+pub use occupancy::{OccupancyBits, OccupancyMap};
 pub use search::{Lattice, NodeIndex, RadiusCell, Workspace};
 
 /// 2-D vector, metres.

@@ -28,7 +28,7 @@ use crate::{Lattice, NodeIndex, Vec2};
 
 /// How far inside the exact distance a node's clearance is put, cells, so rounding can only
 /// lower it (the point query's tolerance).
-const TOL_CELLS: f32 = 1e-4;
+pub(crate) const TOL_CELLS: f32 = 1e-4;
 
 /// Work space of a map's lattice sweep ([`crate::ClearanceMap::lattice_clearances_m`]),
 /// borrowed from the search's arrays, which are all free before a search starts. A grid of `W`

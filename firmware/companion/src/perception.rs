@@ -17,18 +17,17 @@
 //!   UAV is suddenly "outside".
 //!
 //! The map and the planner's work space are sized for a 70 x 30 m world at 0.25 m
-//! ([`MAP_CELLS`]); the planner's distance field is on the map's own cells, one byte a cell.
+//! ([`MAP_CELLS`]); the planner reads the map's own cells as bits, one a cell, with exact
+//! clearance queries (`vt_plan::OccupancyMap`) and no distance field.
 
 use crate::{CompanionTube, Vec3};
 use vt_map::{LogOddsParams, OccupancyGrid, Scan, SectorFold};
-use vt_plan::{GridMap, PlanError, PlanParams, PlannedTube, Workspace};
+use vt_plan::{OccupancyBits, OccupancyMap, PlanError, PlanParams, PlannedTube, Workspace};
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
 pub const MAP_CELLS: usize = 33_600;
-/// Cells of the planner's grid: the map's own (`OccupancyGrid::write_planner_bytes`).
-pub const PLAN_CELLS: usize = MAP_CELLS;
-/// Longest row or column of the planner's grid (the distance transform's line buffers).
-pub const PLAN_LINE: usize = 512;
+/// Words of the planner's grid: the map's own cells, a bit each (`OccupancyGrid::write_planner_bits`).
+pub const PLAN_WORDS: usize = OccupancyBits::words(MAP_CELLS);
 /// Lattice nodes of the planner's search (a coarser lattice is used when the map needs more).
 pub const LATTICE_NODES: usize = 4_096;
 /// From a re-plan to its tube at the team, ms: the flight MCU's budget for a full re-plan
@@ -134,35 +133,27 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The planner's work space (about 101 KiB): the distance field (one byte a cell, eighths of a
-/// cell rounded down, `vt_plan::distance_transform_eighths`) and the lattice search's
-/// arrays (three `f32`, two `u16` and a parent step in half a byte a node), which lend the transform its line
-/// buffers. Apart from the map, so a board can lend it to a task of lower priority while the
-/// map keeps taking scans ([`Perception::prepare`], [`PlannerSpace::plan`]).
+/// The planner's work space (about 59 KiB): the map's occupied cells in bits (a copy, so the
+/// map keeps taking scans while the planner reads it) and the lattice search's arrays (a radius
+/// byte, two `f32`, two `u16` and a parent step in half a byte a node). Apart from the map, so a
+/// board can lend it to a task of lower priority ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
-    plan_cells: [u8; PLAN_CELLS],
+    plan_bits: [u32; PLAN_WORDS],
     /// The lattice's disc radii, a byte a node (`vt_plan::RadiusCell` for `u8`).
     radii: [u8; LATTICE_NODES],
-    /// The lattice's two `f32` a node; before the search, the distance transform's line
-    /// buffers (`3 PLAN_LINE + 1` and `PLAN_LINE + 2` of them): the transform is done before
-    /// the search starts, and every search clears what it reads first.
+    /// The lattice's two `f32` a node.
     floats: [f32; 2 * LATTICE_NODES],
-    /// The lattice's two `u16` a node; before the search, the transform's envelope
-    /// (`PLAN_LINE + 1` sites).
+    /// The lattice's two `u16` a node.
     ints: [u16; 2 * LATTICE_NODES],
     /// The search's parents, a step in half a byte a node.
     steps: [u8; Workspace::<u16>::parent_bytes(LATTICE_NODES)],
 }
 
-/// The transform's line buffers fit in the lattice's floats, its envelope in the lattice's
-/// indices.
-const _: () = assert!(3 * PLAN_LINE + 1 + PLAN_LINE + 2 <= 2 * LATTICE_NODES && PLAN_LINE < 2 * LATTICE_NODES);
-
 impl PlannerSpace {
     /// Storage, every byte zero (`.bss` in a firmware's `static`).
     pub const fn zeroed() -> Self {
         Self {
-            plan_cells: [0; PLAN_CELLS],
+            plan_bits: [0; PLAN_WORDS],
             radii: [0; LATTICE_NODES],
             floats: [0.0; 2 * LATTICE_NODES],
             ints: [0; 2 * LATTICE_NODES],
@@ -170,9 +161,9 @@ impl PlannerSpace {
         }
     }
 
-    /// The search of a re-plan [`Perception::prepare`]d into this space: the distance field
-    /// and the planner (`vt_plan::plan`), on this space alone. The expensive part of a re-plan
-    /// (docs/benchmarks.md).
+    /// The search of a re-plan [`Perception::prepare`]d into this space: the planner
+    /// (`vt_plan::plan_in`) on the map's bits, on this space alone. The expensive part of a
+    /// re-plan (docs/benchmarks.md).
     ///
     /// `check` is the planner's tube storage: on success it holds the planned tube, built from
     /// its waypoints on the mission protocol's grid (what a member builds from the offer).
@@ -180,13 +171,8 @@ impl PlannerSpace {
     /// # Errors
     /// The planner's: no route, a start inside an obstacle.
     pub fn plan(&mut self, p: &Prepared, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
-        let cells = self.plan_cells.get_mut(..p.width * p.height).ok_or(PlanError::BadParams { field: "plan cells" })?;
-        // The transform's line buffers lent by the lattice (its first search resets them).
-        let (line, rest) = self.floats.split_at_mut(3 * PLAN_LINE + 1);
-        let breaks = rest.get_mut(..PLAN_LINE + 2).ok_or(PlanError::BadParams { field: "work space" })?;
-        let sites = self.ints.get_mut(..=PLAN_LINE).ok_or(PlanError::BadParams { field: "work space" })?;
-        vt_plan::distance_transform_eighths(cells, p.width, p.height, line, sites, breaks)?;
-        let grid = GridMap { dist_cells: &cells[..], width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
+        let bits = OccupancyBits(&self.plan_bits);
+        let grid = OccupancyMap { bits, width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
         let mut ws = Workspace::with_radii(&mut self.radii, &mut self.floats, &mut self.ints, &mut self.steps);
         vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
     }
@@ -389,7 +375,7 @@ impl Perception {
         self.next_plan_ms = now_ms.saturating_add(self.cfg.replan_period_ms);
         self.replans = self.replans.saturating_add(1);
         let start_m = start_point_at(tube, load_m, backoff_m);
-        let (width, height) = self.map.write_planner_bytes(&mut space.plan_cells).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
+        let (width, height) = self.map.write_planner_bits(&mut space.plan_bits).map_err(|_| PlanError::BadParams { field: "plan cells" })?;
         Ok(Prepared {
             width,
             height,
