@@ -498,7 +498,7 @@ impl<C: ?Sized + DistanceCells> ClearanceMap for GridMap<'_, C> {
 
     /// The exact distance to the occupied squares at every node, in one sweep of the grid
     /// (`node_clearance`): at least the union of discs' bound.
-    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &crate::Lattice, out: &mut [f32], space: crate::SweepSpace<'_, I>) -> bool {
+    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &crate::Lattice, out: &mut impl FnMut(usize, f32), space: crate::SweepSpace<'_, I>) -> bool {
         crate::node_clearance::lattice_clearances_m(self, lat, out, space)
     }
 

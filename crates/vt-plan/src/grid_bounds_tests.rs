@@ -112,7 +112,7 @@ impl ClearanceMap for EverySample<'_, '_> {
     fn clearance_capped_m(&self, p_m: Vec2, cap_m: f32) -> f32 {
         self.0.clearance_capped_m(p_m, cap_m)
     }
-    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut [f32], space: SweepSpace<'_, I>) -> bool {
+    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut impl FnMut(usize, f32), space: SweepSpace<'_, I>) -> bool {
         self.0.lattice_clearances_m(lat, out, space)
     }
 }

@@ -33,11 +33,12 @@ pub trait ClearanceMap {
     fn has_cheap_bounds(&self) -> bool {
         false
     }
-    /// The clearance at every node of `lat`, m, into `out[..lat.len()]`, when the map has a
+    /// The clearance at every node `k` of `lat`, m, handed to `out(k, c)`, when the map has a
     /// faster way than a query a node: each value never above the true distance, and at least
-    /// [`Self::clearance_capped_m`]'s but for a rounding guard (1e-4 cells on a grid). False, with `out` untouched,
-    /// when it has none (the default) or `space` is too small.
-    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut [f32], space: SweepSpace<'_, I>) -> bool {
+    /// [`Self::clearance_capped_m`]'s but for a rounding guard (1e-4 cells on a grid). False
+    /// when it has none (the default) or `space` is too small (then `out` may have been
+    /// called for some nodes).
+    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut impl FnMut(usize, f32), space: SweepSpace<'_, I>) -> bool {
         let _ = (lat, out, space);
         false
     }

@@ -48,23 +48,22 @@ pub struct SweepSpace<'s, I: NodeIndex> {
     pub(crate) above: &'s mut [I],
 }
 
-/// The clearance of every node `k < lat.len()` of `lat` on `grid`, m, into `out[k]`: the
+/// The clearance of every node `k < lat.len()` of `lat` on `grid`, m, handed to `out(k, c)`: the
 /// distance to the occupied squares less 1e-4 cells (at least 0), minus the distance to the
 /// cell's centre and its half diagonal inside an occupied cell (as the point query),
-/// `f32::INFINITY` when no cell is occupied. False, with `out` untouched, when the grid is
-/// empty, a node's position is not finite, or a slice is too short.
+/// `f32::INFINITY` when no cell is occupied. False when the grid is empty or a slice too
+/// short (`out` never called), or a node's position is not finite (called for the nodes
+/// before it).
 pub(crate) fn lattice_clearances_m<C: ?Sized + DistanceCells, I: NodeIndex>(
     grid: &GridMap<'_, C>,
     lat: &Lattice,
-    out: &mut [f32],
+    out: &mut impl FnMut(usize, f32),
     space: SweepSpace<'_, I>,
 ) -> bool {
     let (w, h) = (grid.width, grid.height);
-    let n = lat.len();
     let fits = w > 0
         && h > 0
         && h < I::CAPACITY
-        && out.len() >= n
         && space.floats.len() > 2 * w
         && space.bounds.len() > w + 1
         && space.sites.len() > w
@@ -110,17 +109,17 @@ pub(crate) fn lattice_clearances_m<C: ?Sized + DistanceCells, I: NodeIndex>(
         }
         if !lower_envelope(heights, sites, bounds, -0.5) {
             // No occupied cell in the grid.
-            out[row0..row0 + lat.nx].fill(f32::INFINITY);
+            (row0..row0 + lat.nx).for_each(|k| out(k, f32::INFINITY));
             continue;
         }
         let mut seg = 0usize;
-        for (k, slot) in out[row0..row0 + lat.nx].iter_mut().enumerate().map(|(c, o)| (row0 + c, o)) {
+        for k in row0..row0 + lat.nx {
             let rel = rel_of(k);
             if !rel.x.is_finite() {
                 return false;
             }
             if let Some(inside) = grid.inside_occupied_m(rel) {
-                *slot = inside;
+                out(k, inside);
                 continue;
             }
             while bounds[seg + 1] < rel.x {
@@ -133,7 +132,7 @@ pub(crate) fn lattice_clearances_m<C: ?Sized + DistanceCells, I: NodeIndex>(
                 // The column whose square holds x: no horizontal gap.
                 d2 = vt_fpu::min(d2, col[((rel.x + 0.5) as usize).min(w - 1)]);
             }
-            *slot = vt_fpu::max(vt_fpu::sqrt(d2) - TOL_CELLS, 0.0) * res;
+            out(k, vt_fpu::max(vt_fpu::sqrt(d2) - TOL_CELLS, 0.0) * res);
         }
     }
     true
@@ -159,7 +158,8 @@ mod tests {
         let (mut sites, mut below, mut above) = (vec![0u32; w + 1], vec![0u32; w], vec![0u32; w]);
         let space = SweepSpace { floats: &mut floats, bounds: &mut bounds, sites: &mut sites, below: &mut below, above: &mut above };
         let mut out = vec![f32::NAN; lat.len()];
-        lattice_clearances_m(grid, lat, &mut out, space).then_some(out)
+        let done = lattice_clearances_m(grid, lat, &mut |k, c| out[k] = c, space);
+        done.then_some(out)
     }
 
     proptest! {
@@ -219,10 +219,10 @@ mod tests {
         let g = GridMap { dist_cells: &cells[..], width: 2, height: 2, resolution_m: 0.5, origin_m: Vec2::zeros() };
         let (mut out, mut a, mut b, mut s, mut lo, mut hi) = (vec![0.0; lat.len()], [0.0f32; 4], [0.0f32; 4], [0u32; 3], [0u32; 2], [0u32; 2]);
         let space = SweepSpace { floats: &mut a, bounds: &mut b, sites: &mut s, below: &mut lo, above: &mut hi };
-        assert!(!lattice_clearances_m(&g, &lat, &mut out, space), "floats 2 W + 1 long are needed");
+        assert!(!lattice_clearances_m(&g, &lat, &mut |k, c| out[k] = c, space), "floats 2 W + 1 long are needed");
         let (mut a, mut b) = ([0.0f32; 5], [0.0f32; 4]);
         let space = SweepSpace { floats: &mut a, bounds: &mut b, sites: &mut s, below: &mut lo, above: &mut hi };
-        assert!(lattice_clearances_m(&g, &lat, &mut out, space));
+        assert!(lattice_clearances_m(&g, &lat, &mut |k, c| out[k] = c, space));
         assert!(out.iter().all(|c| *c < 0.0), "every node of an occupied grid is inside it: {out:?}");
     }
 }

@@ -216,7 +216,7 @@ impl ClearanceMap for OccupancyMap<'_> {
     }
 
     /// The exact distance at every node in one sweep of the bits (`node_clearance`).
-    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut [f32], space: SweepSpace<'_, I>) -> bool {
+    fn lattice_clearances_m<I: NodeIndex>(&self, lat: &Lattice, out: &mut impl FnMut(usize, f32), space: SweepSpace<'_, I>) -> bool {
         crate::node_clearance::lattice_clearances_m(&self.grid(), lat, out, space)
     }
 }

@@ -31,6 +31,9 @@ fn field(w: usize, h: usize, fill: f64, seed: u64) -> Vec<bool> {
 
 const RES: f32 = 0.25;
 
+/// A map's lattice sweep, handed the node sink and the work space.
+type SweepOf<'f> = &'f dyn Fn(&mut dyn FnMut(usize, f32), SweepSpace<'_, u32>) -> bool;
+
 fn origin() -> Vec2 {
     Vec2::new(1.5, -2.0)
 }
@@ -91,16 +94,16 @@ proptest! {
         let gf = GridMap { dist_cells: &f[..], width: w, height: h, resolution_m: RES, origin_m: origin() };
         let size = Vec2::new(w as f32, h as f32) * RES;
         let lat = Lattice::covering(origin(), origin() + size, spacing * RES, 10_000).unwrap();
-        let sweep = |m: &dyn Fn(&mut [f32], SweepSpace<'_, u32>) -> bool| {
+        let sweep = |m: SweepOf<'_>| {
             let (mut floats, mut bounds) = (vec![0.0f32; 2 * w + 1], vec![0.0f32; w + 2]);
             let (mut sites, mut below, mut above) = (vec![0u32; w + 1], vec![0u32; w], vec![0u32; w]);
             let space = SweepSpace { floats: &mut floats, bounds: &mut bounds, sites: &mut sites, below: &mut below, above: &mut above };
             let mut out = vec![f32::NAN; lat.len()];
-            assert!(m(&mut out, space));
+            assert!(m(&mut |k, c| out[k] = c, space));
             out
         };
-        let on_bits = sweep(&|out, space| map.lattice_clearances_m(&lat, out, space));
-        let on_field = sweep(&|out, space| gf.lattice_clearances_m(&lat, out, space));
+        let on_bits = sweep(&|out, space| map.lattice_clearances_m(&lat, &mut |k, c| out(k, c), space));
+        let on_field = sweep(&|out, space| gf.lattice_clearances_m(&lat, &mut |k, c| out(k, c), space));
         for (k, (a, b)) in on_bits.iter().zip(&on_field).enumerate() {
             prop_assert_eq!(a.to_bits(), b.to_bits(), "node {}", k);
         }

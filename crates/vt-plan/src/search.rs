@@ -176,8 +176,6 @@ pub trait RadiusCell: Copy + core::fmt::Debug {
     fn encode(r_m: f32, rule: &RadiusRule) -> Self;
     /// The radius, m (NaN: not computed).
     fn decode(self, rule: &RadiusRule) -> f32;
-    /// The cells as the `f32` radii a map's sweep writes into directly, when they are.
-    fn as_radii_m(cells: &mut [Self]) -> Option<&mut [f32]>;
 }
 
 impl RadiusCell for f32 {
@@ -189,9 +187,6 @@ impl RadiusCell for f32 {
     #[inline]
     fn decode(self, _: &RadiusRule) -> f32 {
         self
-    }
-    fn as_radii_m(cells: &mut [Self]) -> Option<&mut [f32]> {
-        Some(cells)
     }
 }
 
@@ -234,19 +229,19 @@ impl RadiusCell for u8 {
             byte_radius_m(self, rule)
         }
     }
-    fn as_radii_m(_: &mut [Self]) -> Option<&mut [f32]> {
-        None
-    }
 }
 
 /// The planner's work space, borrowed from the caller: per lattice node a radius cell `R`,
-/// 2 `f32`, 2 indices `I` and half a byte ([`Workspace::parent_bytes`]).
+/// 2 `f32` (a cost and a key; the key alone with [`Workspace::keys_only`]), 2 indices `I` and
+/// half a byte ([`Workspace::parent_bytes`]).
 #[derive(Debug)]
 pub struct Workspace<'a, I: NodeIndex = u32, R: RadiusCell = f32> {
     radius: &'a mut [R],
     /// The rule the radii were encoded under (a `u8` cell's unit; kept radii share it).
     rule: RadiusRule,
-    cost: &'a mut [f32],
+    /// Each node's cost from the search's start; `None`: recovered as its key less the
+    /// heuristic ([`Workspace::keys_only`]).
+    cost: Option<&'a mut [f32]>,
     key: &'a mut [f32],
     /// The step that reached each node in the last search, two nodes a byte (node `2 m` in the
     /// low nibble of byte `m`): 0 for none, `d + 1` for `NEIGHBOURS[d]`. A step names the
@@ -283,6 +278,24 @@ impl<'a, I: NodeIndex, R: RadiusCell> Workspace<'a, I, R> {
         let (heap, rest) = ints.split_at_mut(cap);
         let pos = rest.split_at_mut(cap).0;
         let steps = steps.split_at_mut(Self::parent_bytes(cap)).0;
+        Self::from_parts(radius, Some(cost), key, heap, pos, steps)
+    }
+
+    /// As [`Self::with_radii`] with one `f32` a node, `keys` (`capacity` long): a node's cost
+    /// is its key less the heuristic, recomputed (a square root a pop, and one a relaxation
+    /// of an open node), in 4 bytes a node less. The cost recovered differs from the one kept
+    /// by the key's rounding (about 1e-7 of it), so ties may break otherwise.
+    pub fn keys_only(radii: &'a mut [R], keys: &'a mut [f32], ints: &'a mut [I], steps: &'a mut [u8]) -> Self {
+        let cap = radii.len().min(keys.len()).min(ints.len() / 2).min(steps.len().saturating_mul(2)).min(I::CAPACITY);
+        let radius = radii.split_at_mut(cap).0;
+        let key = keys.split_at_mut(cap).0;
+        let (heap, rest) = ints.split_at_mut(cap);
+        let pos = rest.split_at_mut(cap).0;
+        let steps = steps.split_at_mut(Self::parent_bytes(cap)).0;
+        Self::from_parts(radius, None, key, heap, pos, steps)
+    }
+
+    fn from_parts(radius: &'a mut [R], cost: Option<&'a mut [f32]>, key: &'a mut [f32], heap: &'a mut [I], pos: &'a mut [I], steps: &'a mut [u8]) -> Self {
         let rule = RadiusRule { margin_m: 0.0, max_radius_m: 0.0, need_m: 0.0, clearance_weight: 0.0 };
         Self { radius, rule, cost, key, steps, heap, pos }
     }
@@ -320,7 +333,9 @@ impl<'a, I: NodeIndex, R: RadiusCell> Workspace<'a, I, R> {
         if !keep_radii {
             self.radius[..n].fill(R::UNKNOWN);
         }
-        self.cost[..n].fill(f32::INFINITY);
+        if let Some(cost) = self.cost.as_deref_mut() {
+            cost[..n].fill(f32::INFINITY);
+        }
         self.key[..n].fill(f32::INFINITY);
         self.steps[..Self::parent_bytes(n)].fill(0);
         self.pos[..n].fill(I::NONE);
@@ -364,35 +379,29 @@ pub(crate) fn sweep_radii<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(map: &M,
     let Workspace { radius, cost, key, heap, pos, .. } = ws;
     let (below, above) = heap.split_at_mut(heap.len() / 2);
     // A NaN clearance (never from the maps here) counts as blocked, as in `radius_of`.
-    let radius_of = |c: f32| {
+    let disc_of = |c: f32| {
         let v = rule.radius_of_clearance_m(c);
         if v.is_nan() { f32::NEG_INFINITY } else { v }
     };
-    if let Some(radii) = R::as_radii_m(radius) {
-        // `f32` cells: the sweep writes the radii in place, with the rest of the search's
-        // arrays as its work space.
-        let radii = &mut radii[..n];
-        let space = SweepSpace { floats: cost, bounds: key, sites: pos, below, above };
-        if !map.lattice_clearances_m(lat, radii, space) {
-            return false;
+    // The sweep works in the costs and the keys, or in the keys alone (two thirds as `V_y`
+    // and heights, a third as the bounds); each clearance goes straight into its cell.
+    let space = match cost {
+        Some(cost) => SweepSpace { floats: cost, bounds: key, sites: pos, below, above },
+        None => {
+            let (floats, bounds) = key.split_at_mut(2 * key.len() / 3);
+            SweepSpace { floats, bounds, sites: pos, below, above }
         }
-        for r in radii.iter_mut() {
-            *r = radius_of(*r);
-        }
-    } else {
-        // Narrower cells: the clearances go to the costs, then into the cells; the sweep works
-        // in the keys (two thirds as `V_y` and heights, a third as the bounds).
-        let (floats, bounds) = key.split_at_mut(2 * key.len() / 3);
-        let out = &mut cost[..n];
-        let space = SweepSpace { floats, bounds, sites: pos, below, above };
-        if !map.lattice_clearances_m(lat, out, space) {
-            return false;
-        }
-        for (cell, c) in radius[..n].iter_mut().zip(out.iter()) {
-            *cell = R::encode(radius_of(*c), rule);
-        }
-    }
-    true
+    };
+    let cells = &mut radius[..n];
+    map.lattice_clearances_m(
+        lat,
+        &mut |k: usize, c: f32| {
+            if let Some(cell) = cells.get_mut(k) {
+                *cell = R::encode(disc_of(c), rule);
+            }
+        },
+        space,
+    )
 }
 
 /// Indexed binary min-heap over node keys, ties broken by node index.
@@ -587,8 +596,15 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
     }
     let goal = lat.point_m(to);
     let h = lat.spacing_m;
-    ws.cost[from] = 0.0;
-    ws.key[from] = vt_fpu::norm(&(lat.point_m(from) - goal));
+    // Without the costs, the heuristic and the edge costs on a grid of 2^-8 (`on_key_grid`), so
+    // a key less its heuristic is its cost exactly, and ties stay ties.
+    let quantize = ws.cost.is_none();
+    let q = |x: f32| if quantize { on_key_grid(x) } else { x };
+    let to_goal = |k: usize| q(vt_fpu::norm(&(lat.point_m(k) - goal)));
+    if let Some(cost) = ws.cost.as_deref_mut() {
+        cost[from] = 0.0;
+    }
+    ws.key[from] = to_goal(from);
     let mut heap = Heap { ws, len: 0 };
     heap.push_or_decrease(from);
     while let Some(u) = heap.pop() {
@@ -596,7 +612,11 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
             return Ok(true);
         }
         let ru = heap.ws.radius_at(u);
-        let gu = heap.ws.cost[u];
+        // Kept, or the key less the heuristic (exactly 0 at the start).
+        let gu = match heap.ws.cost.as_deref() {
+            Some(cost) => cost[u],
+            None => heap.ws.key[u] - to_goal(u),
+        };
         for (d, &(di, dj, len)) in NEIGHBOURS.iter().enumerate() {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
             if heap.ws.pos[v] == I::CLOSED {
@@ -607,17 +627,39 @@ pub(crate) fn astar_cached<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
                 continue;
             }
             let r_edge = vt_fpu::min(ru, rv);
-            let cost = len * h * (1.0 + rule.clearance_weight * (rule.max_radius_m / r_edge - 1.0));
+            let cost = q(len * h * (1.0 + rule.clearance_weight * (rule.max_radius_m / r_edge - 1.0)));
             let g = gu + cost;
-            if g < heap.ws.cost[v] {
-                heap.ws.cost[v] = g;
-                heap.ws.key[v] = g + vt_fpu::norm(&(lat.point_m(v) - goal));
-                heap.ws.set_step(v, d);
-                heap.push_or_decrease(v);
-            }
+            // With the costs kept, a lower cost; without, a lower key (the same heuristic).
+            let key = match heap.ws.cost.as_deref_mut() {
+                Some(costs) if g < costs[v] => {
+                    costs[v] = g;
+                    g + to_goal(v)
+                }
+                Some(_) => continue,
+                None => {
+                    let k = g + to_goal(v);
+                    if !(k < heap.ws.key[v]) {
+                        continue;
+                    }
+                    k
+                }
+            };
+            heap.ws.key[v] = key;
+            heap.ws.set_step(v, d);
+            heap.push_or_decrease(v);
         }
     }
     Ok(false)
+}
+
+/// `x` rounded to the nearest multiple of 2^-8 for `0 <= x < 2^15` (2^-7 up to 2^16; adding
+/// and taking away 2^15, where an `f32`'s step is 2^-8): sums and differences of such values
+/// below 2^16 are exact in `f32`, so a work space of keys alone ([`Workspace::keys_only`])
+/// recovers each cost exactly and breaks ties as one that keeps them.
+#[inline]
+fn on_key_grid(x: f32) -> f32 {
+    const SHIFT: f32 = 32_768.0;
+    (x + SHIFT) - SHIFT
 }
 
 /// Widest path from `from` to `to` (maximises the smallest disc radius along the way, any
@@ -639,9 +681,11 @@ pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
         return Err(PlanError::WorkspaceTooSmall { needed: n });
     }
     ws.reset(n, true);
-    // key = -bottleneck (min-heap), cost = bottleneck.
+    // key = -bottleneck (min-heap), cost = bottleneck (or none: -key, exact).
     let r0 = radius_of(ws, lat, map, rule, from);
-    ws.cost[from] = r0;
+    if let Some(cost) = ws.cost.as_deref_mut() {
+        cost[from] = r0;
+    }
     ws.key[from] = -r0;
     let mut heap = Heap { ws, len: 0 };
     heap.push_or_decrease(from);
@@ -649,15 +693,25 @@ pub fn widest_path_bottleneck<M: ClearanceMap, I: NodeIndex, R: RadiusCell>(
         if u == to {
             break;
         }
-        let bu = heap.ws.cost[u];
+        let bu = match heap.ws.cost.as_deref() {
+            Some(cost) => cost[u],
+            None => -heap.ws.key[u],
+        };
         for (d, &(di, dj, _)) in NEIGHBOURS.iter().enumerate() {
             let Some(v) = lat.neighbour(u, di, dj) else { continue };
             if heap.ws.pos[v] == I::CLOSED {
                 continue;
             }
             let b = bu.min(radius_of(heap.ws, lat, map, rule, v));
-            if heap.ws.cost[v] == f32::INFINITY || b > heap.ws.cost[v] {
-                heap.ws.cost[v] = b;
+            let better = match heap.ws.cost.as_deref_mut() {
+                Some(cost) if cost[v] == f32::INFINITY || b > cost[v] => {
+                    cost[v] = b;
+                    true
+                }
+                Some(_) => false,
+                None => heap.ws.key[v] == f32::INFINITY || -b < heap.ws.key[v],
+            };
+            if better {
                 heap.ws.key[v] = -b;
                 heap.ws.set_step(v, d);
                 heap.push_or_decrease(v);

@@ -174,3 +174,83 @@ fn two_byte_indices_search_as_four_byte_ones() {
     let (mut f, mut u, mut s) = (vec![0.0; 3 * 70_000], vec![0u16; 2 * 70_000], vec![0; 35_000]);
     assert_eq!(Workspace::new(&mut f, &mut u, &mut s).capacity(), usize::from(u16::MAX) - 2);
 }
+
+/// The search's cost along the parents from `to` back to `from` (the edge cost of `astar`),
+/// and its steps.
+fn path_cost<I: NodeIndex, R: RadiusCell>(ws: &Workspace<'_, I, R>, lat: &Lattice, rule: &RadiusRule, from: usize, to: usize) -> (f32, usize) {
+    let (mut k, mut total, mut steps) = (to, 0.0f32, 0);
+    while k != from {
+        steps += 1;
+        let p = ws.parent(lat, k).expect("a path");
+        let len = (lat.point_m(k) - lat.point_m(p)).norm();
+        let r = cached_radius(ws, k).min(cached_radius(ws, p));
+        total += len * (1.0 + rule.clearance_weight * (rule.max_radius_m / r - 1.0));
+        k = p;
+    }
+    (total, steps)
+}
+
+/// A work space of keys alone (the flight MCU's) sweeps the same radii through its keys, finds
+/// a route wherever the one with costs does, as cheap but for its grid of 2^-8 (at most half a
+/// step of it an edge and the heuristic's rounding at both ends), and the same narrowest
+/// passage bit for bit (the widest path's cost is its key negated, exact).
+#[test]
+fn keys_alone_search_as_keys_and_costs() {
+    let (w, h) = (60usize, 40usize);
+    let occ = |i: usize, j: usize| (i * 7 + j * 13).is_multiple_of(61) || (i == 30 && j < 30);
+    let mut f: Vec<f32> = (0..w * h).map(|c| if occ(c % w, c / w) { 0.0 } else { f32::INFINITY }).collect();
+    let n = w.max(h);
+    let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
+    crate::distance_transform(&mut f, w, h, &mut line, &mut v, &mut z).unwrap();
+    let grid = crate::GridMap { dist_cells: &f[..], width: w, height: h, resolution_m: 0.25, origin_m: Vec2::new(-1.0, 2.0) };
+    let lat = Lattice::covering(Vec2::new(-1.0, 2.0), Vec2::new(14.0, 12.0), 0.3, 4096).unwrap();
+    let rule = |need: f32| RadiusRule { margin_m: 0.2, max_radius_m: 2.0, need_m: need, clearance_weight: 0.5 };
+    let (mut r2, mut f2, mut u2, mut s2) = (vec![0u8; 4096], vec![0.0; 2 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+    let (mut r1, mut f1, mut u1, mut s1) = (vec![0u8; 4096], vec![0.0; 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
+    let mut both = Workspace::with_radii(&mut r2, &mut f2, &mut u2, &mut s2);
+    let mut keys = Workspace::keys_only(&mut r1, &mut f1, &mut u1, &mut s1);
+    assert_eq!(keys.capacity(), 4096);
+    assert!(sweep_radii(&grid, &lat, &rule(0.5), &mut both) && sweep_radii(&grid, &lat, &rule(0.5), &mut keys));
+    for k in 0..lat.len() {
+        assert_eq!(cached_radius(&both, k).to_bits(), cached_radius(&keys, k).to_bits(), "node {k}");
+    }
+    // The widest nodes west and east of the wall.
+    let widest = |west: bool| (0..lat.len()).filter(|&k| (lat.point_m(k).x < 3.0) == west && (lat.point_m(k).x > 11.0) != west).max_by(|&a, &b| cached_radius(&both, a).total_cmp(&cached_radius(&both, b))).unwrap();
+    let (from, to) = (widest(true), widest(false));
+    let mut found = 0;
+    for need in [0.0, 0.2, 0.4, 0.6, 0.8, 1.2] {
+        let a = astar_cached(&grid, &lat, &rule(need), &mut both, from, to, true).unwrap();
+        let b = astar_cached(&grid, &lat, &rule(need), &mut keys, from, to, true).unwrap();
+        assert_eq!(a, b, "need {need}");
+        if a {
+            found += 1;
+            let ((ca, _), (cb, steps)) = (path_cost(&both, &lat, &rule(need), from, to), path_cost(&keys, &lat, &rule(need), from, to));
+            let grid = (steps + 2) as f32 / 256.0;
+            assert!(cb >= ca - 1e-4 * ca && cb <= ca + grid + 1e-4 * ca, "need {need}: {cb} against {ca} ({steps} steps)");
+        }
+        let pa = narrowest_passage(&grid, &lat, &rule(need), &mut both, from, to).unwrap();
+        let pb = narrowest_passage(&grid, &lat, &rule(need), &mut keys, from, to).unwrap();
+        assert_eq!((pa.0, pa.1.to_bits()), (pb.0, pb.1.to_bits()), "need {need}");
+    }
+    assert!((2..6).contains(&found), "{found} needs with a route");
+}
+
+/// The keys' grid: values on it add and subtract exactly below 2^16, and a value is moved by at
+/// most half its step.
+#[test]
+fn the_key_grid_adds_and_subtracts_exactly() {
+    let mut rng = 7u64;
+    let mut next = || {
+        rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..10_000 {
+        let (a, b) = ((next() * 20_000.0) as f32, (next() * 20_000.0) as f32);
+        let (qa, qb) = (on_key_grid(a), on_key_grid(b));
+        assert!((qa - a).abs() <= 1.0 / 512.0 && (qb - b).abs() <= 1.0 / 512.0, "{a} -> {qa}");
+        assert_eq!(f64::from(qa + qb), f64::from(qa) + f64::from(qb), "{qa} + {qb}");
+        assert_eq!((qa + qb) - qb, qa);
+    }
+    assert_eq!(on_key_grid(f32::INFINITY), f32::INFINITY);
+    assert!(on_key_grid(f32::NAN).is_nan());
+}

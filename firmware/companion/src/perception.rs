@@ -133,16 +133,16 @@ pub enum Keep {
     BarrierJump,
 }
 
-/// The planner's work space (about 59 KiB): the map's occupied cells in bits (a copy, so the
+/// The planner's work space (about 43 KiB): the map's occupied cells in bits (a copy, so the
 /// map keeps taking scans while the planner reads it) and the lattice search's arrays (a radius
-/// byte, two `f32`, two `u16` and a parent step in half a byte a node). Apart from the map, so a
+/// byte, a key, two `u16` and a parent step in half a byte a node; `vt_plan::Workspace::keys_only`). Apart from the map, so a
 /// board can lend it to a task of lower priority ([`Perception::prepare`], [`PlannerSpace::plan`]).
 pub struct PlannerSpace {
     plan_bits: [u32; PLAN_WORDS],
     /// The lattice's disc radii, a byte a node (`vt_plan::RadiusCell` for `u8`).
     radii: [u8; LATTICE_NODES],
-    /// The lattice's two `f32` a node.
-    floats: [f32; 2 * LATTICE_NODES],
+    /// The lattice's keys, an `f32` a node (a node's cost is its key less the heuristic).
+    keys: [f32; LATTICE_NODES],
     /// The lattice's two `u16` a node.
     ints: [u16; 2 * LATTICE_NODES],
     /// The search's parents, a step in half a byte a node.
@@ -155,7 +155,7 @@ impl PlannerSpace {
         Self {
             plan_bits: [0; PLAN_WORDS],
             radii: [0; LATTICE_NODES],
-            floats: [0.0; 2 * LATTICE_NODES],
+            keys: [0.0; LATTICE_NODES],
             ints: [0; 2 * LATTICE_NODES],
             steps: [0; Workspace::<u16>::parent_bytes(LATTICE_NODES)],
         }
@@ -173,7 +173,7 @@ impl PlannerSpace {
     pub fn plan(&mut self, p: &Prepared, check: &mut CompanionTube) -> Result<PlannedTube, PlanError> {
         let bits = OccupancyBits(&self.plan_bits);
         let grid = OccupancyMap { bits, width: p.width, height: p.height, resolution_m: p.resolution_m, origin_m: p.origin_m };
-        let mut ws = Workspace::with_radii(&mut self.radii, &mut self.floats, &mut self.ints, &mut self.steps);
+        let mut ws = Workspace::keys_only(&mut self.radii, &mut self.keys, &mut self.ints, &mut self.steps);
         vt_plan::plan_in(&grid, p.start_m, p.goal_m, &p.params, &mut ws, check, crate::mission::on_wire_grid_m)
     }
 }
