@@ -283,8 +283,9 @@ impl<'a, I: NodeIndex, R: RadiusCell> Workspace<'a, I, R> {
 
     /// As [`Self::with_radii`] with one `f32` a node, `keys` (`capacity` long): a node's cost
     /// is its key less the heuristic, recomputed (a square root a pop, and one a relaxation
-    /// of an open node), in 4 bytes a node less. The cost recovered differs from the one kept
-    /// by the key's rounding (about 1e-7 of it), so ties may break otherwise.
+    /// of an open node), in 4 bytes a node less. Its searches put the heuristic and the edge
+    /// costs on a grid of 2^-8 (`on_key_grid`), where the cost recovered is exact and ties
+    /// stay ties: a path costs at most half a step of that grid an edge more.
     pub fn keys_only(radii: &'a mut [R], keys: &'a mut [f32], ints: &'a mut [I], steps: &'a mut [u8]) -> Self {
         let cap = radii.len().min(keys.len()).min(ints.len() / 2).min(steps.len().saturating_mul(2)).min(I::CAPACITY);
         let radius = radii.split_at_mut(cap).0;
