@@ -97,8 +97,10 @@ fn main() -> ExitCode {
     let (mut map, mut space) = (Box::new(Perception::placeholder()), Box::new(PlannerSpace::zeroed()));
     let (mut spare, mut check) = (Box::new(CompanionTube::placeholder()), Box::new(CompanionTube::placeholder()));
     loop {
+        // The re-planning's state (about 6 KiB), kept in place as the firmware's static is.
+        let mut slot = Box::new(vt_companion::ReplanSlot::new());
         let mut companion = Companion::new(&mut tube);
-        let _none = companion.attach_replanning(Replanning::new(&mut map, &mut space, &mut spare, &mut check));
+        let _none = companion.attach_replanning(&mut slot, Replanning::new(&mut map, &mut space, &mut spare, &mut check));
         for &(p, v) in &presets {
             if companion.set_param(p, v).is_err() {
                 return bad(&format!("parameter {} = {v} refused", p.info().name));

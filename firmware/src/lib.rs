@@ -245,6 +245,7 @@ mod perception {
     static SPACE: ConstStaticCell<PlannerSpace> = ConstStaticCell::new(PlannerSpace::zeroed());
     static SPARE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
     static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
+    static SLOT: ConstStaticCell<vt_companion::ReplanSlot<'static>> = ConstStaticCell::new(vt_companion::ReplanSlot::new());
 
     /// How often the planner task looks for a re-plan to run, ms.
     const PLANNER_LOOK_MS: u64 = 5;
@@ -273,7 +274,7 @@ mod perception {
 
     /// Gives `c` the map and its two tubes.
     pub(super) fn attach(c: &mut Companion<'static>) {
-        let _none = c.attach_replanning(Replanning::new(MAP.take(), SPACE.take(), SPARE.take(), CHECK.take()));
+        let _none = c.attach_replanning(SLOT.take(), Replanning::new(MAP.take(), SPACE.take(), SPARE.take(), CHECK.take()));
     }
 }
 

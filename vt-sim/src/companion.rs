@@ -12,7 +12,7 @@ use crate::scenario::{Scenario, StaleNeighbour};
 use crate::sim::{ControllerKind, SimError};
 use vt_companion::perception::{Perception, PlannerSpace};
 use vt_companion::replanning::Replanning;
-use vt_companion::{Companion, CompanionTube, Item, Param, Params, AUTO, MAX_UAVS};
+use vt_companion::{Companion, CompanionTube, Item, Param, Params, ReplanSlot, AUTO, MAX_UAVS};
 use vt_dissipative::TrayParams;
 
 /// System id of UAV 0 (`VT_SYSID_BASE`).
@@ -267,7 +267,7 @@ impl HostCompanion {
     /// a companion that has it keeps it.
     pub fn provide_map(&mut self) {
         if let Some(c) = self.companion.as_deref_mut().filter(|c| c.replanning().is_none()) {
-            c.attach_replanning(Replanning::new(pooled_perception(), take_from(&SPACE_POOL, PlannerSpace::zeroed), pooled_tube(), pooled_tube()));
+            c.attach_replanning(take_from(&SLOT_POOL, ReplanSlot::new), Replanning::new(pooled_perception(), take_from(&SPACE_POOL, PlannerSpace::zeroed), pooled_tube(), pooled_tube()));
         }
     }
 }
@@ -275,8 +275,9 @@ impl HostCompanion {
 impl Drop for HostCompanion {
     fn drop(&mut self) {
         if let Some(mut c) = self.companion.take() {
-            if let Some(r) = c.detach_replanning() {
+            if let Some((r, slot)) = c.detach_replanning() {
                 give_back_replanning(r);
+                give_back(&SLOT_POOL, slot);
             }
             give_back_tube(c.into_tube());
         }
@@ -325,8 +326,10 @@ fn give_back_tube(t: &'static mut CompanionTube) {
 
 /// Onboard maps of dropped re-plannings, reused (about 34 KiB each).
 static PERCEPTION_POOL: Pool<Perception> = std::sync::Mutex::new(Vec::new());
-/// Planner work spaces of dropped re-plannings, reused (about 245 KiB each).
+/// Planner work spaces of dropped re-plannings, reused (about 43 KiB each).
 static SPACE_POOL: Pool<PlannerSpace> = std::sync::Mutex::new(Vec::new());
+/// Re-planning states of dropped companions, reused (about 6 KiB each).
+static SLOT_POOL: Pool<ReplanSlot<'static>> = std::sync::Mutex::new(Vec::new());
 
 fn pooled_perception() -> &'static mut Perception {
     take_from(&PERCEPTION_POOL, Perception::placeholder)

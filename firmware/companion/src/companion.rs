@@ -34,7 +34,7 @@ mod telemetry;
 mod tubes;
 
 #[cfg(feature = "perception")]
-pub use aboard::{ReplanReport, ReplanTotals, NAME_REPLAN, NAME_TUBES, NO_ROUTE_TEXT};
+pub use aboard::{ReplanReport, ReplanSlot, ReplanTotals, NAME_REPLAN, NAME_TUBES, NO_ROUTE_TEXT};
 
 /// Largest accepted position magnitude per axis, m (anything beyond is a corrupt value).
 pub const POSITION_LIMIT_M: f32 = 1.0e5;
@@ -209,7 +209,7 @@ struct Core<'t> {
     param_list_next: Option<u8>,
     /// Issue 28: in-flight re-planning, when attached.
     #[cfg(feature = "perception")]
-    aboard: Option<aboard::Aboard<'t>>,
+    aboard: Option<&'t mut aboard::ReplanSlot<'t>>,
 }
 
 impl<'t> Companion<'t> {

@@ -42,6 +42,8 @@ pub mod replanning;
 pub mod scans;
 
 pub use companion::{Companion, Io, Mode, Request, Source};
+#[cfg(feature = "perception")]
+pub use companion::ReplanSlot;
 pub use flight::{Flight, HoldReasons, MemberBits};
 #[cfg(feature = "std")]
 pub use flight::shaped_need_at_arming_m;

@@ -65,6 +65,26 @@ pub(super) struct Aboard<'t> {
     totals: ReplanTotals,
 }
 
+/// Where a companion keeps its re-planning's state (about 6 kB: the re-planning, an offer being
+/// received, the counts), given with the storage ([`Companion::attach_replanning`]; a
+/// firmware's `static`). Held by reference, the state is never moved: taken out of the
+/// companion by value at each perception step, it was copied onto the stack and back under
+/// the planner's frames (the flight's deepest stack, docs/benchmarks.md).
+pub struct ReplanSlot<'t>(Option<Aboard<'t>>);
+
+impl ReplanSlot<'_> {
+    /// An empty slot (`.bss` in a firmware's `static`).
+    pub const fn new() -> Self {
+        Self(None)
+    }
+}
+
+impl Default for ReplanSlot<'_> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// What a companion's re-planning did since its map was configured: what `DEBUG_VECT`
 /// [`NAME_REPLAN`] and [`NAME_TUBES`] report after each perception step that changed it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -108,11 +128,11 @@ pub struct ReplanReport {
 }
 
 impl<'t> Companion<'t> {
-    /// Issue 28: flies with in-flight re-planning around `r` (its map and tubes); the previous
-    /// one, if any, is given back.
-    pub fn attach_replanning(&mut self, r: Replanning<'t, 't>) -> Option<Replanning<'t, 't>> {
-        let old = self.core.aboard.take().map(|a| a.replanning);
-        self.core.aboard = Some(Aboard {
+    /// Issue 28: flies with in-flight re-planning around `r` (its map and tubes), its state in
+    /// `slot`; the previous one, if any, is given back with its slot.
+    pub fn attach_replanning(&mut self, slot: &'t mut ReplanSlot<'t>, r: Replanning<'t, 't>) -> Option<(Replanning<'t, 't>, &'t mut ReplanSlot<'t>)> {
+        let old = self.detach_replanning();
+        slot.0 = Some(Aboard {
             replanning: r,
             map: MapState::Stale,
             incoming: MissionUpload::new(),
@@ -122,41 +142,44 @@ impl<'t> Companion<'t> {
             team_data: false,
             totals: ReplanTotals::default(),
         });
+        self.core.aboard = Some(slot);
         old
     }
 
-    /// Gives the re-planning's storage back.
-    pub fn detach_replanning(&mut self) -> Option<Replanning<'t, 't>> {
-        self.core.aboard.take().map(|a| a.replanning)
+    /// Gives the re-planning's storage back, and its slot.
+    pub fn detach_replanning(&mut self) -> Option<(Replanning<'t, 't>, &'t mut ReplanSlot<'t>)> {
+        let slot = self.core.aboard.take()?;
+        let a = slot.0.take()?;
+        Some((a.replanning, slot))
     }
 
     /// The re-planning, if attached.
     pub fn replanning(&self) -> Option<&Replanning<'t, 't>> {
-        self.core.aboard.as_ref().map(|a| &a.replanning)
+        self.core.aboard().map(|a| &a.replanning)
     }
 
     /// What the re-planning did since its map was configured (zero without one).
     pub fn replan_totals(&self) -> ReplanTotals {
-        self.core.aboard.as_ref().map(|a| a.totals).unwrap_or_default()
+        self.core.aboard().map(|a| a.totals).unwrap_or_default()
     }
 
     /// A re-plan's search for the board's task of lower priority ([`Io::plans_aside`]): run it
     /// without holding the companion ([`PlanJob::run`]), then [`Self::return_plan_job`].
     pub fn take_plan_job(&mut self) -> Option<PlanJob<'t>> {
-        self.core.aboard.as_mut().and_then(|a| a.replanning.lend())
+        self.core.aboard_mut().and_then(|a| a.replanning.lend())
     }
 
     /// An offer's tube to build for the board's task of lower priority ([`Io::plans_aside`]):
     /// run it without holding the companion ([`BuildJob::run`]), then
     /// [`Self::return_build_job`].
     pub fn take_build_job(&mut self) -> Option<BuildJob<'t>> {
-        self.core.aboard.as_mut().and_then(|a| a.replanning.lend_build())
+        self.core.aboard_mut().and_then(|a| a.replanning.lend_build())
     }
 
     /// A build back from the board's task (`built`: the tube built): the switch, or not, at the
     /// next perception step, and its `MISSION_ACK`.
     pub fn return_build_job(&mut self, job: BuildJob<'t>, built: bool) {
-        if let Some(a) = self.core.aboard.as_mut() {
+        if let Some(a) = self.core.aboard_mut() {
             a.replanning.give_back_build(job, built);
         }
     }
@@ -164,7 +187,7 @@ impl<'t> Companion<'t> {
     /// A search back from the board's task, with its result and its length in board cycles:
     /// checked and offered at the next perception step.
     pub fn return_plan_job(&mut self, job: PlanJob<'t>, searched: Searched, cycles: u32) {
-        if let Some(a) = self.core.aboard.as_mut() {
+        if let Some(a) = self.core.aboard_mut() {
             a.replanning.give_back(job, searched);
             a.totals.worst_cycles = a.totals.worst_cycles.max(cycles);
         }
@@ -184,7 +207,7 @@ impl<'t> Companion<'t> {
         if !self.core.map_on() {
             return;
         }
-        if let Some(a) = self.core.aboard.as_mut() {
+        if let Some(a) = self.core.aboard_mut() {
             a.incoming.clear();
             let _ = a.incoming.begin(u16::try_from(waypoints.len()).unwrap_or(u16::MAX));
             for (seq, w) in (0u16..).zip(waypoints) {
@@ -200,22 +223,32 @@ impl<'t> Companion<'t> {
 
     /// The tube of the last offer this companion sent as the planner (its waypoints).
     pub fn offer_sent(&self) -> Option<&[Waypoint]> {
-        self.core.aboard.as_ref().map(|a| a.replanning.offer()).filter(|w| !w.is_empty())
+        self.core.aboard().map(|a| a.replanning.offer()).filter(|w| !w.is_empty())
     }
 
     /// What the re-planning did since the last call (the simulator's figures; an offer to
     /// relay when it has no frames).
     pub fn take_replan_report(&mut self) -> ReplanReport {
-        self.core.aboard.as_mut().map(|a| core::mem::take(&mut a.report)).unwrap_or_default()
+        self.core.aboard_mut().map(|a| core::mem::take(&mut a.report)).unwrap_or_default()
     }
 }
 
 impl<'t> Core<'t> {
+    /// The re-planning's state, if attached.
+    fn aboard(&self) -> Option<&Aboard<'t>> {
+        self.aboard.as_deref().and_then(|s| s.0.as_ref())
+    }
+
+    /// The re-planning's state, mutable, if attached.
+    fn aboard_mut(&mut self) -> Option<&mut Aboard<'t>> {
+        self.aboard.as_deref_mut().and_then(|s| s.0.as_mut())
+    }
+
     /// Whether the re-planning is in use: configured from the `PR_*` parameters at the first
     /// use after they changed (an empty map, no plan). False without storage, with `PR_MAP` 0,
     /// or with a world the map cannot hold.
     pub(super) fn map_on(&mut self) -> bool {
-        let Some(a) = self.aboard.as_mut() else {
+        let Some(a) = self.aboard.as_deref_mut().and_then(|s| s.0.as_mut()) else {
             return false;
         };
         if a.map == MapState::Stale {
@@ -231,14 +264,14 @@ impl<'t> Core<'t> {
 
     /// A `PR_*` parameter changed: the map is configured afresh at its next use.
     pub(super) fn map_params_changed(&mut self) {
-        if let Some(a) = self.aboard.as_mut() {
+        if let Some(a) = self.aboard_mut() {
             a.map = MapState::Stale;
         }
     }
 
     /// The load's or a member's state arrived in this period.
     pub(super) fn note_team_data(&mut self) {
-        if let Some(a) = self.aboard.as_mut() {
+        if let Some(a) = self.aboard_mut() {
             a.team_data = true;
         }
     }
@@ -248,7 +281,7 @@ impl<'t> Core<'t> {
     /// members' positions are stale by `FS_NBR_TMO`, and every member would take itself for the
     /// planner).
     pub(super) fn preflight_period(&mut self, own_m: &Vec3, io: &mut impl Io) {
-        let due = self.aboard.as_mut().is_some_and(|a| core::mem::take(&mut a.team_data));
+        let due = self.aboard_mut().is_some_and(|a| core::mem::take(&mut a.team_data));
         if due {
             self.perception_step(own_m, io);
         }
@@ -267,14 +300,15 @@ impl<'t> Core<'t> {
         let Some(origin) = origin else {
             return;
         };
-        let Some(mut a) = self.aboard.take() else {
-            return;
-        };
         let load = self.sources.load.map_or(Vec3::zeros(), |s| s.value.pos_m);
         let mut placed = scan.clone();
         placed.origin_m = origin.xy();
-        a.replanning.fold(self, &placed, &load);
-        self.aboard = Some(a);
+        // Borrowed in place, field by field: taken out, the re-planning's state (about 6 kB)
+        // was copied onto the stack and back at every scan, under the map update's own frame.
+        let tube = self.tube_ok.then_some(&*self.tube);
+        if let Some(a) = self.aboard.as_deref_mut().and_then(|s| s.0.as_mut()) {
+            a.replanning.fold_along(tube, &placed, &load);
+        }
     }
 
     /// `OBSTACLE_DISTANCE`: the own LiDAR's, or a member's relayed.
@@ -306,7 +340,7 @@ impl<'t> Core<'t> {
 
     /// An offer's `MISSION_COUNT`.
     pub(super) fn offer_count(&mut self, f: &Frame<'_>, d: &MISSION_COUNT_DATA) {
-        if let Some(a) = self.aboard.as_mut() {
+        if let Some(a) = self.aboard_mut() {
             a.incoming_from = f.system_id;
             a.offer_ready = false;
             if !matches!(a.incoming.begin(d.count), UploadReply::Request(_)) {
@@ -317,7 +351,7 @@ impl<'t> Core<'t> {
 
     /// An offer's `MISSION_ITEM_INT` (from the sender of its `MISSION_COUNT`).
     pub(super) fn offer_item(&mut self, f: &Frame<'_>, it: &Item) {
-        let Some(a) = self.aboard.as_mut() else {
+        let Some(a) = self.aboard_mut() else {
             return;
         };
         if f.system_id != a.incoming_from {
@@ -337,7 +371,12 @@ impl<'t> Core<'t> {
         if !self.map_on() {
             return;
         }
-        let Some(mut a) = self.aboard.take() else {
+        // The slot out of the companion for the step (a reference: the state stays put).
+        let Some(slot) = self.aboard.take() else {
+            return;
+        };
+        let Some(a) = slot.0.as_mut() else {
+            self.aboard = Some(slot);
             return;
         };
         let before = a.report;
@@ -416,7 +455,7 @@ impl<'t> Core<'t> {
             t.no_route = r.no_route == Some(true);
         }
         let totals = *t;
-        self.aboard = Some(a);
+        self.aboard = Some(slot);
         if changed {
             self.send_replan_totals(&totals, io);
         }

@@ -54,7 +54,8 @@ fn companion_on(waypoints: &[(f32, f32)]) -> (Companion<'static>, TestIo) {
     }
     let map = Box::leak(Box::new(Perception::placeholder()));
     let space = Box::leak(Box::new(crate::perception::PlannerSpace::zeroed()));
-    assert!(c.attach_replanning(Replanning::new(map, space, leaked_tube(), leaked_tube())).is_none());
+    let slot = Box::leak(Box::new(crate::ReplanSlot::new()));
+    assert!(c.attach_replanning(slot, Replanning::new(map, space, leaked_tube(), leaked_tube())).is_none());
     (c, io)
 }
 
