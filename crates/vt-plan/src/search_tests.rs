@@ -121,17 +121,28 @@ fn byte_radii_search_as_f32_ones_within_a_unit() {
     }
 }
 
-/// On a grid, the byte cells' sweep (through the costs and keys) gives every node the
-/// encoding of the `f32` sweep's radius, exactly.
-#[test]
-fn the_byte_sweep_encodes_the_f32_sweep() {
-    let (w, h) = (60usize, 40usize);
-    let occ = |i: usize, j: usize| (i * 7 + j * 13).is_multiple_of(23) || (i == 30 && j < 30);
+/// The test field's columns and rows.
+const FIELD_W: usize = 60;
+const FIELD_H: usize = 40;
+
+/// A distance field over `FIELD_W x FIELD_H` cells: a wall from the south edge at column 30 and
+/// cells scattered one in about `every`.
+fn scattered_field(every: usize) -> Vec<f32> {
+    let (w, h) = (FIELD_W, FIELD_H);
+    let occ = |i: usize, j: usize| (i * 7 + j * 13).is_multiple_of(every) || (i == 30 && j < 30);
     let mut f: Vec<f32> = (0..w * h).map(|c| if occ(c % w, c / w) { 0.0 } else { f32::INFINITY }).collect();
     let n = w.max(h);
     let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
     crate::distance_transform(&mut f, w, h, &mut line, &mut v, &mut z).unwrap();
-    let grid = crate::GridMap { dist_cells: &f[..], width: w, height: h, resolution_m: 0.25, origin_m: Vec2::new(-1.0, 2.0) };
+    f
+}
+
+/// On a grid, the byte cells' sweep (through the costs and keys) gives every node the
+/// encoding of the `f32` sweep's radius, exactly.
+#[test]
+fn the_byte_sweep_encodes_the_f32_sweep() {
+    let f = scattered_field(23);
+    let grid = crate::GridMap { dist_cells: &f[..], width: FIELD_W, height: FIELD_H, resolution_m: 0.25, origin_m: Vec2::new(-1.0, 2.0) };
     let lat = Lattice::covering(Vec2::new(-1.0, 2.0), Vec2::new(14.0, 12.0), 0.3, 4096).unwrap();
     let rule = RadiusRule { margin_m: 0.2, max_radius_m: 2.0, need_m: 0.5, clearance_weight: 0.5 };
     let (mut f4, mut u4, mut s4) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
@@ -196,13 +207,8 @@ fn path_cost<I: NodeIndex, R: RadiusCell>(ws: &Workspace<'_, I, R>, lat: &Lattic
 /// passage bit for bit (the widest path's cost is its key negated, exact).
 #[test]
 fn keys_alone_search_as_keys_and_costs() {
-    let (w, h) = (60usize, 40usize);
-    let occ = |i: usize, j: usize| (i * 7 + j * 13).is_multiple_of(61) || (i == 30 && j < 30);
-    let mut f: Vec<f32> = (0..w * h).map(|c| if occ(c % w, c / w) { 0.0 } else { f32::INFINITY }).collect();
-    let n = w.max(h);
-    let (mut line, mut v, mut z) = (vec![0.0; 3 * n + 1], vec![0usize; n + 1], vec![0.0; n + 2]);
-    crate::distance_transform(&mut f, w, h, &mut line, &mut v, &mut z).unwrap();
-    let grid = crate::GridMap { dist_cells: &f[..], width: w, height: h, resolution_m: 0.25, origin_m: Vec2::new(-1.0, 2.0) };
+    let f = scattered_field(61);
+    let grid = crate::GridMap { dist_cells: &f[..], width: FIELD_W, height: FIELD_H, resolution_m: 0.25, origin_m: Vec2::new(-1.0, 2.0) };
     let lat = Lattice::covering(Vec2::new(-1.0, 2.0), Vec2::new(14.0, 12.0), 0.3, 4096).unwrap();
     let rule = |need: f32| RadiusRule { margin_m: 0.2, max_radius_m: 2.0, need_m: need, clearance_weight: 0.5 };
     let (mut r2, mut f2, mut u2, mut s2) = (vec![0u8; 4096], vec![0.0; 2 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
