@@ -511,7 +511,13 @@ fn fit_widths<M: ClearanceMap>(
         tmp.push(Waypoint { pos_m: *p, w_left_m: 1.0, w_right_m: 1.0 })
             .map_err(|_| PlanError::TooManyDiscs { capacity: MAX_DISCS })?;
     }
-    let spline = Spline::<MAX_WAYPOINTS>::new(&tmp)?;
+    // Read where `new` left it: moved out of its `Result`, the spline (1.8 kB) was copied once
+    // more on the flight MCU's deepest stack.
+    let fitted = Spline::<MAX_WAYPOINTS>::new(&tmp);
+    let spline = match &fitted {
+        Ok(s) => s,
+        Err(e) => return Err((*e).into()),
+    };
     let delta = 0.5 * lattice_m;
     let need = params.need_half_width_m;
     // Sample k of piece j: its point, fold allowance and slack.
