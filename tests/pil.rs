@@ -226,9 +226,9 @@ fn pil_reroute_on_an_unknown_map_is_bit_exact() {
 }
 
 /// The yard map unknown (`yard-3uav-unknown.toml`: the ROS occupancy map of a yard, none of
-/// it known before the flight), flown whole in PIL, bit for bit. The mission itself fails at
-/// this seed in SIL as in PIL (the team sets its load down in the yard's narrow turn: issue
-/// 28's open "yard 1 of 10"); what is held here is that the firmware flies it as SIL does.
+/// it known before the flight), flown whole in PIL, bit for bit. The mission succeeds at this
+/// seed since session 41 (the open yard succeeds in 3 of seeds 1-10, issue 28); what is held
+/// here is that the firmware flies it as SIL does.
 #[test]
 fn pil_yard_on_an_unknown_map_is_bit_exact() {
     pil_unknown_map("yard-3uav-unknown.toml");
