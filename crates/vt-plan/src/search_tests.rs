@@ -3,6 +3,13 @@
 use super::*;
 use crate::{Obstacle, ObstacleMap};
 
+/// A wall across a 20 x 10 m map from its south edge, with a gap at its north end.
+const WALL: [Obstacle<'static>; 1] = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
+
+fn wall_map() -> ObstacleMap<'static> {
+    ObstacleMap { min_m: Vec2::new(0.0, 0.0), max_m: Vec2::new(20.0, 10.0), obstacles: &WALL }
+}
+
 fn rule(need: f32) -> RadiusRule {
     RadiusRule { margin_m: 0.0, max_radius_m: 5.0, need_m: need, clearance_weight: 0.5 }
 }
@@ -22,8 +29,7 @@ fn lattice_coarsens_to_capacity_and_finds_cells() {
 fn astar_goes_around_a_wall_and_maximin_finds_the_gap() {
     // A wall across x = 10 ending at y = 8.6; the map is 20 x 10, so the gap above the end
     // has 1.4 m of clearance.
-    let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
-    let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+    let map = wall_map();
     let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
     let (mut f, mut u, mut s) = (vec![0.0; 3 * 4096], vec![0; 2 * 4096], vec![0; 2048]);
     let mut ws: Workspace<'_, u32> = Workspace::new(&mut f, &mut u, &mut s);
@@ -100,8 +106,7 @@ fn byte_radii_round_down_by_less_than_a_unit() {
 /// narrower.
 #[test]
 fn byte_radii_search_as_f32_ones_within_a_unit() {
-    let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
-    let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+    let map = wall_map();
     let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
     let (mut f4, mut u4, mut s4) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
     let (mut r1, mut f1, mut u1, mut s1) = (vec![0u8; 4096], vec![0.0; 2 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);
@@ -162,8 +167,7 @@ fn the_byte_sweep_encodes_the_f32_sweep() {
 /// The MCU's two-byte indices give the host's search, parent for parent.
 #[test]
 fn two_byte_indices_search_as_four_byte_ones() {
-    let obs = [Obstacle::Wall { a_m: Vec2::new(10.0, -1.0), b_m: Vec2::new(10.0, 8.5), thickness_m: 0.2 }];
-    let map = ObstacleMap { min_m: Vec2::zeros(), max_m: Vec2::new(20.0, 10.0), obstacles: &obs };
+    let map = wall_map();
     let lat = Lattice::covering(map.min_m, map.max_m, 0.25, 4096).unwrap();
     let (mut f4, mut u4, mut s4) = (vec![0.0; 3 * 4096], vec![0u32; 2 * 4096], vec![0; 2048]);
     let (mut f2, mut u2, mut s2) = (vec![0.0; 3 * 4096], vec![0u16; 2 * 4096], vec![0; 2048]);

@@ -281,15 +281,9 @@ impl<'t, 'p> Replanning<'t, 'p> {
     }
 
     /// Folds one scan (own, or relayed from a member, its origin that member's position) into
-    /// the map, with the companion's tube and the load at `load_m` for the trigger
-    /// ([`Perception::integrate`]).
-    pub fn fold(&mut self, c: &impl Crew<'t>, scan: &Scan, load_m: &Vec3) {
-        self.fold_along(c.tube(), scan, load_m);
-    }
-
-    /// [`Self::fold`] with the companion's tube given (`None`: none flown yet), for a caller
-    /// that holds the re-planning inside its crew.
-    pub fn fold_along(&mut self, tube: Option<&CompanionTube>, scan: &Scan, load_m: &Vec3) {
+    /// the map, with the companion's `tube` (`None`: none flown yet) and the load at `load_m`
+    /// for the trigger ([`Perception::integrate`]).
+    pub fn fold(&mut self, tube: Option<&CompanionTube>, scan: &Scan, load_m: &Vec3) {
         let load_s = tube.map_or(0.0, |t| load_s(t, load_m));
         self.map.integrate(scan, tube, load_s);
     }

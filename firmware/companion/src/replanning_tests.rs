@@ -41,7 +41,7 @@ fn only_the_lowest_healthy_id_plans_and_its_offer_goes_round_what_it_saw() {
     let rock = (V2::new(20.0, 10.5), 1.5);
     // The sequence of perception_tests' trigger test: seen from 12 m twice, then from 6 m.
     for o in [V2::new(8.0, 10.0), V2::new(8.0, 10.0), V2::new(14.0, 10.0), V2::new(14.0, 10.0)] {
-        r.fold(&c, &scan(o, &[rock]), &load);
+        r.fold(c.tube(), &scan(o, &[rock]), &load);
     }
     assert!(r.map().blocked(), "the rock lies in the tube ahead of the load");
     assert_eq!(r.plan(&c, view(1, 3, |_| true, own), &load, 0), Planned::Idle, "member 1 is not the planner");
@@ -85,14 +85,14 @@ fn with_no_route_close_ahead_the_team_holds_and_a_later_route_lifts_the_hold() {
     // perception_tests' wall of circles across the world at x = 25, 7 m ahead of the load.
     let wall: Vec<(V2, f32)> = (0..23).map(|k| (V2::new(25.0, k as f32 * 0.9), 0.6)).collect();
     for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
-        r.fold(&c, &scan(V2::new(18.0, y), &wall), &load);
+        r.fold(c.tube(), &scan(V2::new(18.0, y), &wall), &load);
     }
     assert_eq!(r.plan(&c, view(0, 1, |_| true, own), &load, 0), Planned::NoRoute);
     // The wall goes (seen empty again and again): the next plan finds the straight way, and the
     // offer lifts the hold the planner declared.
     for _ in 0..12 {
         for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
-            r.fold(&c, &scan(V2::new(18.0, y), &[]), &load);
+            r.fold(c.tube(), &scan(V2::new(18.0, y), &[]), &load);
         }
     }
     match r.plan(&c, view(0, 1, |_| true, own), &load, 1000) {
@@ -104,7 +104,7 @@ fn with_no_route_close_ahead_the_team_holds_and_a_later_route_lifts_the_hold() {
     let mut far = replanning(config());
     let wall_far: Vec<(V2, f32)> = (0..23).map(|k| (V2::new(40.0, k as f32 * 0.9), 0.6)).collect();
     for y in [2.0, 6.0, 10.0, 14.0, 18.0] {
-        far.fold(&c, &scan(V2::new(33.0, y), &wall_far), &load);
+        far.fold(c.tube(), &scan(V2::new(33.0, y), &wall_far), &load);
     }
     assert!(far.map().blocked_ahead_m(15.0) > HOLD_AHEAD_M);
     assert_eq!(far.plan(&c, view(0, 1, |_| true, own), &load, 0), Planned::Failed);
@@ -117,7 +117,7 @@ fn a_needed_plan_that_leaves_a_member_outside_is_followed_by_one_from_the_load()
     let mut r = replanning(config());
     let rock = (V2::new(20.0, 10.5), 1.5);
     for o in [V2::new(8.0, 10.0), V2::new(8.0, 10.0), V2::new(14.0, 10.0), V2::new(14.0, 10.0)] {
-        r.fold(&c, &scan(o, &[rock]), &load);
+        r.fold(c.tube(), &scan(o, &[rock]), &load);
     }
     // A member 1 m beyond the tube's north edge: the plan, needed (the rock), is kept.
     let outside = TeamView { id: 0, n: 2, healthy: |_: usize| true, positions_m: [own.xy(), V2::new(14.0, 14.0)].into_iter() };
@@ -153,7 +153,7 @@ fn a_search_and_a_build_run_aside_give_what_the_in_line_path_gives() {
     let rock = (V2::new(20.0, 10.5), 1.5);
     let seen = |r: &mut Replanning<'static, 'static>, c: &Companion<'static>| {
         for o in [V2::new(8.0, 10.0), V2::new(8.0, 10.0), V2::new(14.0, 10.0), V2::new(14.0, 10.0)] {
-            r.fold(c, &scan(o, &[rock]), &load);
+            r.fold(c.tube(), &scan(o, &[rock]), &load);
         }
     };
     // In line.

@@ -72,10 +72,20 @@ pub(super) struct Aboard<'t> {
 /// the planner's frames (the flight's deepest stack, docs/benchmarks.md).
 pub struct ReplanSlot<'t>(Option<Aboard<'t>>);
 
-impl ReplanSlot<'_> {
+impl<'t> ReplanSlot<'t> {
     /// An empty slot (`.bss` in a firmware's `static`).
     pub const fn new() -> Self {
         Self(None)
+    }
+
+    /// The state, once attached.
+    fn state(&self) -> Option<&Aboard<'t>> {
+        self.0.as_ref()
+    }
+
+    /// The state, mutable, once attached.
+    fn state_mut(&mut self) -> Option<&mut Aboard<'t>> {
+        self.0.as_mut()
     }
 }
 
@@ -236,19 +246,19 @@ impl<'t> Companion<'t> {
 impl<'t> Core<'t> {
     /// The re-planning's state, if attached.
     fn aboard(&self) -> Option<&Aboard<'t>> {
-        self.aboard.as_deref().and_then(|s| s.0.as_ref())
+        self.aboard.as_deref().and_then(ReplanSlot::state)
     }
 
     /// The re-planning's state, mutable, if attached.
     fn aboard_mut(&mut self) -> Option<&mut Aboard<'t>> {
-        self.aboard.as_deref_mut().and_then(|s| s.0.as_mut())
+        self.aboard.as_deref_mut().and_then(ReplanSlot::state_mut)
     }
 
     /// Whether the re-planning is in use: configured from the `PR_*` parameters at the first
     /// use after they changed (an empty map, no plan). False without storage, with `PR_MAP` 0,
     /// or with a world the map cannot hold.
     pub(super) fn map_on(&mut self) -> bool {
-        let Some(a) = self.aboard.as_deref_mut().and_then(|s| s.0.as_mut()) else {
+        let Some(a) = self.aboard.as_deref_mut().and_then(ReplanSlot::state_mut) else {
             return false;
         };
         if a.map == MapState::Stale {
@@ -306,8 +316,8 @@ impl<'t> Core<'t> {
         // Borrowed in place, field by field: taken out, the re-planning's state (about 6 kB)
         // was copied onto the stack and back at every scan, under the map update's own frame.
         let tube = self.tube_ok.then_some(&*self.tube);
-        if let Some(a) = self.aboard.as_deref_mut().and_then(|s| s.0.as_mut()) {
-            a.replanning.fold_along(tube, &placed, &load);
+        if let Some(a) = self.aboard.as_deref_mut().and_then(ReplanSlot::state_mut) {
+            a.replanning.fold(tube, &placed, &load);
         }
     }
 
@@ -375,7 +385,7 @@ impl<'t> Core<'t> {
         let Some(slot) = self.aboard.take() else {
             return;
         };
-        let Some(a) = slot.0.as_mut() else {
+        let Some(a) = slot.state_mut() else {
             self.aboard = Some(slot);
             return;
         };
