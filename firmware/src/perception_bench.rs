@@ -54,7 +54,7 @@ static PERCEPTION: ConstStaticCell<Perception> = ConstStaticCell::new(Perception
 static SPACE: ConstStaticCell<PlannerSpace> = ConstStaticCell::new(PlannerSpace::zeroed());
 static TUBE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
 static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
-static GRID: ConstStaticCell<vt_map::OccupancyGrid<{ vt_companion::perception::MAP_CELLS }>> = ConstStaticCell::new(vt_map::OccupancyGrid::empty());
+static GRID: ConstStaticCell<vt_companion::perception::OnboardMap> = ConstStaticCell::new(vt_companion::perception::OnboardMap::zeroed());
 
 /// Range along the ray from `o` in direction `(c, s)` to the nearest pillar, m (`None`: none
 /// within [`RANGE_M`]).
@@ -146,12 +146,12 @@ pub fn run() -> ! {
     let mean = (sum / SCANS as u64) as u32;
     // The map's fold alone (no tube test of new cells): the same scans into a fresh grid.
     let grid = GRID.take();
-    if grid.reset(280, 120, 0.25, Vec2::new(0.0, 0.0)).is_ok() {
+    if grid.adopt(&vt_companion::perception::LOG_ODDS).is_ok() && grid.reset(280, 120, 0.25, Vec2::new(0.0, 0.0)).is_ok() {
         let (mut gsum, mut gmax, mut cells) = (0u64, 0u32, 0usize);
         for k in 0..SCANS {
             let scan = scan_at(Vec2::new(3.0 + 0.5 * k as f32, 15.0));
             let t0 = board::cycles();
-            let st = grid.integrate_sectors(&scan, &vt_map::LogOddsParams::default(), vt_companion::perception::FOLD, |_, _| {});
+            let st = grid.integrate_sectors(&scan, &vt_companion::perception::LOG_ODDS, vt_companion::perception::FOLD, |_, _| {});
             let ticks = board::cycles().wrapping_sub(t0);
             gsum += u64::from(ticks);
             gmax = gmax.max(ticks);
@@ -167,7 +167,7 @@ pub fn run() -> ! {
                 let _ = scan.returns.push(ret);
             }
             let t0 = board::cycles();
-            grid.integrate_sectors(&scan, &vt_map::LogOddsParams::default(), vt_companion::perception::FOLD, |_, _| {});
+            grid.integrate_sectors(&scan, &vt_companion::perception::LOG_ODDS, vt_companion::perception::FOLD, |_, _| {});
             *t = board::cycles().wrapping_sub(t0);
         }
         defmt::info!("perception bench: synthetic folds: clear {=u32}, far hits {=u32}, near hits {=u32} ticks", synthetic[0], synthetic[1], synthetic[2]);

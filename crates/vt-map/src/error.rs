@@ -26,6 +26,11 @@ pub enum MapError {
     },
     /// The grid has no cells (made by `OccupancyGrid::empty` and never `reset`).
     EmptyGrid,
+    /// A packed grid cannot hold every log-odds value the sensor model reaches.
+    TooManyStates {
+        /// Values a packed cell holds.
+        max: usize,
+    },
 }
 
 impl fmt::Display for MapError {
@@ -45,6 +50,9 @@ impl fmt::Display for MapError {
                 )
             }
             Self::EmptyGrid => write!(f, "the map has no cells (never reset)"),
+            Self::TooManyStates { max } => {
+                write!(f, "the sensor model reaches more than {max} log-odds values; a packed map holds {max}")
+            }
         }
     }
 }

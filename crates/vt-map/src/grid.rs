@@ -1,4 +1,5 @@
-//! The log-odds occupancy grid: fixed capacity, runtime size, one `i8` per cell.
+//! The log-odds occupancy grid: fixed capacity, runtime size, one `i8` per cell or, for one
+//! sensor model, four bits ([`crate::store`]).
 //!
 //! # Frames
 //! World ENU, metres, horizontal plane. Cell `(i, j)` is column `i` (east) and row `j` (north),
@@ -7,20 +8,28 @@
 
 use core::fmt;
 
-use crate::{ray, MapError, Vec2};
+use crate::store::{Bytes, CellStore, Nibbles};
+use crate::{ray, LogOddsParams, MapError, Vec2};
 
 /// Largest `width` or `height`, cells: cell indices stay exact in `f32` (2^24).
 const MAX_SIDE_CELLS: usize = 1 << 24;
 
-/// A log-odds occupancy grid of at most `CELLS` cells (see [`crate::log_odds`]).
+/// A log-odds occupancy grid of at most `CELLS` cells, one `i8` each (see [`crate::log_odds`]).
+pub type OccupancyGrid<const CELLS: usize> = LogOddsGrid<Bytes<CELLS>>;
+
+/// A log-odds occupancy grid of at most `2 * BYTES` cells, four bits each, for one sensor model
+/// of at most 16 values ([`crate::store`]; build it with [`LogOddsGrid::adopt`]).
+pub type PackedOccupancyGrid<const BYTES: usize> = LogOddsGrid<Nibbles<BYTES>>;
+
+/// A log-odds occupancy grid over a cell store `S` ([`OccupancyGrid`], [`PackedOccupancyGrid`]).
 ///
 /// A cell holds log-odds in 1/16 nat: `> 0` occupied, `< 0` free, `0` unknown. On the MCU,
 /// build it in place: `static` or a field initialised with [`OccupancyGrid::empty`], then
 /// [`OccupancyGrid::reset`]; [`OccupancyGrid::new`] returns the whole array by value.
 #[derive(Clone)]
-pub struct OccupancyGrid<const CELLS: usize> {
+pub struct LogOddsGrid<S> {
     /// Log-odds, 1/16 nat, row-major; only the first `width * height` are in use.
-    pub(crate) cells: [i8; CELLS],
+    pub(crate) cells: S,
     /// Columns (east).
     pub(crate) width: usize,
     /// Rows (north).
@@ -31,7 +40,7 @@ pub struct OccupancyGrid<const CELLS: usize> {
     pub(crate) origin_m: Vec2,
 }
 
-impl<const CELLS: usize> fmt::Debug for OccupancyGrid<CELLS> {
+impl<S> fmt::Debug for LogOddsGrid<S> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("OccupancyGrid")
             .field("width", &self.width)
@@ -54,7 +63,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     /// world. Nothing folds into it or reads from it before.
     pub const fn zeroed() -> Self {
         const { assert!(CELLS > 0, "an occupancy grid needs at least one cell") };
-        Self { cells: [0; CELLS], width: 0, height: 0, resolution_m: 0.0, origin_m: Vec2::new(0.0, 0.0) }
+        Self { cells: Bytes([0; CELLS]), width: 0, height: 0, resolution_m: 0.0, origin_m: Vec2::new(0.0, 0.0) }
     }
 
     /// A grid of no cells (every query `None`, every scan ignored) until
@@ -62,7 +71,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     pub const fn empty() -> Self {
         const { assert!(CELLS > 0, "an occupancy grid needs at least one cell") };
         Self {
-            cells: [0; CELLS],
+            cells: Bytes([0; CELLS]),
             width: 0,
             height: 0,
             resolution_m: 1.0,
@@ -86,6 +95,48 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         Ok(g)
     }
 
+    /// Log-odds of the cells in use, 1/16 nat, row-major (`j * width + i`).
+    pub fn cells(&self) -> &[i8] {
+        self.cells.0.get(..self.width * self.height).unwrap_or(&[])
+    }
+
+    /// Bytes of RAM the grid takes (`size_of::<Self>()`).
+    pub const fn ram_bytes() -> usize {
+        core::mem::size_of::<Self>()
+    }
+}
+
+impl<const BYTES: usize> PackedOccupancyGrid<BYTES> {
+    /// A grid of no cells and no sensor model whose every byte is zero, for `.bss`: give it a
+    /// model ([`LogOddsGrid::adopt`]) and a world ([`LogOddsGrid::reset`]) before use; until
+    /// then every scan is skipped.
+    pub const fn zeroed() -> Self {
+        const { assert!(BYTES > 0, "an occupancy grid needs at least one cell") };
+        Self { cells: Nibbles::zeroed(), width: 0, height: 0, resolution_m: 0.0, origin_m: Vec2::new(0.0, 0.0) }
+    }
+
+    /// Bytes of RAM the grid takes (`size_of::<Self>()`).
+    pub const fn ram_bytes() -> usize {
+        core::mem::size_of::<Self>()
+    }
+}
+
+impl<S: CellStore> LogOddsGrid<S> {
+    /// Makes the grid fold scans of sensor model `params` (every cell forgotten when the
+    /// store's coding changes; a byte grid holds any valid model).
+    ///
+    /// # Errors
+    /// [`MapError::BadParams`] for an invalid model; [`MapError::TooManyStates`] when a
+    /// packed grid cannot hold every value it reaches.
+    pub fn adopt(&mut self, params: &LogOddsParams) -> Result<(), MapError> {
+        self.cells.adopt(params)
+    }
+
+    /// Cells the grid can hold.
+    pub fn capacity(&self) -> usize {
+        self.cells.capacity()
+    }
+
     /// Re-sizes the grid in place and forgets every cell (all unknown); on error nothing changes.
     ///
     /// # Errors
@@ -107,10 +158,10 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             return bad("height");
         }
         let needed = width.saturating_mul(height);
-        if needed > CELLS {
+        if needed > self.cells.capacity() {
             return Err(MapError::TooManyCells {
                 needed,
-                capacity: CELLS,
+                capacity: self.cells.capacity(),
             });
         }
         if !(resolution_m.is_finite() && resolution_m > 0.0) {
@@ -133,12 +184,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
 
     /// Forgets every cell (all unknown), keeping the geometry.
     pub fn clear(&mut self) {
-        self.cells.fill(0);
-    }
-
-    /// Bytes of RAM the grid takes (`size_of::<Self>()`).
-    pub const fn ram_bytes() -> usize {
-        core::mem::size_of::<Self>()
+        self.cells.clear();
     }
 
     /// Columns (east), cells.
@@ -161,9 +207,9 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         self.origin_m
     }
 
-    /// Log-odds of the cells in use, 1/16 nat, row-major (`j * width + i`).
-    pub fn cells(&self) -> &[i8] {
-        self.cells.get(..self.width * self.height).unwrap_or(&[])
+    /// Cells in use, `width * height`.
+    pub(crate) fn in_use(&self) -> usize {
+        self.width * self.height
     }
 
     /// Grid coordinates of a world point: `(p - origin) / resolution`, cells.
@@ -183,7 +229,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
 
     /// Log-odds of cell `(i, j)`, 1/16 nat; `None` outside the grid.
     pub fn log_odds(&self, i: usize, j: usize) -> Option<i8> {
-        self.cells.get(self.index(i, j)?).copied()
+        self.cells.get(self.index(i, j)?)
     }
 
     /// Whether cell `(i, j)` is occupied (log-odds > 0); `false` outside the grid.
@@ -205,7 +251,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     /// Cells with log-odds > 0, counted: O(width x height). (A running count would cost the
     /// scan fold a compare per freed cell on the flight MCU, and only tests and reports ask.)
     pub fn occupied_count(&self) -> usize {
-        self.cells().iter().filter(|&&l| l > 0).count()
+        (0..self.in_use()).filter(|&k| self.cells.get(k).is_some_and(|l| l > 0)).count()
     }
 
     /// The occupied cells (log-odds > 0) as bits, into `out`: cell `k` (row-major) in bit
@@ -221,13 +267,15 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         if self.width == 0 || self.height == 0 {
             return Err(MapError::EmptyGrid);
         }
-        let cells = self.cells();
-        let words = cells.len().div_ceil(32);
+        let n = self.in_use();
+        let words = n.div_ceil(32);
         let Some(dst) = out.get_mut(..words) else {
             return Err(MapError::OutputTooShort { needed: words, len: out.len() });
         };
-        for (d, chunk) in dst.iter_mut().zip(cells.chunks(32)) {
-            *d = chunk.iter().enumerate().fold(0u32, |acc, (b, &l)| acc | (u32::from(l > 0) << b));
+        for (w, d) in dst.iter_mut().enumerate() {
+            let first = 32 * w;
+            let last = (first + 32).min(n);
+            *d = (first..last).fold(0u32, |acc, k| acc | (u32::from(self.cells.is_occupied_at(k)) << (k - first)));
         }
         Ok((self.width, self.height))
     }
@@ -274,9 +322,9 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             });
         };
         coarse.fill(free);
-        for (j, row) in self.cells().chunks_exact(self.width).enumerate() {
-            for (i, &l) in row.iter().enumerate() {
-                if l > 0 {
+        for j in 0..self.height {
+            for i in 0..self.width {
+                if self.cells.is_occupied_at(j * self.width + i) {
                     if let Some(c) = coarse.get_mut((j / coarsen) * cw + i / coarsen) {
                         *c = occupied;
                     }
@@ -350,7 +398,7 @@ mod tests {
     #[test]
     fn failed_reset_leaves_the_grid_unchanged() {
         let mut g = OccupancyGrid::<100>::new(5, 4, RES_M, Vec2::new(1.0, 2.0)).unwrap();
-        g.cells[3] = 20;
+        g.cells.0[3] = 20;
         assert!(g.reset(20, 20, RES_M, Vec2::new(0.0, 0.0)).is_err());
         assert_eq!((g.width(), g.height(), g.log_odds(3, 0)), (5, 4, Some(20)));
     }
@@ -399,9 +447,9 @@ mod tests {
         let mut g = OccupancyGrid::<210>::new(70, 3, RES_M, Vec2::new(0.0, 0.0)).unwrap();
         let occupied = [0usize, 31, 32, 63, 64, 69, 70, 139, 209];
         for &k in &occupied {
-            g.cells[k] = 1;
+            g.cells.0[k] = 1;
         }
-        g.cells[5] = -3; // free
+        g.cells.0[5] = -3; // free
         let mut bits = [0u32; 7];
         assert_eq!(g.write_planner_bits(&mut bits), Ok((70, 3)));
         for k in 0..210 {
@@ -418,9 +466,9 @@ mod tests {
         let mut g = OccupancyGrid::<100>::new(5, 3, RES_M, Vec2::new(0.0, 0.0)).unwrap();
         let occupied = [(1, 0), (4, 2)];
         for &(i, j) in &occupied {
-            g.cells[j * 5 + i] = 10;
+            g.cells.0[j * 5 + i] = 10;
         }
-        g.cells[2] = -10; // free
+        g.cells.0[2] = -10; // free
         let mut out = [-1.0_f32; 16];
         assert_eq!(g.write_planner_cells(1, &mut out), Ok((5, 3)));
         for j in 0..3 {

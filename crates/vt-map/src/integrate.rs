@@ -1,12 +1,13 @@
 //! Folding a range scan into the grid: each beam frees the cells it crosses and occupies the
 //! cell where it hit (inverse sensor model of Hornung et al. 2013, section 3.1).
 
-use crate::{ray, LogOddsParams, OccupancyGrid, Return, Scan, Vec2, MAX_BEAMS};
+use crate::store::CellStore;
+use crate::{ray, LogOddsGrid, LogOddsParams, Return, Scan, Vec2, MAX_BEAMS};
 
-/// Words of the hit-cell filter in [`OccupancyGrid::integrate`] (32 x 32 = 1,024 bits).
+/// Words of the hit-cell filter in [`LogOddsGrid::integrate`] (32 x 32 = 1,024 bits).
 const HIT_FILTER_WORDS: usize = 32;
 
-/// What one [`OccupancyGrid::integrate`] call did.
+/// What one [`LogOddsGrid::integrate`] call did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct IntegrateStats {
@@ -32,7 +33,7 @@ struct BeamRay {
     hit_cell: Option<(usize, usize)>,
 }
 
-impl<const CELLS: usize> OccupancyGrid<CELLS> {
+impl<S: CellStore> LogOddsGrid<S> {
     /// Folds one scan into the grid; `on_new_occupied(i, j)` is called each time a cell goes
     /// from not occupied (log-odds <= 0) to occupied (> 0), so the caller can test newly seen
     /// obstacles against its tube.
@@ -46,7 +47,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     /// Only cells inside the grid are touched (a sensor outside it, or a ray leaving it, is
     /// clipped; far beyond ~10^6 cells from the grid, `f32` makes the walk approximate but it
     /// stays inside and bounded). The hit cell is found in grid coordinates, so on a cell edge
-    /// it may differ from [`OccupancyGrid::cell_of`] of [`Scan::end_point_m`] by rounding. Each beam updates a cell at most once. No beam's miss touches a cell that holds
+    /// it may differ from [`LogOddsGrid::cell_of`] of [`Scan::end_point_m`] by rounding. Each beam updates a cell at most once. No beam's miss touches a cell that holds
     /// a hit of the same scan (OctoMap's rule: occupied wins within a scan), so a ray grazing the
     /// corner of a neighbour's hit cell does not erase it; every usable hit still adds `hit`,
     /// so a cell hit by three beams gets three. Invalid `params` or scan geometry
@@ -64,7 +65,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     ) -> IntegrateStats {
         let mut stats = IntegrateStats::default();
         let beams = scan.returns.len();
-        if !params.is_valid() || !scan.is_geometry_valid() {
+        if !self.cells.folds(params) || !scan.is_geometry_valid() {
             stats.beams_skipped = beams;
             return stats;
         }
@@ -152,12 +153,14 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         stats: &mut IntegrateStats,
         on_new_occupied: &mut impl FnMut(usize, usize),
     ) {
-        let Some(cell) = self.index(i, j).and_then(|idx| self.cells.get_mut(idx)) else {
+        let Some(idx) = self.index(i, j) else {
             return;
         };
-        let old = *cell;
+        let Some(old) = self.cells.get(idx) else {
+            return;
+        };
         let new = params.apply(old, delta);
-        *cell = new;
+        self.cells.set(idx, new);
         stats.cells_updated += 1;
         if old <= 0 && new > 0 {
             stats.newly_occupied += 1;
@@ -184,7 +187,7 @@ mod tests {
     /// Sensor range of the test scans, m.
     const MAX_RANGE_M: f32 = 8.0;
 
-    type Grid = OccupancyGrid<{ W * H }>;
+    type Grid = crate::OccupancyGrid<{ W * H }>;
 
     fn grid() -> Grid {
         Grid::new(W, H, RES_M, Vec2::new(-2.0, -3.0)).unwrap()

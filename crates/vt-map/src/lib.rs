@@ -9,6 +9,9 @@
 //!   `OBSTACLE_DISTANCE`), each a [`Return`]: `Hit(range)`, `Clear` or `Unknown`.
 //! - [`OccupancyGrid`]: `width x height` cells of side `resolution_m` in a fixed `CELLS`-byte
 //!   array, one `i8` per cell: log-odds in 1/16 nat, `> 0` occupied, `< 0` free, `0` unknown.
+//!   [`PackedOccupancyGrid`]: the same map at four bits a cell, for one sensor model whose
+//!   clamped hits and misses reach at most 16 values ([`store`]; the flight's reaches 14), bit
+//!   for bit the byte grid's.
 //! - [`OccupancyGrid::integrate`]: every beam frees the cells its ray crosses and occupies the
 //!   cell of its hit point ([`LogOddsParams`], OctoMap's sensor model and clamping: Hornung et
 //!   al., Autonomous Robots 2013). Rays are walked exactly ([`ray::traverse`], Amanatides and
@@ -23,11 +26,11 @@
 //!
 //! # Costs
 //! RAM: `CELLS` bytes plus a few words ([`OccupancyGrid::ram_bytes`]); 70 x 30 m at 0.25 m is
-//! 280 x 120 = 33,600 cells, about 34 KB. Time: a ray of range `R` crosses at most
-//! `|dx| + |dy| + 3 <= 1.42 R / resolution + 3` cells (never more than `width + height - 1`),
-//! each an `i8` saturating add and a binary search among the scan's <= 72 hit cells; a 72-beam
-//! scan of 10 m range at 0.25 m touches at most 72 x 60 = 4,320 cells. No trigonometry per
-//! cell (one `sinf`/`cosf` pair per beam, twice).
+//! 280 x 120 = 33,600 cells, about 34 KB, or 17 KB packed (plus its 0.5 KB of tables). Time:
+//! a ray of range `R` crosses at most `|dx| + |dy| + 3 <= 1.42 R / resolution + 3` cells (never
+//! more than `width + height - 1`), each an `i8` saturating add and a binary search among the
+//! scan's <= 72 hit cells; a 72-beam scan of 10 m range at 0.25 m touches at most 72 x 60 =
+//! 4,320 cells. No trigonometry per cell (one `sinf`/`cosf` pair per beam, twice).
 //!
 //! # Examples
 //! ```
@@ -73,13 +76,15 @@ pub mod log_odds;
 pub mod ray;
 pub mod scan;
 pub mod sector;
+pub mod store;
 
 pub use error::MapError;
-pub use grid::OccupancyGrid;
+pub use grid::{LogOddsGrid, OccupancyGrid, PackedOccupancyGrid};
 pub use integrate::IntegrateStats;
 pub use log_odds::{probability, LogOddsParams, LOG_ODDS_PER_NAT};
 pub use scan::{Return, Scan, MAX_BEAMS};
 pub use sector::SectorFold;
+pub use store::{Bytes, CellStore, Nibbles};
 
 /// 2-D vector, world ENU, metres.
 pub type Vec2 = nalgebra::Vector2<f32>;

@@ -96,7 +96,8 @@ impl LogOddsParams {
         self.check().is_ok()
     }
 
-    fn check(&self) -> Result<(), MapError> {
+    /// `Ok` when valid ([`LogOddsParams::new`]'s checks).
+    pub(crate) fn check(&self) -> Result<(), MapError> {
         let bad = |field| Err(MapError::BadParams { field });
         if self.hit <= 0 {
             bad("hit")

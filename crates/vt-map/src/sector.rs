@@ -21,15 +21,16 @@
 //!   (1.3 m at 15 m and 5 deg) and only the sector's centre is marked; a guess elsewhere would
 //!   close passages the team sees open from nearer;
 //! - a cell holding a hit of this scan is never freed by its misses (OctoMap's rule, as in
-//!   [`OccupancyGrid::integrate`]): its value from before the scan is put back before the hits,
+//!   [`LogOddsGrid::integrate`]): its value from before the scan is put back before the hits,
 //!   and each hit cell gets one hit per sector that marks it.
 //!
 //! Folded one by one, cells on an edge shared by two sectors may get a miss from each (a cell's
 //! centre exactly on an edge, or within rounding of it). Sectors wider than [`MAX_SECTOR_RAD`], or of zero width,
-//! are not sectors: such a scan is folded ray by ray by [`OccupancyGrid::integrate`].
+//! are not sectors: such a scan is folded ray by ray by [`LogOddsGrid::integrate`].
 
 use crate::fan::Fan;
-use crate::{lanes, IntegrateStats, LogOddsParams, OccupancyGrid, Return, Scan, Vec2, MAX_BEAMS};
+use crate::store::CellStore;
+use crate::{lanes, IntegrateStats, LogOddsGrid, LogOddsParams, Return, Scan, Vec2, MAX_BEAMS};
 
 /// Most points marked per sector across its arc.
 pub const MAX_ARC_POINTS: usize = 6;
@@ -60,7 +61,7 @@ pub fn arc_points(width_rad: f32, range_m: f32, cell_m: f32, spread_range_m: f32
     }
 }
 
-/// How a sector scan is folded into the grid ([`OccupancyGrid::integrate_sectors`]).
+/// How a sector scan is folded into the grid ([`LogOddsGrid::integrate_sectors`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SectorFold {
@@ -208,10 +209,10 @@ fn clamped_index(v: f32, n: usize) -> usize {
     }
 }
 
-impl<const CELLS: usize> OccupancyGrid<CELLS> {
+impl<S: CellStore> LogOddsGrid<S> {
     /// Folds one sector scan into the grid (module doc); `on_new_occupied(i, j)` is called each
     /// time a cell goes from not occupied (log-odds <= 0) to occupied. Invalid `params` or
-    /// scan geometry skip the whole scan, as in [`OccupancyGrid::integrate`]. A sensor outside
+    /// scan geometry skip the whole scan, as in [`LogOddsGrid::integrate`]. A sensor outside
     /// the grid frees the part of its sectors inside it.
     ///
     /// Cost: per usable sector its scanlines (its extent across its major axis) and its cells
@@ -227,7 +228,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         mut on_new_occupied: impl FnMut(usize, usize),
     ) -> IntegrateStats {
         let beams = scan.returns.len();
-        if !params.is_valid() || !scan.is_geometry_valid() {
+        if !self.cells.folds(params) || !scan.is_geometry_valid() {
             return IntegrateStats {
                 beams_skipped: beams,
                 ..IntegrateStats::default()
@@ -277,7 +278,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
                 if hits.get(first..).is_some_and(|own| own.iter().any(|&(c, _)| c == idx)) {
                     continue;
                 }
-                let before = self.cells.get(idx as usize).copied().unwrap_or(0);
+                let before = self.cells.get(idx as usize).unwrap_or(0);
                 // Cannot fail: at most MAX_ARC_POINTS per sector.
                 let _ = hits.push((idx, before));
             }
@@ -299,9 +300,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
             let updated = &mut stats.cells_updated;
             fan.fill(w, h, |start, count| {
                 *updated += count;
-                if let Some(run) = cells.get_mut(start..start + count) {
-                    lanes::miss_run(run, miss, floor);
-                }
+                cells.miss_run(start, count, miss, floor);
             })
         };
         let one_by_one = if fan_filled { 0 } else { beams };
@@ -317,14 +316,12 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
                 // them after every cell store (an `i8` store may alias them).
                 let (miss, floor) = (miss, floor);
                 if step == 1 {
-                    if let Some(run) = cells.get_mut(start..start + count) {
-                        lanes::miss_run(run, miss, floor);
-                    }
+                    cells.miss_run(start, count, miss, floor);
                 } else {
                     let mut idx = start;
                     for _ in 0..count {
-                        if let Some(c) = cells.get_mut(idx) {
-                            *c = lanes::miss_one(*c, miss, floor);
+                        if let Some(c) = cells.get(idx) {
+                            cells.set(idx, lanes::miss_one(c, miss, floor));
                         }
                         idx += step;
                     }
@@ -333,9 +330,7 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
         }
         // The hit cells as they were before the misses, then the hits.
         for &(idx, before) in &hits {
-            if let Some(cell) = self.cells.get_mut(idx as usize) {
-                *cell = before;
-            }
+            self.cells.set(idx as usize, before);
         }
         let width = self.width.max(1);
         for &(idx, _) in &hits {

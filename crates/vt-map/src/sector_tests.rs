@@ -16,7 +16,7 @@ const TIE_CELLS: f64 = 5e-3;
 /// Arc marking range of the tests, m.
 const SPREAD_M: f32 = 3.0;
 
-type Grid = OccupancyGrid<{ W * H }>;
+type Grid = crate::OccupancyGrid<{ W * H }>;
 
 /// The tests' fold: arcs spread within `spread_m`, free space out to the sensor's range.
 fn fold(spread_m: f32) -> SectorFold {

@@ -21,11 +21,17 @@
 //! clearance queries (`vt_plan::OccupancyMap`) and no distance field.
 
 use crate::{CompanionTube, Vec3};
-use vt_map::{LogOddsParams, OccupancyGrid, Scan, SectorFold};
+use vt_tube::Waypoint;
+use vt_map::{LogOddsParams, PackedOccupancyGrid, Scan, SectorFold};
 use vt_plan::{OccupancyBits, OccupancyMap, PlanError, PlanParams, PlannedTube, Workspace};
 
 /// Cells of the onboard map: 70 x 30 m at 0.25 m (issue 28's holdout-sized world).
 pub const MAP_CELLS: usize = 33_600;
+/// The onboard map: [`MAP_CELLS`] cells at four bits each (16.8 KB), exact for [`LOG_ODDS`]
+/// (`vt_map::store`: the model reaches 14 log-odds values).
+pub type OnboardMap = PackedOccupancyGrid<{ MAP_CELLS / 2 }>;
+/// The onboard map's sensor model: OctoMap's hit and clamps, a sector's miss [`SECTOR_MISS`].
+pub const LOG_ODDS: LogOddsParams = LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::OCTOMAP };
 /// Words of the planner's grid: the map's own cells, a bit each (`OccupancyGrid::write_planner_bits`).
 pub const PLAN_WORDS: usize = OccupancyBits::words(MAP_CELLS);
 /// Lattice nodes of the planner's search (a coarser lattice is used when the map needs more).
@@ -194,8 +200,7 @@ pub struct Prepared {
 /// The onboard map and the trigger.
 pub struct Perception {
     cfg: PerceptionConfig,
-    map: OccupancyGrid<MAP_CELLS>,
-    log_odds: LogOddsParams,
+    map: OnboardMap,
     blocked: bool,
     /// Arc length along the tube of the nearest obstacle cell seen in it ahead of the load, m.
     blocked_s_m: f32,
@@ -221,7 +226,7 @@ impl Perception {
 
     /// Storage for the perception state before it is configured: a map of no cells, every scan
     /// ignored, every re-plan an error. `const` and every byte zero, so firmware keeps it in a
-    /// `static` in `.bss`, with no image in flash (about 33 KiB: built on the stack and moved,
+    /// `static` in `.bss`, with no image in flash (about 17 KiB: built on the stack and moved,
     /// as [`Perception::new`]'s result is, it would need that much stack; a single non-zero
     /// word would put all of it in `.data`, in flash), and [`Perception::configure`] gives it
     /// its world and figures in place.
@@ -234,8 +239,7 @@ impl Perception {
                 replan_period_ms: 0,
                 plan: PlanParams { need_half_width_m: 0.0, margin_m: 0.0, max_half_width_m: 0.0, lattice_m: 0.0, clearance_weight: 0.0 },
             },
-            map: OccupancyGrid::zeroed(),
-            log_odds: LogOddsParams { hit: 0, miss: 0, min: 0, max: 0 },
+            map: OnboardMap::zeroed(),
             blocked: false,
             blocked_s_m: 0.0,
             blocked_end_s_m: 0.0,
@@ -258,9 +262,9 @@ impl Perception {
         if !(w >= 1.0 && h >= 1.0 && w * h <= MAP_CELLS as f32) {
             return Err(vt_map::MapError::TooManyCells { needed: if w * h >= 0.0 { (w * h) as usize } else { 0 }, capacity: MAP_CELLS });
         }
+        self.map.adopt(&LOG_ODDS)?;
         self.map.reset(w as usize, h as usize, cfg.cell_m, vt_map::Vec2::new(x0, y0))?;
         self.cfg = cfg;
-        self.log_odds = LogOddsParams { miss: SECTOR_MISS, ..LogOddsParams::OCTOMAP };
         self.blocked = false;
         self.blocked_s_m = f32::INFINITY;
         self.blocked_end_s_m = f32::NEG_INFINITY;
@@ -280,7 +284,7 @@ impl Perception {
     /// the sector's angle is at the reported range. So the whole sector is free up to that
     /// range and the obstacle lies somewhere on its arc there: the map frees the circular
     /// sector and marks the arc within [`SPREAD_RANGE_M`], its centre beyond
-    /// ([`OccupancyGrid::integrate_sectors`]; a single centre ray would leave gaps of
+    /// ([`vt_map::OccupancyGrid::integrate_sectors`]; a single centre ray would leave gaps of
     /// `range x increment`, 1.3 m at 15 m and 5 deg, that a tube could cut through).
     pub fn integrate(&mut self, scan: &Scan, tube: Option<&CompanionTube>, load_s_m: f32) {
         // A cell's square reaches into the tube when its centre is within half a diagonal.
@@ -291,7 +295,7 @@ impl Perception {
         let (res, origin) = (map.resolution_m(), map.origin_m());
         // The tube lookups of one scan's new cells warm-start from the previous one's section.
         let mut hint = 0usize;
-        map.integrate_sectors(scan, &self.log_odds, FOLD, |i, j| {
+        map.integrate_sectors(scan, &LOG_ODDS, FOLD, |i, j| {
             let Some(tube) = tube else {
                 return;
             };
@@ -398,12 +402,13 @@ impl Perception {
         p
     }
 
-    /// Whether the team should switch from `current` to `planned` (the load at `load_m`): an
+    /// Whether the team should switch from `current` to the tube of waypoints `planned` (the
+    /// load at `load_m`): an
     /// obstacle was seen in `current` since the last switch, or `planned` is
     /// [`SHORTER_TO_SWITCH`] shorter than what remains of `current`.
-    pub fn worth_switching(&self, current: &CompanionTube, planned: &PlannedTube, load_m: &Vec3) -> bool {
+    pub fn worth_switching(&self, current: &CompanionTube, planned: &[Waypoint], load_m: &Vec3) -> bool {
         let remaining = current.locate(load_m.xy(), 0).map_or(f32::INFINITY, |sec| sec.remaining_m);
-        let len: f32 = planned.waypoints.windows(2).map(|w| match w {
+        let len: f32 = planned.windows(2).map(|w| match w {
             [a, b] => (b.pos_m - a.pos_m).norm(),
             _ => 0.0,
         }).sum::<f32>() - self.backoff_m;
@@ -423,7 +428,7 @@ impl Perception {
     }
 
     /// The map.
-    pub fn map(&self) -> &OccupancyGrid<MAP_CELLS> {
+    pub fn map(&self) -> &OnboardMap {
         &self.map
     }
 

@@ -28,7 +28,7 @@
 use crate::perception::{designated_planner, hand_over_now, holds_team, Keep, Perception, PlannerSpace, Prepared, BACKOFF_M, HOLD_AHEAD_M};
 use crate::{CompanionTube, Vec3, MAX_WAYPOINTS};
 use vt_map::Scan;
-use vt_plan::{PlanError, PlannedTube};
+use vt_plan::PlanError;
 use vt_tube::Waypoint;
 
 /// What re-planning needs of the companion it serves ([`crate::Companion`] implements it).
@@ -68,7 +68,7 @@ pub fn hold_margin_m(r_safe_m: f32, v_max_mps: f32) -> f32 {
 
 /// What one companion's re-planning keeps between periods: its map, where offers are built,
 /// and the planner's check of its own plans. The storage is borrowed, as the companion's tube
-/// is (about 33 KiB of map, 150 KiB of planner work space, two tubes of about 8 KiB).
+/// is (about 17 KiB of map, 43 KiB of planner work space, two tubes of about 8 KiB).
 pub struct Replanning<'t, 'p> {
     map: &'p mut Perception,
     /// The planner's work space (`None` while lent to a [`PlanJob`]).
@@ -142,18 +142,18 @@ impl PlanJob<'_> {
     }
 }
 
-/// What a re-plan's search found: the plan, its waypoints on the mission protocol's grid (what
-/// would be offered), and whether its tube was built in the check storage.
+/// What a re-plan's search found: the plan's waypoints on the mission protocol's grid (what
+/// would be offered; the plan's discs and bottleneck are not kept: 1.7 KB less in every place
+/// a result waits), and whether its tube was built in the check storage.
 pub struct Searched {
-    result: Result<PlannedTube, PlanError>,
-    offer: heapless::Vec<Waypoint, MAX_WAYPOINTS>,
+    result: Result<heapless::Vec<Waypoint, MAX_WAYPOINTS>, PlanError>,
     check_built: bool,
 }
 
 impl Searched {
     /// A search that could not run.
     fn failed(e: PlanError) -> Self {
-        Self { result: Err(e), offer: heapless::Vec::new(), check_built: false }
+        Self { result: Err(e), check_built: false }
     }
 
     /// Whether it found a route.
@@ -168,10 +168,9 @@ impl Searched {
 pub fn search(space: &mut PlannerSpace, check: &mut CompanionTube, p: &Prepared) -> Searched {
     // The plan's waypoints are on the wire grid already, and its tube is built from them in
     // `check`: what every member builds from the offer.
-    let result = space.plan(p, check);
-    let offer = result.as_ref().map_or_else(|_| heapless::Vec::new(), |t| t.waypoints.clone());
+    let result = space.plan(p, check).map(|t| t.waypoints);
     let check_built = result.is_ok();
-    Searched { result, offer, check_built }
+    Searched { result, check_built }
 }
 
 /// What a companion knows of its team when it may plan.
@@ -465,9 +464,9 @@ impl<'t, 'p> Replanning<'t, 'p> {
             return Planned::Failed;
         };
         match searched.result {
-            Ok(t) => {
-                let worth = self.map.worth_switching(tube, &t, load_m);
-                self.offer = searched.offer;
+            Ok(waypoints) => {
+                let worth = self.map.worth_switching(tube, &waypoints, load_m);
+                self.offer = waypoints;
                 let built = searched.check_built && self.check.is_some();
                 let holds = worth && built && self.check.as_deref().is_some_and(|k| holds_team(k, positions_m, hold_margin_m(c.r_safe_m(), c.v_max_mps())));
                 if !hand_over_now(worth, holds) {

@@ -69,7 +69,7 @@ impl PortPerception {
                 ls.source_name
             ));
         };
-        let stats = ReplanStats { map_ram_bytes: vt_map::OccupancyGrid::<{ vt_companion::perception::MAP_CELLS }>::ram_bytes(), ..ReplanStats::default() };
+        let stats = ReplanStats { map_ram_bytes: vt_companion::perception::OnboardMap::ram_bytes(), ..ReplanStats::default() };
         Ok(Some(Self {
             increment_deg,
             incoming: vec![None; n],

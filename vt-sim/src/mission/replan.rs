@@ -90,7 +90,7 @@ impl TeamPerception {
         for uav in uavs.iter_mut() {
             uav.provide_map();
         }
-        let stats = ReplanStats { map_ram_bytes: vt_map::OccupancyGrid::<{ vt_companion::perception::MAP_CELLS }>::ram_bytes(), ..ReplanStats::default() };
+        let stats = ReplanStats { map_ram_bytes: vt_companion::perception::OnboardMap::ram_bytes(), ..ReplanStats::default() };
         Some(Self { pending: None, delivered: None, published: None, stats })
     }
 
