@@ -240,8 +240,15 @@ mod perception {
     use vt_companion::replanning::Replanning;
     use vt_companion::{Companion, CompanionTube};
 
-    // Built in place from `const` placeholders: never on the stack.
+    // Built in place from `const` placeholders: never on the stack. The map and the planner's
+    // work space (60 KiB) live in the core-coupled RAM, apart from everything the control loop
+    // and the link's DMA touch (`memory-qemu-perception.x`; docs/firmware.md, "Memory"): their
+    // placeholders are all zero, as the section is NOLOAD and zeroed at boot.
+    #[allow(unsafe_code)] // a placement only: the linker script's `.ccmbss` (above)
+    #[link_section = ".ccmbss.MAP"]
     static MAP: ConstStaticCell<Perception> = ConstStaticCell::new(Perception::placeholder());
+    #[allow(unsafe_code)]
+    #[link_section = ".ccmbss.SPACE"]
     static SPACE: ConstStaticCell<PlannerSpace> = ConstStaticCell::new(PlannerSpace::zeroed());
     static SPARE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
     static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
@@ -283,6 +290,9 @@ mod perception {
 /// the re-plan's search in thread mode below it (`planner_task`); the flight builds run
 /// everything in thread mode.
 pub fn run() -> ! {
+    // Before any static there is touched: the CCM's statics at their all-zero initial values.
+    #[cfg(feature = "perception")]
+    board::zero_ccm();
     let b = board::init();
     defmt::info!("vt-firmware {=str} on {=str}", env!("CARGO_PKG_VERSION"), board::NAME);
     board::boot_report();

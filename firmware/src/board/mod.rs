@@ -35,6 +35,29 @@ extern "C" {
     static _stack_end: u32;
 }
 
+#[cfg(feature = "perception")]
+extern "C" {
+    static mut __sccmbss: u32;
+    static mut __eccmbss: u32;
+}
+
+/// Zeroes the core-coupled RAM's statics (`.ccmbss`, NOLOAD: cortex-m-rt zeroes `.bss` alone),
+/// their `const` initial values being all zero. Called first thing at boot, before any of them
+/// is touched.
+#[cfg(feature = "perception")]
+#[allow(unsafe_code)]
+pub fn zero_ccm() {
+    let (start, end) = (core::ptr::addr_of_mut!(__sccmbss) as usize, core::ptr::addr_of_mut!(__eccmbss) as usize);
+    let mut p = start;
+    while p < end {
+        // SAFETY: [start, end) is the `.ccmbss` section of the linker script (word-aligned,
+        // inside the CCM region); no reference to its statics exists yet, and zero is the
+        // initial value of each of them.
+        unsafe { core::ptr::write_volatile(p as *mut u32, 0) };
+        p += 4;
+    }
+}
+
 /// The stack region `[bottom, top)`, addresses.
 fn stack_region() -> (usize, usize) {
     (core::ptr::addr_of!(_stack_end) as usize, core::ptr::addr_of!(_stack_start) as usize)

@@ -64,6 +64,17 @@ pub fn elf_size(bytes: &[u8]) -> Result<ImageSize, String> {
     Ok(size)
 }
 
+/// Bytes of an ELF's sections whose names start with `prefix` (the perception build's
+/// core-coupled RAM: `.ccmbss`).
+///
+/// # Errors
+/// Not an ELF the `object` crate reads.
+pub fn section_bytes(bytes: &[u8], prefix: &str) -> Result<u64, String> {
+    use object::{Object, ObjectSection};
+    let file = object::File::parse(bytes).map_err(|e| format!("not an ELF: {e}"))?;
+    Ok(file.sections().filter(|s| s.name().is_ok_and(|n| n.starts_with(prefix))).map(|s| s.size()).sum())
+}
+
 /// The highest stack high-water mark a firmware log reports, bytes (the firmware logs
 /// "stack high-water mark N bytes" each time the painted stack's mark rises, and once more at
 /// shutdown), or `None` when the log has none.
@@ -108,6 +119,15 @@ mod tests {
         let log = ["stack high-water mark 900 bytes", "tick", "stack high-water mark 11480 bytes", "shutdown requested; stack high-water mark 11480 bytes"];
         assert_eq!(stack_high_water_bytes(&log.map(String::from)), Some(11_480));
         assert_eq!(stack_high_water_bytes(&["no stack here".to_string()]), None);
+    }
+
+    #[test]
+    fn section_bytes_sums_the_sections_of_a_prefix() {
+        // This test's own executable (an ELF on Linux): its code, and no section of a made-up name.
+        let exe = std::fs::read(std::env::current_exe().unwrap()).unwrap();
+        assert!(section_bytes(&exe, ".text").unwrap() > 1000);
+        assert_eq!(section_bytes(&exe, ".no-such-section").unwrap(), 0);
+        assert!(section_bytes(b"not an elf", ".text").is_err());
     }
 
     #[test]
