@@ -99,11 +99,6 @@ impl<const CELLS: usize> OccupancyGrid<CELLS> {
     pub fn cells(&self) -> &[i8] {
         self.cells.0.get(..self.width * self.height).unwrap_or(&[])
     }
-
-    /// Bytes of RAM the grid takes (`size_of::<Self>()`).
-    pub const fn ram_bytes() -> usize {
-        core::mem::size_of::<Self>()
-    }
 }
 
 impl<const BYTES: usize> PackedOccupancyGrid<BYTES> {
@@ -114,7 +109,9 @@ impl<const BYTES: usize> PackedOccupancyGrid<BYTES> {
         const { assert!(BYTES > 0, "an occupancy grid needs at least one cell") };
         Self { cells: Nibbles::zeroed(), width: 0, height: 0, resolution_m: 0.0, origin_m: Vec2::new(0.0, 0.0) }
     }
+}
 
+impl<S> LogOddsGrid<S> {
     /// Bytes of RAM the grid takes (`size_of::<Self>()`).
     pub const fn ram_bytes() -> usize {
         core::mem::size_of::<Self>()
