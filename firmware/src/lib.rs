@@ -242,13 +242,14 @@ mod perception {
 
     // Built in place from `const` placeholders: never on the stack. The map and the planner's
     // work space (60 KiB) live in the core-coupled RAM, apart from everything the control loop
-    // and the link's DMA touch (`memory-qemu-perception.x`; docs/firmware.md, "Memory"): their
-    // placeholders are all zero, as the section is NOLOAD and zeroed at boot.
-    #[allow(unsafe_code)] // a placement only: the linker script's `.ccmbss` (above)
-    #[link_section = ".ccmbss.MAP"]
+    // and the link's DMA touch (`memory-qemu-perception.x`; docs/firmware.md, "Memory of the
+    // perception build"). A `.bss.*` section cannot hold a non-zero byte (the compiler refuses
+    // one), so their placeholders are all zero, as `board::zero_ccm` leaves them at boot.
+    #[allow(unsafe_code)] // a placement only: the linker script's `.ccmbss`
+    #[link_section = ".bss.ccm.MAP"]
     static MAP: ConstStaticCell<Perception> = ConstStaticCell::new(Perception::placeholder());
     #[allow(unsafe_code)]
-    #[link_section = ".ccmbss.SPACE"]
+    #[link_section = ".bss.ccm.SPACE"]
     static SPACE: ConstStaticCell<PlannerSpace> = ConstStaticCell::new(PlannerSpace::zeroed());
     static SPARE: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());
     static CHECK: ConstStaticCell<CompanionTube> = ConstStaticCell::new(CompanionTube::placeholder());

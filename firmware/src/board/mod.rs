@@ -52,7 +52,8 @@ pub fn zero_ccm() {
     while p < end {
         // SAFETY: [start, end) is the `.ccmbss` section of the linker script (word-aligned,
         // inside the CCM region); no reference to its statics exists yet, and zero is the
-        // initial value of each of them.
+        // initial value of each of them (`.bss.ccm.*` sections: the compiler refuses a
+        // non-zero byte there).
         unsafe { core::ptr::write_volatile(p as *mut u32, 0) };
         p += 4;
     }
