@@ -267,7 +267,8 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     // 128 KiB. Measured 127,688 B in the yard, 127,456 B on the re-route (2026-12-04, session
     // 43: the map in four bits a cell; docs/benchmarks.md, the perception build's row).
     let stack = host_sim::pil::image::stack_high_water_bytes(&r.defmt_log_uav0).expect("UAV 0 logs its stack high-water mark");
-    let size = host_sim::pil::image::elf_size(&std::fs::read(&elf).expect("the ELF is readable")).expect("a 32-bit ELF");
+    let image = std::fs::read(&elf).expect("the ELF is readable");
+    let size = host_sim::pil::image::elf_size(&image).expect("a 32-bit ELF");
     let total = size.static_ram_bytes + stack;
     eprintln!("PIL {file}: static RAM {} B + flight stack {stack} B = {total} B (issue 28's budget 131,072 B)", size.static_ram_bytes);
     assert!(total < 128 * 1024, "{file}: static RAM {} B + a flight's stack {stack} B = {total} B, over issue 28's 128 KiB", size.static_ram_bytes);
@@ -275,7 +276,7 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     // loop's state nor the link's DMA shares (`memory-qemu-perception.x`): at least the map's
     // 16,800 B of cells, within the STM32F405's 64 KiB of CCM; the rest, stack included, in
     // its 128 KiB of SRAM.
-    let ccm = host_sim::pil::image::section_bytes(&std::fs::read(&elf).expect("the ELF is readable"), ".ccmbss").expect("an ELF");
+    let ccm = host_sim::pil::image::section_bytes(&image, ".ccmbss").expect("an ELF");
     eprintln!("PIL {file}: of which CCM {ccm} B (the map and the planner's work space), SRAM {} B with the stack", total - ccm);
     assert!((16_800..=64 * 1024).contains(&ccm), "{file}: .ccmbss {ccm} B");
     assert!(total - ccm <= 128 * 1024, "{file}: SRAM {} B", total - ccm);

@@ -202,7 +202,7 @@ impl<const BYTES: usize> CellStore for Nibbles<BYTES> {
         }
         for (k, e) in self.encode.iter_mut().enumerate() {
             let v = i16::from(k as u8 as i8);
-            // The nearest value; code 0 (unknown) on a tie-free start, then the first nearest.
+            // The nearest value's code; on a tie, the lower code.
             let mut best = (i16::MAX, 0u8);
             for (c, &b) in book.iter().enumerate() {
                 let d = (i16::from(b) - v).abs();
