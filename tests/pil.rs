@@ -264,8 +264,9 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "{file}: every emulator shut down on command");
     // The perception build's RAM with this flight's stack (UAV 0's high-water mark: UAV 0 is
     // the team's planner, its control interrupt over the planner's task): issue 28's budget,
-    // 128 KiB. Measured 127,688 B in the yard, 127,456 B on the re-route (2026-12-04, session
-    // 43: the map in four bits a cell; docs/benchmarks.md, the perception build's row).
+    // 128 KiB. Measured 127,640 B in the yard, 125,476 B on the re-route (2026-12-04, session
+    // 44: the map in four bits a cell, the planner's lock at the control ceiling;
+    // docs/benchmarks.md, the perception build's row).
     let stack = host_sim::pil::image::stack_high_water_bytes(&r.defmt_log_uav0).expect("UAV 0 logs its stack high-water mark");
     let image = std::fs::read(&elf).expect("the ELF is readable");
     let size = host_sim::pil::image::elf_size(&image).expect("a 32-bit ELF");

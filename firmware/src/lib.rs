@@ -259,24 +259,41 @@ mod perception {
     const PLANNER_LOOK_MS: u64 = 5;
 
     /// The re-plan's search (`vt_companion::replanning::PlanJob`), in thread mode: every
-    /// control task preempts it. It holds the companion only to take the job and give it back.
+    /// control task preempts it. It holds the companion only to take the job and give it back,
+    /// and then at the control tasks' ceiling ([`at_ceiling`]).
     #[embassy_executor::task]
     pub(super) async fn planner_task(companion: &'static super::Shared) {
         loop {
             embassy_time::Timer::after_millis(PLANNER_LOOK_MS).await;
             // An offer's tube first (a few million instructions), then a re-plan's search.
-            let build = companion.lock().await.take_build_job();
-            if let Some(mut job) = build {
+            if let Some(mut job) = at_ceiling(companion, |c| c.take_build_job()) {
                 let built = job.run();
-                companion.lock().await.return_build_job(job, built);
+                at_ceiling(companion, |c| c.return_build_job(job, built));
             }
-            let job = companion.lock().await.take_plan_job();
-            if let Some(mut job) = job {
+            if let Some(mut job) = at_ceiling(companion, |c| c.take_plan_job()) {
                 let t0 = crate::board::cycles();
                 let result = job.run();
                 let cycles = crate::board::cycles().wrapping_sub(t0);
-                companion.lock().await.return_plan_job(job, result, cycles);
+                at_ceiling(companion, |c| c.return_plan_job(job, result, cycles));
             }
+        }
+    }
+
+    /// `f` on the companion with the control tasks masked (`board::above_control`): they never
+    /// find it held by thread mode, so they never wait on it (two control tasks waiting on it
+    /// would wake each other forever above the holder). They hold it only between awaits, so
+    /// thread mode finds it free; were it held, the loop lets the interrupts run between tries.
+    fn at_ceiling<R>(companion: &'static super::Shared, f: impl FnOnce(&mut Companion<'static>) -> R) -> R {
+        let mut f = Some(f);
+        loop {
+            let done = crate::board::above_control(|| match companion.try_lock() {
+                Ok(mut c) => f.take().map(|f| f(&mut c)),
+                Err(_) => None,
+            });
+            if let Some(r) = done {
+                return r;
+            }
+            core::hint::spin_loop();
         }
     }
 

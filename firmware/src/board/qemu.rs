@@ -84,6 +84,22 @@ pub fn start_control() {
     unsafe { NVIC::unmask(Irq::Control) };
 }
 
+/// Runs `f` with the control executor's line masked (`BASEPRI` at [`CONTROL_PRIORITY`]; the
+/// link's and the clock's interrupts, at 0, still run): the priority ceiling of what thread
+/// mode shares with the control tasks. Holding the companion below them without it, thread
+/// mode can be preempted by two control tasks that then wait on it together; embassy's mutex
+/// keeps one waker, so each wakes the other, the control interrupt never ends, and thread mode
+/// never gets to release it (a livelock, found in CI; docs/firmware.md, "The perception build").
+#[cfg(feature = "perception")]
+pub fn above_control<R>(f: impl FnOnce() -> R) -> R {
+    let old = cortex_m::register::basepri::read();
+    cortex_m::register::basepri_max::write(CONTROL_PRIORITY);
+    let r = f();
+    // SAFETY: restores the value read above (0 in thread mode, where this is called).
+    unsafe { cortex_m::register::basepri::write(old) };
+    r
+}
+
 /// The control executor's interrupt: polls its tasks.
 #[cfg(feature = "perception")]
 #[no_mangle]

@@ -109,10 +109,13 @@ impl QemuPort {
             let sink = Arc::clone(&defmt);
             std::thread::spawn(move || {
                 let mut buf = [0u8; 4096];
-                while let Ok(n) = out.read(&mut buf) {
-                    if n == 0 {
-                        break;
-                    }
+                loop {
+                    let n = match out.read(&mut buf) {
+                        Ok(0) => break,
+                        Ok(n) => n,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(_) => break,
+                    };
                     if let (Ok(mut v), Some(chunk)) = (sink.lock(), buf.get(..n)) {
                         v.extend_from_slice(chunk);
                     }
@@ -128,6 +131,7 @@ impl QemuPort {
         while deframer.frames == 0 {
             match (&stream).read(&mut buf) {
                 Ok(n) if n > 0 => deframer.push(buf.get(..n).unwrap_or(&[]), |p| early.extend_from_slice(p)),
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 other => {
                     let _ = child.kill();
                     let _ = child.wait();
@@ -243,7 +247,15 @@ impl Port for QemuPort {
             if let Some(rx) = self.pending.pop_front() {
                 return Ok(rx);
             }
-            let n = self.stream.read(&mut buf).map_err(|e| PilError(format!("link read: {e}")))?;
+            let n = match self.stream.read(&mut buf) {
+                Ok(n) => n,
+                // A signal (a debugger's stop and continue): read again.
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                    return err(format!("no reply from the emulator in {} s (link read: {e})", REPLY_TIMEOUT.as_secs()));
+                }
+                Err(e) => return err(format!("link read: {e}")),
+            };
             if n == 0 {
                 return err("link closed by the emulator");
             }
