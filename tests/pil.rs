@@ -236,32 +236,11 @@ fn pil_yard_on_an_unknown_map_is_bit_exact() {
 
 /// `file` (3 UAVs, map unknown) in PIL with the perception firmware: bit for bit the twin and
 /// the crates, the three summaries equal (re-plans and switches included), the team
-/// re-planned and switched, a clean link, every emulator shut down.
+/// re-planned and switched, a clean link, every emulator shut down, and the flight build's RAM
+/// with this flight's stack.
 fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     let elf = perception_firmware()?;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios").join(file);
-    let ls = scenario::load(Some(&path)).expect("scenario");
-    let opts = pil::PilOptions { firmware: elf.clone(), qemu: QEMU.into(), out_dir: out_dir(file), duration_s: None, uav_model: None, cable_model: None, mcap: None };
-    let r = pil::run(&ls, &opts).unwrap();
-    let s = &r.summary;
-    let p = s.perception.as_ref().expect("perception figures");
-    eprintln!(
-        "PIL {file}: {} commands, bit_exact {}, success {} {:?}, {p:?}, worst re-plan {:?} instructions, wall {:.1} s",
-        r.commands_compared, r.bit_exact, s.success, s.failures, r.replan_worst_instructions, r.wall_time_s[1]
-    );
-    assert!(r.bit_exact, "{file}: first difference: {:?}", r.first_difference);
-    assert_eq!(comparable(s), comparable(&r.sil_summary), "{file}: PIL and SIL twin summaries");
-    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "{file}: PIL and SIL-crates summaries");
-    assert!(p.replans > 0 && p.tube_switches > 0, "{file}: {p:?}");
-    // The re-plans' cost in flight, measured on the board under `-icount` (the report's
-    // `replan_worst_instructions`): issue 28's budget, 16.8 M instructions (100 ms at 168 MHz)
-    // for a full re-plan. Measured 11.5 M on the re-route and 15.3 M in the yard (2026-12-02,
-    // session 37; docs/benchmarks.md, "The re-plan in flight, second pass").
-    let worst = r.replan_worst_instructions.expect("re-plans measured under -icount");
-    assert!(worst.is_finite() && worst > 1.0e6, "{file}: worst re-plan {worst} instructions");
-    assert!(worst <= 16.8e6, "{file}: the worst re-plan in flight, {:.2} M instructions, is over the 16.8 M budget", worst / 1e6);
-    assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "{file}: clean link, no error counted");
-    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "{file}: every emulator shut down on command");
+    let r = fly_unknown_map(file, &elf, out_dir(file));
     // The perception build's RAM with this flight's stack (UAV 0's high-water mark: UAV 0 is
     // the team's planner, its control interrupt over the planner's task): issue 28's budget,
     // 128 KiB. Measured 127,640 B in the yard, 125,476 B on the re-route (2026-12-04, session
@@ -282,6 +261,57 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
     assert!((16_800..=64 * 1024).contains(&ccm), "{file}: .ccmbss {ccm} B");
     assert!(total - ccm <= 128 * 1024, "{file}: SRAM {} B", total - ccm);
     Some(r)
+}
+
+/// The livelock CI caught once in the yard (docs/firmware.md, "Thread mode takes the companion
+/// at the control tasks' ceiling"), made certain: the perception firmware built with
+/// `lock-pause` holds the companion 400,000 cycles each time its planner task takes it, so
+/// control tasks always come due while it holds it. Holding it under the mutex alone, that
+/// firmware hung in the parameter upload (two control tasks woke each other forever above the
+/// holder; tried, session 44); at the control tasks' ceiling the re-route flies whole, bit for
+/// bit, with every check of the flight above.
+#[test]
+fn pil_a_planner_holding_the_companion_long_stalls_no_control_task() {
+    static ELF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    if perception_firmware().is_none() {
+        return;
+    }
+    let elf = match ELF.get_or_init(|| pil::build_firmware_bin("qemu,perception,lock-pause", "vt-firmware-qemu-lock-pause").map_err(|e| e.to_string())) {
+        Ok(p) => p.clone(),
+        Err(e) => panic!("lock-pause firmware build failed: {e}"),
+    };
+    let r = fly_unknown_map("reroute-3uav-unknown.toml", &elf, out_dir("lock-pause"));
+    assert!(r.summary.success, "{:?}", r.summary.failures);
+}
+
+/// `file` flown in PIL by `elf` (a perception firmware): bit for bit the twin and the crates,
+/// the three summaries equal, re-plans and switches, the re-plans' budget, a clean link, every
+/// emulator shut down ([`pil_unknown_map`] adds the flight build's memory).
+fn fly_unknown_map(file: &str, elf: &Path, out: PathBuf) -> pil::PilReport {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios").join(file);
+    let ls = scenario::load(Some(&path)).expect("scenario");
+    let opts = pil::PilOptions { firmware: elf.to_path_buf(), qemu: QEMU.into(), out_dir: out, duration_s: None, uav_model: None, cable_model: None, mcap: None };
+    let r = pil::run(&ls, &opts).unwrap();
+    let s = &r.summary;
+    let p = s.perception.as_ref().expect("perception figures");
+    eprintln!(
+        "PIL {file}: {} commands, bit_exact {}, success {} {:?}, {p:?}, worst re-plan {:?} instructions, wall {:.1} s",
+        r.commands_compared, r.bit_exact, s.success, s.failures, r.replan_worst_instructions, r.wall_time_s[1]
+    );
+    assert!(r.bit_exact, "{file}: first difference: {:?}", r.first_difference);
+    assert_eq!(comparable(s), comparable(&r.sil_summary), "{file}: PIL and SIL twin summaries");
+    assert_eq!(comparable(s), comparable(r.host_sim_summary.as_ref().unwrap()), "{file}: PIL and SIL-crates summaries");
+    assert!(p.replans > 0 && p.tube_switches > 0, "{file}: {p:?}");
+    // The re-plans' cost in flight, measured on the board under `-icount` (the report's
+    // `replan_worst_instructions`): issue 28's budget, 16.8 M instructions (100 ms at 168 MHz)
+    // for a full re-plan. Measured 11.5 M on the re-route and 15.3 M in the yard (2026-12-02,
+    // session 37; docs/benchmarks.md, "The re-plan in flight, second pass").
+    let worst = r.replan_worst_instructions.expect("re-plans measured under -icount");
+    assert!(worst.is_finite() && worst > 1.0e6, "{file}: worst re-plan {worst} instructions");
+    assert!(worst <= 16.8e6, "{file}: the worst re-plan in flight, {:.2} M instructions, is over the 16.8 M budget", worst / 1e6);
+    assert_eq!(r.firmware_errors, vec![[0; 5]; 3], "{file}: clean link, no error counted");
+    assert_eq!(r.qemu_exit_codes, vec![Some(0); 3], "{file}: every emulator shut down on command");
+    r
 }
 
 /// The formation shaped to the tube (`VT_SHAPE`, vt_dissipative::shape) aboard: the 2.5 m

@@ -257,6 +257,9 @@ mod perception {
 
     /// How often the planner task looks for a re-plan to run, ms.
     const PLANNER_LOOK_MS: u64 = 5;
+    /// The `lock-pause` test build's pause inside each of the planner task's holds, cycles.
+    #[cfg(feature = "lock-pause")]
+    const LOCK_PAUSE_CYCLES: u32 = 400_000;
 
     /// The re-plan's search (`vt_companion::replanning::PlanJob`), in thread mode: every
     /// control task preempts it. It holds the companion only to take the job and give it back,
@@ -287,7 +290,12 @@ mod perception {
         let mut f = Some(f);
         loop {
             let done = crate::board::above_control(|| match companion.try_lock() {
-                Ok(mut c) => f.take().map(|f| f(&mut c)),
+                Ok(mut c) => f.take().map(|f| {
+                    // Test builds only: held long enough that control tasks come due meanwhile.
+                    #[cfg(feature = "lock-pause")]
+                    cortex_m::asm::delay(LOCK_PAUSE_CYCLES);
+                    f(&mut c)
+                }),
                 Err(_) => None,
             });
             if let Some(r) = done {
