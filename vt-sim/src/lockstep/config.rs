@@ -104,11 +104,18 @@ pub fn configure<P: Port + ?Sized>(port: &mut P, cfg: &UavConfig, enc: &mut Enco
             param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
         };
         port.send(&gcs(enc, &msg))?;
-        let echoed = recv_until(port, 64, |rx| match rx {
-            Rx::ParamValue(n, v) if n == name => Some(*v),
-            _ => None,
-        })
-        .map_err(|e| PilError(format!("parameter {name}: no echo ({e}): a companion built before the parameter existed?")))?;
+        // A link that fails says so; 64 frames without the echo mean an unknown parameter.
+        let mut echoed = None;
+        for _ in 0..64 {
+            match port.recv().map_err(|e| PilError(format!("parameter {name}: no echo ({e})")))? {
+                Rx::ParamValue(n, v) if n == name => {
+                    echoed = Some(v);
+                    break;
+                }
+                _ => {}
+            }
+        }
+        let echoed = echoed.ok_or_else(|| PilError(format!("parameter {name}: no echo in 64 frames: a companion built before the parameter existed?")))?;
         if echoed.to_bits() != value.to_bits() {
             return err(format!("parameter {name}: sent {value}, companion holds {echoed}"));
         }
