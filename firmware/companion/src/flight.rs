@@ -472,7 +472,7 @@ impl Flight {
         self.team_mode = self.supervisor.step(reasons != 0, follow);
         if let (Some(own), Some(load)) = (own, load) {
             let holding = self.team_mode.is_holding();
-            self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding);
+            self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding, src.neighbour_released.any());
             let phase = self.phase();
             // The observer of a free UAV (vt_cfo::UNLOADED_BANDWIDTH_RAD_S): one comparison
             // while the phase keeps its cable loaded or unloaded.

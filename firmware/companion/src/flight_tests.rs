@@ -604,6 +604,47 @@ fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming()
     assert_eq!(fl.take_refusal(), None, "reported once");
 }
 
+/// A member released before the arming (its heartbeat's phase: it refused, or was blown off its
+/// place) ends the start for the team: this UAV lands at the step it sees that, descending at
+/// `LAND_SPEED_MPS`, instead of holding `LIFT_HOLD_ABORT_S` (3 s) in the wind that blew the
+/// member off; it reports no refusal of its own. The same member released after the arming
+/// only leaves the armed law (`a_released_neighbour_leaves_the_armed_law_without_a_hold`).
+#[test]
+fn a_member_released_before_the_arming_lands_the_team_at_once() {
+    use vt_dissipative::landing::LAND_SPEED_MPS;
+    let mut p = params(0.0);
+    p.set(Param::Start, 1.0).unwrap();
+    let t = tube();
+    let ground = Vec3::new(5.0, 0.0, 0.3);
+    let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
+    let low = |j: usize| Vec3::new(uav_pos(j).x, uav_pos(j).y, 1.3);
+    let mut src = sources(0);
+    let feed = |src: &mut Sources, now: u32| {
+        src.own = Some(st(low(0), now));
+        src.load = Some(st(ground, now));
+        for j in 1..3 {
+            src.neighbours[j] = Some(Stamped { value: low(j), stamp_ms: now });
+        }
+    };
+    feed(&mut src, 0);
+    let mut fl = Flight::start(&p, Some(&t), &src, 0).unwrap();
+    let mut now = 0;
+    for _ in 0..5 {
+        now += HL_MS;
+        feed(&mut src, now);
+        let v = fl.high_level(&t, &src, now);
+        assert!(v.z > 0.0, "climbing: {v:?}");
+    }
+    assert_eq!(fl.phase(), Phase::Takeoff);
+    src.neighbour_released.set(2, true);
+    now += HL_MS;
+    feed(&mut src, now);
+    let v = fl.high_level(&t, &src, now);
+    assert_eq!(fl.phase(), Phase::Released, "lands at the step it sees the member released");
+    assert!((v.z + LAND_SPEED_MPS).abs() < 1e-6, "descending: {v:?}");
+    assert_eq!(fl.refusal(), None, "the member's refusal, not its own");
+}
+
 /// Issue 29, a ground start in a wind the UAV cannot hold on its own: blown more than
 /// `STATION_DRIFT_ABORT_M` off its place during the take-off, it refuses (code 10, with the
 /// drift) and lands at once where it is, descending at `LAND_SPEED_MPS`; once its altitude has

@@ -30,9 +30,10 @@ pub(super) fn watch_every(hl_dt_s: f32) -> u32 {
 
 impl Flight {
     /// The phases' step: arrival and the set-down's trigger from the load's place in the tube,
-    /// the ramp, and (a ground start) the survey of the tension phase and the arming at its end.
+    /// the ramp, and (a ground start) the survey of the tension phase and the arming at its end;
+    /// `member_released`: a member's heartbeat says it is in `released`.
     #[inline(never)]
-    pub(super) fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>], holding: bool) {
+    pub(super) fn advance_phases(&mut self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>], holding: bool, member_released: bool) {
         let Some(profile) = self.profile.as_mut() else {
             return;
         };
@@ -81,6 +82,14 @@ impl Flight {
         if let Some(pending) = self.pending.as_mut() {
             // Before the arming: a UAV blown off its place by a wind it cannot hold on its own
             // refuses and lands at once (issue 29; the hover cannot measure that wind safely).
+            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && member_released {
+                // A member released before the arming (it refused, or could not hold its
+                // place): the start is over for the team, which lands at once instead of
+                // holding `LIFT_HOLD_ABORT_S` in the wind that blew the member off (docs/design.md,
+                // "A member's refusal lands its team at once").
+                profile.refuse();
+                return;
+            }
             if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && self.refusal.is_none() {
                 let drift_m = vt_fpu::norm(&(own_m.xy() - pending.hold_xy_m));
                 if drift_m > STATION_DRIFT_ABORT_M {
