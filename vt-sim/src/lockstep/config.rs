@@ -79,14 +79,23 @@ fn gcs<D: MessageData>(enc: &mut Encoder, d: &D) -> Vec<u8> {
 ///
 /// # Errors
 /// The port's errors, or more than `limit` other messages in between.
-pub fn recv_until<T, P: Port + ?Sized>(port: &mut P, limit: usize, mut want: impl FnMut(&Rx) -> Option<T>) -> Result<T, PilError> {
+pub fn recv_until<T, P: Port + ?Sized>(port: &mut P, limit: usize, want: impl FnMut(&Rx) -> Option<T>) -> Result<T, PilError> {
+    recv_within(port, limit, want)?.ok_or_else(|| PilError("expected reply not received".into()))
+}
+
+/// [`recv_until`], with `None` for `limit` other messages in between (told apart from the
+/// port's errors).
+///
+/// # Errors
+/// The port's errors.
+pub fn recv_within<T, P: Port + ?Sized>(port: &mut P, limit: usize, mut want: impl FnMut(&Rx) -> Option<T>) -> Result<Option<T>, PilError> {
     for _ in 0..limit {
         let rx = port.recv()?;
         if let Some(t) = want(&rx) {
-            return Ok(t);
+            return Ok(Some(t));
         }
     }
-    err("expected reply not received")
+    Ok(None)
 }
 
 /// Sets every parameter (each echoed bit for bit) and uploads the tube.
@@ -105,17 +114,12 @@ pub fn configure<P: Port + ?Sized>(port: &mut P, cfg: &UavConfig, enc: &mut Enco
         };
         port.send(&gcs(enc, &msg))?;
         // A link that fails says so; 64 frames without the echo mean an unknown parameter.
-        let mut echoed = None;
-        for _ in 0..64 {
-            match port.recv().map_err(|e| PilError(format!("parameter {name}: no echo ({e})")))? {
-                Rx::ParamValue(n, v) if n == name => {
-                    echoed = Some(v);
-                    break;
-                }
-                _ => {}
-            }
-        }
-        let echoed = echoed.ok_or_else(|| PilError(format!("parameter {name}: no echo in 64 frames: a companion built before the parameter existed?")))?;
+        let echoed = recv_within(port, 64, |rx| match rx {
+            Rx::ParamValue(n, v) if n == name => Some(*v),
+            _ => None,
+        })
+        .map_err(|e| PilError(format!("parameter {name}: no echo ({e})")))?
+        .ok_or_else(|| PilError(format!("parameter {name}: no echo in 64 frames: a companion built before the parameter existed?")))?;
         if echoed.to_bits() != value.to_bits() {
             return err(format!("parameter {name}: sent {value}, companion holds {echoed}"));
         }
