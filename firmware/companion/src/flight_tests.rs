@@ -604,6 +604,17 @@ fn a_ground_start_climbs_in_place_and_refuses_an_incomplete_team_at_its_arming()
     assert_eq!(fl.take_refusal(), None, "reported once");
 }
 
+/// A ground start's data at `now`: the own UAV at `place(0)`, members 1 and 2 at theirs, the
+/// load resting at `load`, every sample fresh and at rest.
+fn feed_ground_team(src: &mut Sources, place: impl Fn(usize) -> Vec3, load: Vec3, now: u32) {
+    let st = |pos: Vec3| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
+    src.own = Some(st(place(0)));
+    src.load = Some(st(load));
+    for j in 1..3 {
+        src.neighbours[j] = Some(Stamped { value: place(j), stamp_ms: now });
+    }
+}
+
 /// A member released before the arming (its heartbeat's phase: it refused, or was blown off its
 /// place) ends the start for the team: this UAV lands at the step it sees that, descending at
 /// `LAND_SPEED_MPS`, instead of holding `LIFT_HOLD_ABORT_S` (3 s) in the wind that blew the
@@ -616,16 +627,9 @@ fn a_member_released_before_the_arming_lands_the_team_at_once() {
     p.set(Param::Start, 1.0).unwrap();
     let t = tube();
     let ground = Vec3::new(5.0, 0.0, 0.3);
-    let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
     let low = |j: usize| Vec3::new(uav_pos(j).x, uav_pos(j).y, 1.3);
     let mut src = sources(0);
-    let feed = |src: &mut Sources, now: u32| {
-        src.own = Some(st(low(0), now));
-        src.load = Some(st(ground, now));
-        for j in 1..3 {
-            src.neighbours[j] = Some(Stamped { value: low(j), stamp_ms: now });
-        }
-    };
+    let feed = |src: &mut Sources, now: u32| feed_ground_team(src, low, ground, now);
     feed(&mut src, 0);
     let mut fl = Flight::start(&p, Some(&t), &src, 0).unwrap();
     let mut now = 0;
@@ -656,16 +660,9 @@ fn a_ground_start_blown_off_its_place_refuses_and_lands_where_it_is() {
     p.set(Param::Start, 1.0).unwrap();
     let t = tube();
     let ground = Vec3::new(5.0, 0.0, 0.3);
-    let st = |pos: Vec3, now: u32| Stamped { value: State { pos_m: pos, vel_mps: Vec3::zeros(), sample_ms: now }, stamp_ms: now };
     let at = |j: usize, dx: f32, z: f32| Vec3::new(uav_pos(j).x + dx, uav_pos(j).y, z);
     let mut src = sources(0);
-    let feed = |src: &mut Sources, dx: f32, z: f32, now: u32| {
-        src.own = Some(st(at(0, dx, z), now));
-        src.load = Some(st(ground, now));
-        for j in 1..3 {
-            src.neighbours[j] = Some(Stamped { value: at(j, dx, z), stamp_ms: now });
-        }
-    };
+    let feed = |src: &mut Sources, dx: f32, z: f32, now: u32| feed_ground_team(src, |j| at(j, dx, z), ground, now);
     feed(&mut src, 0.0, 1.3, 0);
     let mut fl = Flight::start(&p, Some(&t), &src, 0).unwrap();
     // Blown downwind at 2 m/s: still in take-off at 0.9 m, refused past 1 m.

@@ -80,19 +80,19 @@ impl Flight {
             }
         }
         if let Some(pending) = self.pending.as_mut() {
-            // Before the arming: a UAV blown off its place by a wind it cannot hold on its own
-            // refuses and lands at once (issue 29; the hover cannot measure that wind safely).
-            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && member_released {
-                // A member released before the arming (it refused, or could not hold its
-                // place): the start is over for the team, which lands at once instead of
-                // holding `LIFT_HOLD_ABORT_S` in the wind that blew the member off (docs/design.md,
-                // "A member's refusal lands its team at once").
-                profile.refuse();
-                return;
-            }
-            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) && self.refusal.is_none() {
+            if matches!(profile.phase(), Phase::Takeoff | Phase::Tension) {
+                // Before the arming, a member released (it refused, or could not hold its
+                // place) ends the start for the team, which lands at once instead of holding
+                // `LIFT_HOLD_ABORT_S` in the wind that blew the member off (docs/design.md, "A
+                // member's refusal lands its team at once").
+                if member_released {
+                    profile.refuse();
+                    return;
+                }
+                // A UAV blown off its place by a wind it cannot hold on its own refuses and
+                // lands at once (issue 29; the hover cannot measure that wind safely).
                 let drift_m = vt_fpu::norm(&(own_m.xy() - pending.hold_xy_m));
-                if drift_m > STATION_DRIFT_ABORT_M {
+                if self.refusal.is_none() && drift_m > STATION_DRIFT_ABORT_M {
                     self.refusal = Some(StartError::Station { drift_m });
                     self.refusal_unreported = true;
                     profile.land_now();
