@@ -273,7 +273,7 @@ fn pil_unknown_map(file: &str) -> Option<pil::PilReport> {
 #[test]
 fn pil_a_planner_holding_the_companion_long_stalls_no_control_task() {
     static ELF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    if perception_firmware().is_none() {
+    if !common::qemu_present(QEMU, "the PIL tests") {
         return;
     }
     let elf = match ELF.get_or_init(|| pil::build_firmware_bin("qemu,perception,lock-pause", "vt-firmware-qemu-lock-pause").map_err(|e| e.to_string())) {
