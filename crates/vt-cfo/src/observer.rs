@@ -243,9 +243,8 @@ impl Cfo {
         thrust_applied_n: Vector3<f32>,
         dt_s: f32,
     ) -> Vector3<f32> {
-        let input_ok = is_finite(&v_meas_mps)
-            && is_finite(&thrust_applied_n)
-            && dt_s.is_finite()
+        // One sum tests every input for finiteness (vt_fpu::zero_if_finite).
+        let input_ok = vt_fpu::zero_if_finite(&v_meas_mps) + vt_fpu::zero_if_finite(&thrust_applied_n) + (dt_s - dt_s) == 0.0
             && dt_s > 0.0;
         if !input_ok {
             // Skip, keep the state; the prediction no longer matches the next measurement.
@@ -278,7 +277,7 @@ impl Cfo {
         let innovation_mps = v_meas_mps - v_hat_mps;
         let a_hat_mps2 = z_mps2 + innovation_mps * self.l1_per_s;
 
-        if is_finite(&v_hat_mps) && is_finite(&z_mps2) && is_finite(&a_hat_mps2) {
+        if vt_fpu::zero_if_finite(&v_hat_mps) + vt_fpu::zero_if_finite(&z_mps2) + vt_fpu::zero_if_finite(&a_hat_mps2) == 0.0 {
             self.v_hat_mps = v_hat_mps;
             self.z_mps2 = z_mps2;
             self.innovation_mps = innovation_mps;
@@ -372,9 +371,9 @@ impl Cfo {
     }
 }
 
-/// All components finite.
+/// All components finite (`vt_fpu::all_finite`: no branch per component).
 fn is_finite(v: &Vector3<f32>) -> bool {
-    v.iter().all(|c| c.is_finite())
+    vt_fpu::all_finite(v)
 }
 
 #[cfg(test)]

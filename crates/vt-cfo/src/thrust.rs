@@ -188,7 +188,7 @@ impl ThrustLimits {
     /// `hover_thrust_n` becomes `thrust_min_n`). The result is always finite.
     #[must_use]
     pub fn clamp(&self, thrust_n: Vector3<f32>, hover_thrust_n: f32) -> Vector3<f32> {
-        let t = if thrust_n.iter().all(|c| c.is_finite()) {
+        let t = if vt_fpu::all_finite(&thrust_n) {
             thrust_n
         } else {
             let hover_n = if hover_thrust_n.is_finite() {
@@ -345,7 +345,7 @@ pub fn attitude_to_thrust(
 /// Unit direction and norm of `v`, or `None` when `v` is non-finite or shorter than
 /// [`DEGENERATE_THRUST_N`]. Scales by the largest component first (no overflow).
 fn direction_and_norm(v: &Vector3<f32>) -> Option<(Vector3<f32>, f32)> {
-    if !v.iter().all(|c| c.is_finite()) {
+    if !vt_fpu::all_finite(v) {
         return None;
     }
     let s = v.amax();

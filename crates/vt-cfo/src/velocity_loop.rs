@@ -461,7 +461,7 @@ impl VelocityLoop {
         let hover_n = p.hover_thrust_n();
         let weight_n = p.cfo.weight_n(); // G = m g_vec (eq:1-1)
 
-        let meas_ok = is_finite(&v_meas_mps) && dt_s.is_finite() && dt_s > 0.0;
+        let meas_ok = vt_fpu::zero_if_finite(&v_meas_mps) + (dt_s - dt_s) == 0.0 && dt_s > 0.0;
         let cmd_ok = is_finite(&v_cmd_mps);
 
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
@@ -657,9 +657,9 @@ fn hover_vector_n(p: &VelocityLoopParams) -> Vector3<f32> {
     Vector3::new(0.0, 0.0, p.hover_thrust_n())
 }
 
-/// All components finite.
+/// All components finite (`vt_fpu::all_finite`: no branch per component).
 fn is_finite(v: &Vector3<f32>) -> bool {
-    v.iter().all(|c| c.is_finite())
+    vt_fpu::all_finite(v)
 }
 
 #[cfg(test)]

@@ -69,6 +69,26 @@ pub fn direction<const D: usize>(v: &SVector<f32, D>) -> Option<(SVector<f32, D>
     (n > 0.0 && n.is_finite()).then(|| (v / n, n))
 }
 
+/// `0.0` when every component of `v` is finite, NaN when one is infinite or NaN: the sum of
+/// `c - c` (exactly `+0.0` for a finite `c`, NaN otherwise). Sums of these compared with zero
+/// test several vectors at once: `zero_if_finite(&a) + zero_if_finite(&b) == 0.0` is
+/// `all_finite(&a) && all_finite(&b)`. Subtractions and additions, no branch per component:
+/// about half the instructions of `iter().all(is_finite)` on the Cortex-M4F and on x86-64.
+#[inline(always)]
+#[must_use]
+pub fn zero_if_finite<const D: usize>(v: &SVector<f32, D>) -> f32 {
+    // `-0.0 + x` is `x` for every `x`, so the start adds no instruction.
+    v.iter().fold(-0.0, |acc, &c| acc + (c - c))
+}
+
+/// True when every component of `v` is finite: `v.iter().all(|c| c.is_finite())`, the same
+/// answer for every input, by [`zero_if_finite`].
+#[inline(always)]
+#[must_use]
+pub fn all_finite<const D: usize>(v: &SVector<f32, D>) -> bool {
+    zero_if_finite(v) == 0.0
+}
+
 /// `max(sat(c + add), floor)` on each of the four `i8` lanes of `w` (little-endian bytes),
 /// `add4` and `floor4` holding one `i8` per lane: a saturating add and a clamp from below. On
 /// hard-float ARM (the Cortex-M4F's DSP extension, ARMv7E-M) three instructions, `QADD8`,
@@ -172,7 +192,29 @@ mod tests {
         assert_eq!(direction(&Vector2::new(3.0, 4.0)), Some((Vector2::new(0.6, 0.8), 5.0)));
     }
 
+    #[test]
+    fn all_finite_is_the_componentwise_test_for_special_values() {
+        let v = [f32::NEG_INFINITY, -f32::MAX, -1.5, -0.0, 0.0, f32::MIN_POSITIVE / 8.0, 1e38, f32::MAX, f32::INFINITY, f32::NAN, -f32::NAN];
+        for a in v {
+            for b in v {
+                for c in v {
+                    let x = Vector3::new(a, b, c);
+                    assert_eq!(all_finite(&x), x.iter().all(|c| c.is_finite()), "{x:?}");
+                    let y = Vector2::new(c, a);
+                    let both = zero_if_finite(&x) + zero_if_finite(&y) == 0.0;
+                    assert_eq!(both, x.iter().chain(y.iter()).all(|c| c.is_finite()), "{x:?} {y:?}");
+                }
+            }
+        }
+    }
+
     proptest! {
+        #[test]
+        fn all_finite_is_the_componentwise_test(a in any::<u32>(), b in any::<u32>(), c in any::<u32>(), d in any::<u32>()) {
+            let v = nalgebra::Vector4::new(f32::from_bits(a), f32::from_bits(b), f32::from_bits(c), f32::from_bits(d));
+            prop_assert_eq!(all_finite(&v), v.iter().all(|c| c.is_finite()));
+        }
+
         /// Correctly rounded: bit-identical to libm's (and nalgebra's) for every input.
         #[test]
         fn sqrt_is_libm_bit_for_bit(bits in any::<u32>()) {

@@ -36,10 +36,10 @@ pub fn ned_frd_quaternion(q: &UnitQuaternion<f32>) -> [f32; 4] {
     [(w + z) * FRAC_1_SQRT_2, (x + y) * FRAC_1_SQRT_2, (x - y) * FRAC_1_SQRT_2, (w - z) * FRAC_1_SQRT_2]
 }
 
-/// True when every component is finite.
+/// True when every component is finite (`vt_fpu::all_finite`: no branch per component).
 #[inline]
 pub fn finite3(v: &Vec3) -> bool {
-    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+    vt_fpu::all_finite(v)
 }
 
 #[cfg(test)]
