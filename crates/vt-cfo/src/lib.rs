@@ -60,3 +60,10 @@ pub const GRAVITY_MPS2: f32 = 9.81;
 pub fn gravity_mps2() -> Vector3<f32> {
     Vector3::new(0.0, 0.0, -GRAVITY_MPS2)
 }
+
+/// `x.is_finite() && x > 0.0` in two comparisons, which the compiler shares between the checks
+/// of one step (a NaN fails both, an infinity the second).
+#[inline(always)]
+fn positive_finite(x: f32) -> bool {
+    x > 0.0 && x < f32::INFINITY
+}

@@ -243,10 +243,23 @@ impl Cfo {
         thrust_applied_n: Vector3<f32>,
         dt_s: f32,
     ) -> Vector3<f32> {
-        // One sum tests every input for finiteness (vt_fpu::zero_if_finite).
-        let input_ok = vt_fpu::zero_if_finite(&v_meas_mps) + vt_fpu::zero_if_finite(&thrust_applied_n) + (dt_s - dt_s) == 0.0
-            && dt_s > 0.0;
-        if !input_ok {
+        if !(vt_fpu::all_finite(&v_meas_mps) && crate::positive_finite(dt_s)) {
+            // Skip, keep the state; the prediction no longer matches the next measurement.
+            return self.skip();
+        }
+        self.update_measured(v_meas_mps, thrust_applied_n, dt_s)
+    }
+
+    /// [`update`](Self::update) for a caller that has checked `v_meas_mps` finite and `dt_s`
+    /// finite and positive (the velocity loop, which tests them for its own failsafe): the same
+    /// result for such inputs, without testing them a second time.
+    pub(crate) fn update_measured(
+        &mut self,
+        v_meas_mps: Vector3<f32>,
+        thrust_applied_n: Vector3<f32>,
+        dt_s: f32,
+    ) -> Vector3<f32> {
+        if !vt_fpu::all_finite(&thrust_applied_n) {
             // Skip, keep the state; the prediction no longer matches the next measurement.
             return self.skip();
         }

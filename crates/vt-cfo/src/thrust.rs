@@ -651,6 +651,23 @@ mod tests {
             prop_assert!(within_limits(&t, &l), "{t:?} |T| = {}", t.norm());
         }
 
+        /// Any valid limits, the extremes included (the velocity loop relies on a finite clamp
+        /// and does not test its output again), and any demand, NaN and infinities included.
+        #[test]
+        fn clamp_output_is_finite_for_any_valid_limits(
+            bits in proptest::array::uniform3(any::<u32>()),
+            thrust_max in prop_oneof![Just(f32::MAX), Just(f32::MAX / 2.0), 1e-30f32..1e38],
+            min_fraction in prop_oneof![Just(0.0f32), 0.0f32..1.0],
+            tilt in prop_oneof![Just(1.570_796_2f32), Just(1e-6f32), 1e-6f32..1.570_796],
+            reserve in prop_oneof![Just(0.0f32), 0.0f32..0.999],
+            hover in prop_oneof![Just(f32::NAN), Just(f32::INFINITY), any::<f32>()],
+        ) {
+            let Ok(l) = ThrustLimits::new(min_fraction * thrust_max, thrust_max, tilt) else { return Ok(()) };
+            let l = l.with_horizontal_reserve(reserve).unwrap_or(l);
+            let t = l.clamp(Vector3::from(bits.map(f32::from_bits)), hover);
+            prop_assert!(t.iter().all(|c| c.is_finite()), "{t:?} {l:?}");
+        }
+
         #[test]
         fn clamp_bounds_magnitude_and_tilt_for_custom_limits(
             x in -500.0f32..500.0, y in -500.0f32..500.0, z in -500.0f32..500.0,

@@ -273,8 +273,8 @@ pub struct ThrustOutput {
 /// - `v_cmd` non-finite (measurement fine): the command is taken as zero (brake to a hover),
 ///   the observer runs, the integral is held.
 ///
-/// The output is always finite and within the limits; a non-finite result is replaced by the
-/// plain hover thrust `m g` up.
+/// The output is always finite and within the limits: [`ThrustLimits::clamp`] replaces a
+/// non-finite demand by the plain hover thrust `m g` up.
 ///
 /// # Examples
 ///
@@ -461,7 +461,7 @@ impl VelocityLoop {
         let hover_n = p.hover_thrust_n();
         let weight_n = p.cfo.weight_n(); // G = m g_vec (eq:1-1)
 
-        let meas_ok = vt_fpu::zero_if_finite(&v_meas_mps) + (dt_s - dt_s) == 0.0 && dt_s > 0.0;
+        let meas_ok = crate::positive_finite(dt_s) && vt_fpu::all_finite(&v_meas_mps);
         let cmd_ok = is_finite(&v_cmd_mps);
 
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
@@ -472,7 +472,7 @@ impl VelocityLoop {
             }
             // The thrust applied over the step that ended at the sample time (k = 0: the last
             // step's, `thrust_applied_n`).
-            let f_hat_n = self.cfo.update(v_meas_mps, self.history.at(k), dt_s);
+            let f_hat_n = self.cfo.update_measured(v_meas_mps, self.history.at(k), dt_s);
             self.prediction = self.predict(v_meas_mps, f_hat_n, k, dt_s);
             // Failsafe for a bad command: brake to zero velocity.
             let v_d = if cmd_ok { v_cmd_mps } else { Vector3::zeros() };
@@ -504,7 +504,7 @@ impl VelocityLoop {
             let f_hat_n = self.cfo.skip();
             self.prediction = Prediction::undelayed(Vector3::zeros());
             let brake_mps2 = p.gains.kp.component_mul(&v_blind);
-            if dt_s.is_finite() && dt_s > 0.0 {
+            if crate::positive_finite(dt_s) {
                 let decay = Vector3::repeat(1.0) - (p.gains.kp * dt_s).map(|g| g.min(1.0));
                 self.v_blind_mps = Some(v_blind.component_mul(&decay));
             }
@@ -516,12 +516,10 @@ impl VelocityLoop {
             )
         };
 
-        let clamped_n = p.limits.clamp(demand_n, hover_n);
-        let thrust_n = if is_finite(&clamped_n) {
-            clamped_n
-        } else {
-            p.limits.clamp(hover_vector_n(&p), hover_n)
-        };
+        // Finite for every demand: the clamp replaces a non-finite one by the hover, and its
+        // validated limits keep every branch finite (tested: thrust.rs,
+        // `clamp_output_is_finite_and_within_limits_for_any_input`), so no second test here.
+        let thrust_n = p.limits.clamp(demand_n, hover_n);
         let excess_n = demand_n - thrust_n;
         let saturated = excess_n != Vector3::zeros();
 
@@ -531,8 +529,8 @@ impl VelocityLoop {
         if meas_ok {
             self.v_blind_mps = None;
             // Exponential mean over BLIND_HOLD_TAU_S (explicit Euler, gain at most 1; the gain
-            // is recomputed only when `dt` changes). Finite: `thrust_n` is (replaced by the
-            // hover if not), and the gain is in (0, 1].
+            // is recomputed only when `dt` changes). Finite: `thrust_n` is (the clamp's), and
+            // the gain is in (0, 1].
             if self.mean_gain.0 != dt_s {
                 self.mean_gain = (dt_s, (dt_s * (1.0 / BLIND_HOLD_TAU_S)).min(1.0));
             }
@@ -583,7 +581,7 @@ impl VelocityLoop {
         if lag_s <= 0.0 {
             return thrust_n;
         }
-        if !(dt_s.is_finite() && dt_s > 0.0) {
+        if !crate::positive_finite(dt_s) {
             return self.thrust_applied_n;
         }
         let gain = first_order_gain(&mut self.lag_gain, dt_s, lag_s);
@@ -604,7 +602,7 @@ impl VelocityLoop {
         if tau_s <= 0.0 {
             return f_hat_n;
         }
-        if dt_s.is_finite() && dt_s > 0.0 {
+        if crate::positive_finite(dt_s) {
             let gain = first_order_gain(&mut self.filter_gain, dt_s, tau_s);
             let next = self.f_hat_filtered_n + (f_hat_n - self.f_hat_filtered_n) * gain;
             if is_finite(&next) {
