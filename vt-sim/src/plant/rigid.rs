@@ -122,18 +122,36 @@ impl Plant {
             let (load_pos, load_vel) = (self.load.pos_m, self.load.vel_mps);
             let load_wind = self.body_wind(&wind, load_pos.z, n);
             let mut load_force = self.load_params.mass_kg * g + drag_n(&load_wind, &load_vel, load_drag_area_m2);
-            for (i, ((q, c), target)) in self.quads.iter_mut().zip(&self.cables).zip(&self.rigid_targets).enumerate() {
-                let f = cable_force(q.attach_point_world_m(), q.attach_velocity_world_mps(), load_pos, load_vel, c);
-                let breaking = self.breaking_n.get(i).copied().unwrap_or(f64::INFINITY);
-                if f.tension_n > breaking {
-                    self.breaks.push((i, f.tension_n, breaking));
-                }
-                q.step(target, f.on_uav_n, body_wind(&wind, q.pos_m().z, self.roughness_m, &self.gusts_mps, i), h);
-                load_force += f.on_load_n;
-                if let Some(slot) = self.last_forces.get_mut(i) {
-                    *slot = f;
-                } else {
-                    self.last_forces.push(f);
+            // The quadrotors two by two ([`Quadrotor::step_pair_on_cables`]: the same forces and
+            // states as one by one, bit for bit); a UAV's step does not change what another's
+            // cable sees (the load moves after the pass), and the load's force adds up in the
+            // UAVs' order.
+            let pairs = self.quads.chunks_mut(2).zip(self.cables.chunks(2)).zip(self.rigid_targets.chunks(2));
+            for (k, ((qs, cs), ts)) in pairs.enumerate() {
+                let wind_at = |lane: usize, q: &Quadrotor| body_wind(&wind, q.pos_m().z, self.roughness_m, &self.gusts_mps, 2 * k + lane);
+                let forces = match (qs, cs, ts) {
+                    ([qa, qb], [ca, cb], [ta, tb]) => {
+                        let w = [wind_at(0, qa), wind_at(1, qb)];
+                        Quadrotor::step_pair_on_cables([qa, qb], [ca, cb], &load_pos, &load_vel, [ta, tb], w, h).map(Some)
+                    }
+                    ([q, ..], [c, ..], [t, ..]) => {
+                        let w = wind_at(0, q);
+                        [Some(q.step_on_cable(c, &load_pos, &load_vel, t, w, h)), None]
+                    }
+                    _ => [None, None],
+                };
+                for (lane, f) in forces.into_iter().enumerate().filter_map(|(lane, f)| f.map(|f| (lane, f))) {
+                    let i = 2 * k + lane;
+                    let breaking = self.breaking_n.get(i).copied().unwrap_or(f64::INFINITY);
+                    if f.tension_n > breaking {
+                        self.breaks.push((i, f.tension_n, breaking));
+                    }
+                    load_force += f.on_load_n;
+                    if let Some(slot) = self.last_forces.get_mut(i) {
+                        *slot = f;
+                    } else {
+                        self.last_forces.push(f);
+                    }
                 }
             }
             self.load.vel_mps += load_force * (h / self.load_params.mass_kg);

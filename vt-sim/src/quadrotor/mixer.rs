@@ -38,11 +38,11 @@
 //! [`QuadParams`]: super::QuadParams
 
 /// Per-rotor sign of the roll torque column (`a`), PX4 X numbering.
-const ROLL_SIGN: [f64; 4] = [-1.0, 1.0, 1.0, -1.0];
+pub(super) const ROLL_SIGN: [f64; 4] = [-1.0, 1.0, 1.0, -1.0];
 /// Per-rotor sign of the pitch torque column (`b`).
-const PITCH_SIGN: [f64; 4] = [-1.0, 1.0, -1.0, 1.0];
+pub(super) const PITCH_SIGN: [f64; 4] = [-1.0, 1.0, -1.0, 1.0];
 /// Per-rotor sign of the yaw torque column (`c`): rotors 1, 2 CCW (react -), 3, 4 CW (+).
-const YAW_SIGN: [f64; 4] = [-1.0, -1.0, 1.0, 1.0];
+pub(super) const YAW_SIGN: [f64; 4] = [-1.0, -1.0, 1.0, 1.0];
 
 /// Rotor geometry and limits the allocation needs (from [`super::QuadParams`]).
 #[derive(Debug, Clone, Copy, PartialEq)]

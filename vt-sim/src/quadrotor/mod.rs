@@ -44,6 +44,7 @@
 mod autopilot;
 pub mod imu;
 mod mixer;
+mod pair;
 mod params;
 
 pub use autopilot::{attitude_rate_setpoint, AttitudeTarget, Autopilot, AutopilotOutput};
@@ -217,8 +218,39 @@ impl Quadrotor {
         }
     }
 
+    /// One step of `h_s` (s) on a cable to the load at `load_pos_m` (m) moving at
+    /// `load_vel_mps` (m/s): the cable's force from the attachment point at the start of the
+    /// step ([`crate::cable::cable_force`]) applied there over the step ([`Quadrotor::step`]),
+    /// with the wind `wind_world_mps` (m/s). Returns the force.
+    pub fn step_on_cable(&mut self, cable: &crate::cable::CableParams, load_pos_m: &Vector3<f64>, load_vel_mps: &Vector3<f64>, target: &AttitudeTarget, wind_world_mps: Vector3<f64>, h_s: f64) -> crate::cable::CableForce {
+        let f = crate::cable::cable_force(self.attach_point_world_m(), self.attach_velocity_world_mps(), *load_pos_m, *load_vel_mps, cable);
+        self.step(target, f.on_uav_n, wind_world_mps, h_s);
+        f
+    }
+
+    /// [`Quadrotor::step_on_cable`] of two vehicles at once (`qs[k]` on `cables[k]` under
+    /// `targets[k]` in `wind_world_mps[k]`): the same forces and states, bit for bit, as two
+    /// calls, in fewer instructions (both integrate in the two lanes of one SIMD register;
+    /// [`pair`]).
+    pub fn step_pair_on_cables(qs: [&mut Quadrotor; 2], cables: [&crate::cable::CableParams; 2], load_pos_m: &Vector3<f64>, load_vel_mps: &Vector3<f64>, targets: [&AttitudeTarget; 2], wind_world_mps: [Vector3<f64>; 2], h_s: f64) -> [crate::cable::CableForce; 2] {
+        let [a, b] = qs;
+        if !(h_s > 0.0 && h_s.is_finite() && h_s <= MAX_SUBSTEP_S) {
+            let fa = a.step_on_cable(cables[0], load_pos_m, load_vel_mps, targets[0], wind_world_mps[0], h_s);
+            let fb = b.step_on_cable(cables[1], load_pos_m, load_vel_mps, targets[1], wind_world_mps[1], h_s);
+            return [fa, fb];
+        }
+        pair::step_pair_on_cables([a, b], cables, (load_pos_m, load_vel_mps), targets, wind_world_mps, h_s)
+    }
+
     /// One step of at most [`MAX_SUBSTEP_S`] with sanitised inputs.
     fn substep(&mut self, target: &AttitudeTarget, f_ext: &Vector3<f64>, wind: &Vector3<f64>, h: f64) {
+        self.loops_and_motors(target, h);
+        self.integrate(f_ext, wind, h);
+    }
+
+    /// The first part of a step of `h` (s): the autopilot (through the IMU when there is one)
+    /// when its loops are due, the mixer when the rate loop ran, and the motors' lag.
+    fn loops_and_motors(&mut self, target: &AttitudeTarget, h: f64) {
         let (demand, ran) = match self.imu.as_mut() {
             Some(imu) => {
                 let (q, w) = imu.measure(&self.attitude, &self.body_rates_rps, h);
@@ -238,7 +270,11 @@ impl Quadrotor {
         for (t, c) in self.rotor_thrusts_n.iter_mut().zip(self.rotor_cmd_n) {
             *t += (c - *t) * k;
         }
+    }
 
+    /// The second part of a step of `h` (s), with sanitised inputs: forces and torques at the
+    /// rotors' thrusts of [`Self::loops_and_motors`], then one integration step (module doc).
+    fn integrate(&mut self, f_ext: &Vector3<f64>, wind: &Vector3<f64>, h: f64) {
         let p = &self.params;
         let rot = self.rot;
         let rot_t = rot.transpose();
