@@ -461,7 +461,9 @@ impl VelocityLoop {
         let hover_n = p.hover_thrust_n();
         let weight_n = p.cfo.weight_n(); // G = m g_vec (eq:1-1)
 
-        let meas_ok = crate::positive_finite(dt_s) && vt_fpu::all_finite(&v_meas_mps);
+        // Tested once: the filter, the blind hold and the actuator model take the answer.
+        let dt_ok = crate::positive_finite(dt_s);
+        let meas_ok = dt_ok && vt_fpu::all_finite(&v_meas_mps);
         let cmd_ok = is_finite(&v_cmd_mps);
 
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
@@ -484,7 +486,7 @@ impl VelocityLoop {
                 + self.integral_mps2
                 + p.gains.kd.component_mul(&e_v_dot);
             // eq:2-3, with `f_hat` low-passed when a command filter is set.
-            let demand_n = accel_mps2 * m + self.filtered(f_hat_n, dt_s) - weight_n;
+            let demand_n = accel_mps2 * m + self.filtered(f_hat_n, dt_s, dt_ok) - weight_n;
             let status = if cmd_ok {
                 self.cfo.status()
             } else {
@@ -504,7 +506,7 @@ impl VelocityLoop {
             let f_hat_n = self.cfo.skip();
             self.prediction = Prediction::undelayed(Vector3::zeros());
             let brake_mps2 = p.gains.kp.component_mul(&v_blind);
-            if crate::positive_finite(dt_s) {
+            if dt_ok {
                 let decay = Vector3::repeat(1.0) - (p.gains.kp * dt_s).map(|g| g.min(1.0));
                 self.v_blind_mps = Some(v_blind.component_mul(&decay));
             }
@@ -542,7 +544,7 @@ impl VelocityLoop {
         } else {
             status
         };
-        self.thrust_applied_n = self.applied_after(thrust_n, dt_s);
+        self.thrust_applied_n = self.applied_after(thrust_n, dt_s, dt_ok);
         self.history.push(self.thrust_applied_n);
         self.status = status;
         ThrustOutput {
@@ -574,14 +576,14 @@ impl VelocityLoop {
 
     /// The thrust applied over the next step when `thrust_n` is commanded now: the command
     /// itself, or the vehicle's first-order response to it over `dt_s` (exact discretisation,
-    /// `T_a += (T_cmd - T_a)(1 - exp(-dt / lag))`); a `dt_s` that is not finite and > 0 holds
-    /// the response.
-    fn applied_after(&mut self, thrust_n: Vector3<f32>, dt_s: f32) -> Vector3<f32> {
+    /// `T_a += (T_cmd - T_a)(1 - exp(-dt / lag))`); a `dt_s` that is not finite and > 0
+    /// (`dt_ok` false: the caller tested it) holds the response.
+    fn applied_after(&mut self, thrust_n: Vector3<f32>, dt_s: f32, dt_ok: bool) -> Vector3<f32> {
         let lag_s = self.params.actuator_lag_s;
         if lag_s <= 0.0 {
             return thrust_n;
         }
-        if !crate::positive_finite(dt_s) {
+        if !dt_ok {
             return self.thrust_applied_n;
         }
         let gain = first_order_gain(&mut self.lag_gain, dt_s, lag_s);
@@ -595,14 +597,14 @@ impl VelocityLoop {
 
     /// The compensation after the command filter (docs/design.md, "Thrust command filter"):
     /// `f_f += (f_hat - f_f)(1 - exp(-dt / tau))`, exact for an `f_hat` held over the step;
-    /// `f_hat` itself without a filter. A `dt_s` that is not finite and > 0, or a non-finite
-    /// result, holds `f_f`.
-    fn filtered(&mut self, f_hat_n: Vector3<f32>, dt_s: f32) -> Vector3<f32> {
+    /// `f_hat` itself without a filter. A `dt_s` that is not finite and > 0 (`dt_ok` false:
+    /// the caller tested it), or a non-finite result, holds `f_f`.
+    fn filtered(&mut self, f_hat_n: Vector3<f32>, dt_s: f32, dt_ok: bool) -> Vector3<f32> {
         let tau_s = self.params.command_filter_s;
         if tau_s <= 0.0 {
             return f_hat_n;
         }
-        if crate::positive_finite(dt_s) {
+        if dt_ok {
             let gain = first_order_gain(&mut self.filter_gain, dt_s, tau_s);
             let next = self.f_hat_filtered_n + (f_hat_n - self.f_hat_filtered_n) * gain;
             if is_finite(&next) {
