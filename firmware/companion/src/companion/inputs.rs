@@ -43,8 +43,11 @@ impl Core<'_> {
         // Sample time on the companion's clock (delay compensation, vt_cfo::prediction): the
         // autopilot's `time_boot_ms` shifted by the SYSTEM_TIME offset; unknown offset: receipt.
         let offset = if lockstep { Some(0) } else { self.autopilot_offset_ms };
-        let sample_ms = offset.map_or(stamp_ms, |o| time_boot_ms.wrapping_add(o));
-        let state = Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms };
+        // Made where it is stored: a member's position (most reports) keeps no state.
+        let state = || {
+            let sample_ms = offset.map_or(stamp_ms, |o| time_boot_ms.wrapping_add(o));
+            Stamped { value: State { pos_m: pos, vel_mps: vel, sample_ms }, stamp_ms }
+        };
         // Before the mission: the take-off survey averages every position (docs/design.md,
         // "Take-off survey"); a new `VT_CAL_N` restarts it.
         let surveying = self.flight.is_none();
@@ -60,9 +63,9 @@ impl Core<'_> {
                 self.lockstep_now_ms = None;
                 if lockstep && self.flight.is_some() {
                     self.clock_ms = stamp_ms;
-                    self.lockstep_tick(state, io);
+                    self.lockstep_tick(state(), io);
                 } else {
-                    self.sources.own = Some(state);
+                    self.sources.own = Some(state());
                     if surveying {
                         self.sources.survey.push_own(&pos);
                     }
@@ -77,7 +80,7 @@ impl Core<'_> {
             Source::Load => {
                 #[cfg(feature = "perception")]
                 self.note_team_data();
-                self.sources.load = Some(state);
+                self.sources.load = Some(state());
                 if surveying {
                     self.sources.survey.push_load(&pos);
                 }
