@@ -60,11 +60,3 @@ pub const GRAVITY_MPS2: f32 = 9.81;
 pub fn gravity_mps2() -> Vector3<f32> {
     Vector3::new(0.0, 0.0, -GRAVITY_MPS2)
 }
-
-/// `x.is_finite() && x > 0.0`: `x - x` is `+0.0` for a finite `x` and NaN otherwise. A
-/// subtraction and two float comparisons; the compiler turns the literal form (or
-/// `x > 0.0 && x < f32::INFINITY`) into about 20 integer instructions on the Cortex-M4F.
-#[inline(always)]
-fn positive_finite(x: f32) -> bool {
-    x - x == 0.0 && x > 0.0
-}

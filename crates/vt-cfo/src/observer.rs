@@ -243,7 +243,7 @@ impl Cfo {
         thrust_applied_n: Vector3<f32>,
         dt_s: f32,
     ) -> Vector3<f32> {
-        if !(vt_fpu::all_finite(&v_meas_mps) && crate::positive_finite(dt_s)) {
+        if !(vt_fpu::all_finite(&v_meas_mps) && vt_fpu::positive_finite(dt_s)) {
             // Skip, keep the state; the prediction no longer matches the next measurement.
             return self.skip();
         }

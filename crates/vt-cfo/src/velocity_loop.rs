@@ -462,7 +462,7 @@ impl VelocityLoop {
         let weight_n = p.cfo.weight_n(); // G = m g_vec (eq:1-1)
 
         // Tested once: the filter, the blind hold and the actuator model take the answer.
-        let dt_ok = crate::positive_finite(dt_s);
+        let dt_ok = vt_fpu::positive_finite(dt_s);
         let meas_ok = dt_ok && vt_fpu::all_finite(&v_meas_mps);
         let cmd_ok = is_finite(&v_cmd_mps);
 

@@ -509,7 +509,7 @@ impl<const N: usize> DissipativeController<N> {
         // narrower than the ring (1 otherwise: the same bits).
         let v_max = self.params.v_max_mps * self.shape.as_ref().map_or(1.0, TubeShape::speed_fraction);
         let p = &self.params;
-        let inputs_ok = finite3(&m.own_pos_m) && finite3(&m.load_pos_m) && finite3(&m.load_vel_mps);
+        let inputs_ok = vt_fpu::zero_if_finite(&m.own_pos_m) + vt_fpu::zero_if_finite(&m.load_pos_m) + vt_fpu::zero_if_finite(&m.load_vel_mps) == 0.0;
         if !inputs_ok {
             status.invalid_input = true;
             return self.hold(m, status);
@@ -559,7 +559,7 @@ impl<const N: usize> DissipativeController<N> {
             // Joining a re-planned tube: the widening follows the node in and shrinks by
             // JOIN_SHRINK_MPS besides (join_tube).
             let mid_band = 0.5 * (p.r_safe_m + p.r_active_m);
-            let shrunk = if dt_s.is_finite() && dt_s > 0.0 { self.join_m - JOIN_SHRINK_MPS * dt_s } else { self.join_m };
+            let shrunk = if vt_fpu::positive_finite(dt_s) { self.join_m - JOIN_SHRINK_MPS * dt_s } else { self.join_m };
             self.join_m = vt_fpu::max(vt_fpu::min(shrunk, mid_band - sec.boundary_distance_m(q_i)), 0.0);
         }
         // Team hold (docs/design.md, "Team failsafe"): no passing term. Once a neighbour is
@@ -598,7 +598,7 @@ impl<const N: usize> DissipativeController<N> {
 
         // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler; in
         // team hold it stands still (zero tray velocity: the anchor of the held formation).
-        if dt_s.is_finite() && dt_s > 0.0 && !self.team_hold {
+        if vt_fpu::positive_finite(dt_s) && !self.team_hold {
             self.step_center(tube, &nodes, so.progress, v_max, dt_s, &mut status);
         }
 
@@ -685,7 +685,7 @@ impl<const N: usize> DissipativeController<N> {
         }
         v += keeping_velocity(&self.joining(&sec), &q_u, &self.barrier).0;
         let next = q_u + sat(v, v_max) * dt_s;
-        if next.x.is_finite() && next.y.is_finite() {
+        if vt_fpu::all_finite(&next) {
             self.center_m = next;
         }
     }
@@ -715,9 +715,10 @@ pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measure
     }
 }
 
+/// Every component finite (`vt_fpu::all_finite`: one sum, no branch per component).
 #[inline]
 pub(crate) fn finite3(v: &Vec3) -> bool {
-    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+    vt_fpu::all_finite(v)
 }
 
 /// The centroid of the first `n` nodes seen (`None`: dropped), m; `None` when none is seen. Out

@@ -175,9 +175,10 @@ fn half_sq(x: f32) -> f32 {
     0.5 * x * x
 }
 
+/// Every component finite (`vt_fpu::all_finite`: one sum, no branch per component).
 #[inline]
 fn finite3(v: &Vec3) -> bool {
-    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+    vt_fpu::all_finite(v)
 }
 
 #[cfg(test)]

@@ -152,9 +152,9 @@ impl VerticalLoop {
         let d = uav_m - load_m;
         let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
         let sharing = self.sharing_on && p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
-        if let (true, Some(f), true) = (sharing, force_n, dt_s.is_finite() && dt_s > 0.0) {
+        if let (true, Some(f), true) = (sharing, force_n, vt_fpu::positive_finite(dt_s)) {
             let len = vt_fpu::sqrt(d.norm_squared());
-            if f.iter().all(|x| x.is_finite()) && len > 0.0 {
+            if vt_fpu::all_finite(&f) && len > 0.0 {
                 let tension = f.dot(&d) / len;
                 let rate = -p.share_gain_mps_per_n * (tension - p.tension_share_n)
                     + p.load_altitude_gain_per_s * (p.load_altitude_ref_m - load_m.z);

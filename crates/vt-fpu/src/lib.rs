@@ -29,19 +29,20 @@ pub fn sqrt(x: f32) -> f32 {
         // FPSCR exception flags, which nothing reads); the eabihf ABI guarantees the FPU is
         // present and enabled (cortex-m-rt enables it before `main`). rustc only accepts FPU
         // register operands with the double-precision `vfp2` feature, which this single-precision
-        // FPU lacks, so the value travels in core registers and the one scratch register, s15,
-        // is saved on the stack and restored: nothing the compiler owns is changed.
+        // FPU lacks, so the value travels in core registers through the one scratch register,
+        // s15, declared clobbered: the compiler keeps nothing of its own there across the block
+        // (s15 is caller-saved), which costs nothing where a `vpush`/`vpop` pair cost two
+        // instructions a square root.
         #[allow(unsafe_code)]
         unsafe {
             core::arch::asm!(
-                "vpush {{s15}}",
                 "vmov s15, {x}",
                 "vsqrt.f32 s15, s15",
                 "vmov {r}, s15",
-                "vpop {{s15}}",
                 x = in(reg) x.to_bits(),
                 r = lateout(reg) r,
-                options(pure, nomem, preserves_flags),
+                out("s15") _,
+                options(pure, nomem, nostack, preserves_flags),
             );
         }
         f32::from_bits(r)
@@ -87,6 +88,16 @@ pub fn zero_if_finite<const D: usize>(v: &SVector<f32, D>) -> f32 {
 #[must_use]
 pub fn all_finite<const D: usize>(v: &SVector<f32, D>) -> bool {
     zero_if_finite(v) == 0.0
+}
+
+/// `x.is_finite() && x > 0.0` (a step length, a gain): `x - x` is `+0.0` for a finite `x` and
+/// NaN otherwise. A subtraction and two float comparisons; the compiler turns the literal form
+/// (or `x > 0.0 && x < f32::INFINITY`) into about 20 integer instructions on the Cortex-M4F
+/// and 13 on x86-64.
+#[inline(always)]
+#[must_use]
+pub fn positive_finite(x: f32) -> bool {
+    x - x == 0.0 && x > 0.0
 }
 
 /// `max(sat(c + add), floor)` on each of the four `i8` lanes of `w` (little-endian bytes),
@@ -208,7 +219,21 @@ mod tests {
         }
     }
 
+    #[test]
+    fn positive_finite_is_the_literal_test() {
+        let v = [f32::NEG_INFINITY, -f32::MAX, -1.5, -f32::MIN_POSITIVE / 8.0, -0.0, 0.0, f32::MIN_POSITIVE / 8.0, 0.002, f32::MAX, f32::INFINITY, f32::NAN, -f32::NAN];
+        for x in v {
+            assert_eq!(positive_finite(x), x.is_finite() && x > 0.0, "{x}");
+        }
+    }
+
     proptest! {
+        #[test]
+        fn positive_finite_is_the_literal_test_for_any_bits(bits in any::<u32>()) {
+            let x = f32::from_bits(bits);
+            prop_assert_eq!(positive_finite(x), x.is_finite() && x > 0.0);
+        }
+
         #[test]
         fn all_finite_is_the_componentwise_test(a in any::<u32>(), b in any::<u32>(), c in any::<u32>(), d in any::<u32>()) {
             let v = nalgebra::Vector4::new(f32::from_bits(a), f32::from_bits(b), f32::from_bits(c), f32::from_bits(d));
