@@ -44,7 +44,9 @@ pub fn limit(x: f32, lo: f32, hi: f32) -> f32 {
 #[inline]
 pub fn sat<const D: usize>(u: SVector<f32, D>, a: f32) -> SVector<f32, D> {
     let n2 = u.norm_squared();
-    if !n2.is_finite() || !a.is_finite() || a <= 0.0 {
+    // `!n2.is_finite() || !a.is_finite() || a <= 0.0`, by one sum (`x - x` is NaN unless `x`
+    // is finite): `is_finite` is about ten integer instructions a value on the Cortex-M4F.
+    if !((n2 - n2) + (a - a) == 0.0 && a > 0.0) {
         return SVector::zeros();
     }
     if n2 <= a * a {
@@ -104,7 +106,7 @@ fn smooth_min_knots(eps: f32) -> (f32, f32) {
 /// A non-positive or non-finite `eps` gives the plain `min(x, 1)`; NaN `x` gives NaN.
 #[inline]
 pub fn smooth_min(x: f32, eps: f32) -> f32 {
-    if !(eps > 0.0) || !eps.is_finite() {
+    if !vt_fpu::positive_finite(eps) {
         return if x < 1.0 { x } else { 1.0 };
     }
     let (x1, x2) = smooth_min_knots(eps);
@@ -121,7 +123,7 @@ pub fn smooth_min(x: f32, eps: f32) -> f32 {
 /// Derivative of [`smooth_min`] with respect to `x`, in `[0, 1]`.
 #[inline]
 pub fn smooth_min_deriv(x: f32, eps: f32) -> f32 {
-    if !(eps > 0.0) || !eps.is_finite() {
+    if !vt_fpu::positive_finite(eps) {
         return if x < 1.0 { 1.0 } else { 0.0 };
     }
     let (x1, x2) = smooth_min_knots(eps);
