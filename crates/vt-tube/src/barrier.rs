@@ -119,6 +119,31 @@ mod tests {
 
     const TUBE: BarrierParams = BarrierParams::tube(1.0, 0.5, 1.5);
 
+    /// `is_valid` as first written (`is_finite` tests), for the sum form's truth table.
+    fn is_valid_literal(b: &BarrierParams) -> bool {
+        b.gain.is_finite()
+            && b.gain >= 0.0
+            && b.r_safe_m.is_finite()
+            && b.r_active_m.is_finite()
+            && b.r_safe_m > 0.0
+            && b.r_active_m > b.r_safe_m
+            && b.eps > 0.0
+            && b.eps_s > 0.0
+    }
+
+    #[test]
+    fn validity_is_the_literal_test_for_special_values() {
+        let v = [f32::NEG_INFINITY, -1.0, -0.0, 0.0, 1e-30, 0.5, 1.5, f32::MAX, f32::INFINITY, f32::NAN];
+        for gain in v {
+            for r_safe_m in v {
+                for r_active_m in v {
+                    let b = BarrierParams { gain, r_safe_m, r_active_m, ..TUBE };
+                    assert_eq!(b.is_valid(), is_valid_literal(&b), "{b:?}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn zero_beyond_activation_radius() {
         assert_eq!(TUBE.eval(1.5), Barrier::ZERO);

@@ -164,6 +164,27 @@ mod tests {
         }
     }
 
+    /// `sat`'s degenerate cases as first written (`is_finite` tests): the zero vector for
+    /// exactly the same inputs, `u` or its scaled copy otherwise.
+    #[test]
+    fn sat_degenerate_cases_are_the_literal_tests() {
+        let v = [f32::NEG_INFINITY, -1.0, -0.0, 0.0, 1e-30, 0.5, 3.0, 1e20, f32::MAX, f32::INFINITY, f32::NAN];
+        for x in v {
+            for a in v {
+                let u = Vec2::new(x, 0.25);
+                let n2 = u.norm_squared();
+                let zero = !n2.is_finite() || !a.is_finite() || a <= 0.0;
+                let got = sat(u, a);
+                if zero {
+                    assert_eq!(got, Vec2::zeros(), "{x} {a}");
+                } else {
+                    assert!(vt_fpu::norm(&got) <= a, "{x} {a} {got:?}");
+                }
+            }
+            assert_eq!(smooth_min(0.5, x).to_bits(), if x > 0.0 && x.is_finite() { smooth_min(0.5, x) } else { 0.5 }.to_bits());
+        }
+    }
+
     /// The cubic of REFERENCE §2 in its printed (expanded) form.
     fn sigma_printed(x: f64, d1: f64, d2: f64) -> f64 {
         let den = (d1 - d2).powi(3);
