@@ -140,6 +140,18 @@ pub struct Snapshot {
 }
 
 impl Snapshot {
+    /// Makes `self` a copy of `other`, reusing its own buffers (no allocation once they are
+    /// large enough; the derived `clone_from` allocates anew).
+    pub fn copy_from(&mut self, other: &Snapshot) {
+        self.uav_pos_m.clear();
+        self.uav_pos_m.extend_from_slice(&other.uav_pos_m);
+        self.uav_vel_mps.clear();
+        self.uav_vel_mps.extend_from_slice(&other.uav_vel_mps);
+        self.load_pos_m = other.load_pos_m;
+        self.load_vel_mps = other.load_vel_mps;
+        self.time_ms = other.time_ms;
+    }
+
     fn fill(&mut self, p: &Plant, time_ms: u32) {
         self.time_ms = time_ms;
         self.uav_pos_m.clear();

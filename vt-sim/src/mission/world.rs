@@ -73,6 +73,9 @@ pub struct World<'a> {
     hints: TubeHints,
     /// Scratch: the UAV positions the safety metrics read, m.
     uav_pos_scratch: Vec<V3>,
+    /// Scratch: the delayed snapshot the sensors measure from (copied into, not allocated,
+    /// at every low-level tick).
+    snap_scratch: crate::disturbance::Snapshot,
     /// Dryden turbulence per body (`None`: off).
     turbulence: Option<crate::turbulence::Turbulence>,
     /// Which cables are attached (not cut or broken), per plant step.
@@ -227,6 +230,7 @@ impl<'a> World<'a> {
             no_stall: vec![false; n],
             hints: TubeHints::new(n),
             uav_pos_scratch: Vec::with_capacity(n),
+            snap_scratch: crate::disturbance::Snapshot::default(),
             attached: Vec::with_capacity(n),
             dt: 1.0 / f64::from(r.plant_hz),
             ll_every: u64::from(r.plant_hz / r.low_level_hz),
@@ -425,7 +429,8 @@ impl<'a> World<'a> {
         let high_level = clock.is_multiple_of(self.hl_every);
         if high_level {
             let hl_step = clock / self.hl_every;
-            let snap = self.sensors.delayed().clone();
+            self.snap_scratch.copy_from(self.sensors.delayed());
+            let snap = &self.snap_scratch;
             // The mode as the team set it for this tick, the phase as its last step reported
             // it: both what the companion's last HEARTBEAT said.
             for (i, (((msg, x), mode), phase)) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode).zip(&self.phase_codes).enumerate() {
@@ -457,7 +462,8 @@ impl<'a> World<'a> {
         }
         let time_ms = self.clock_ms();
         self.sensors.sample(&self.plant, time_ms);
-        let snap = self.sensors.delayed().clone();
+        self.snap_scratch.copy_from(self.sensors.delayed());
+        let snap = &self.snap_scratch;
         for (i, (m, (p, v))) in self.own.iter_mut().zip(snap.uav_pos_m.iter().zip(&snap.uav_vel_mps)).enumerate() {
             *m = Meas { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), p)), vel_mps: v3f(&self.sensors.velocity(v)), sample_ms: snap.time_ms };
         }
