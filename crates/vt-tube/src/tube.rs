@@ -450,7 +450,7 @@ impl<const N: usize> Tube<N> {
     ///
     /// Returns `None` only for a non-finite `q`.
     pub fn locate(&self, q_m: Vec2, hint: usize) -> Option<Section> {
-        if !(q_m.x.is_finite() && q_m.y.is_finite()) {
+        if !vt_fpu::all_finite(&q_m) {
             return None;
         }
         let last_seg = N - 2;
@@ -578,10 +578,12 @@ impl<const N: usize> Tube<N> {
         let normal = Vec2::new(-tangent.y, tangent.x);
         let wl = a.w_left_m + (b.w_left_m - a.w_left_m) * t;
         let wr = a.w_right_m + (b.w_right_m - a.w_right_m) * t;
-        let s = ((k as f32 + t) * self.ds_m).min(self.length_m);
+        // `f32::min`/`max`'s values for every `t`, a NaN one included (the length first: it
+        // is never NaN), without their calls to `fminf`/`fmaxf` on the Cortex-M4F.
+        let s = vt_fpu::min(self.length_m, (k as f32 + t) * self.ds_m);
         Section {
             s_m: s,
-            remaining_m: (self.length_m - s).max(0.0),
+            remaining_m: vt_fpu::max(0.0, self.length_m - s),
             segment: k,
             point_m: point,
             tangent,
