@@ -247,21 +247,24 @@ impl Cfo {
             // Skip, keep the state; the prediction no longer matches the next measurement.
             return self.skip();
         }
-        self.update_measured(v_meas_mps, thrust_applied_n, dt_s)
+        self.update_measured(v_meas_mps, thrust_applied_n, dt_s).0
     }
 
     /// [`update`](Self::update) for a caller that has checked `v_meas_mps` finite and `dt_s`
     /// finite and positive (the velocity loop, which tests them for its own failsafe): the same
-    /// result for such inputs, without testing them a second time.
+    /// result for such inputs, without testing them a second time; with it the
+    /// [`acceleration_estimate_mps2`](Self::acceleration_estimate_mps2) after the step, whose
+    /// model term `(T + G) / m` the step has just computed from the same thrust (the same bits,
+    /// not computed twice).
     pub(crate) fn update_measured(
         &mut self,
         v_meas_mps: Vector3<f32>,
         thrust_applied_n: Vector3<f32>,
         dt_s: f32,
-    ) -> Vector3<f32> {
+    ) -> (Vector3<f32>, Vector3<f32>) {
         if !vt_fpu::all_finite(&thrust_applied_n) {
             // Skip, keep the state; the prediction no longer matches the next measurement.
-            return self.skip();
+            return (self.skip(), self.acceleration_estimate_mps2());
         }
         if !self.seeded {
             // First measurement since new()/reset(), or the first after skipped steps.
@@ -272,13 +275,13 @@ impl Cfo {
             } else {
                 Status::Ok
             };
-            return self.estimate_n();
+            return (self.estimate_n(), self.acceleration_estimate_mps2());
         }
         if dt_s > self.params.max_step_s() {
             // Forward Euler would leave its stability margin: re-seed, keep z.
             self.seed(v_meas_mps, thrust_applied_n);
             self.status = Status::ObserverReset;
-            return self.estimate_n();
+            return (self.estimate_n(), self.acceleration_estimate_mps2());
         }
 
         let m = self.params.mass_kg;
@@ -302,7 +305,9 @@ impl Cfo {
             self.thrust_last_n = thrust_applied_n;
             self.status = Status::ObserverReset;
         }
-        self.estimate_n()
+        // `thrust_last_n` is `thrust_applied_n` on both branches: this is
+        // `acceleration_estimate_mps2()` with its model term already at hand.
+        (self.estimate_n(), model_mps2 + self.a_hat_mps2)
     }
 
     /// A step without a usable measurement (what [`update`](Self::update) does with one): the
@@ -544,6 +549,29 @@ mod tests {
         assert_eq!(c.estimate_n(), Vector3::zeros());
         assert_eq!(c.velocity_estimate_mps(), Vector3::new(1.0, 1.0, 1.0));
         assert_relative_eq!(c.acceleration_estimate_mps2(), Vector3::zeros());
+    }
+
+    /// The velocity loop takes the acceleration estimate from `update_measured`: it must be
+    /// `acceleration_estimate_mps2()` after the step, bit for bit, on every path (seed, normal,
+    /// a long step's re-seed, a skipped thrust, a state reset by overflow).
+    #[test]
+    fn update_measured_returns_the_acceleration_estimate_bit_for_bit() {
+        let mut c = cfo(15.0);
+        let steps: [(Vector3<f32>, Vector3<f32>, f32); 8] = [
+            (Vector3::new(0.1, -0.2, 0.3), Vector3::new(1.0, -2.0, 25.0), DT_S),
+            (Vector3::new(0.2, -0.1, -0.0), Vector3::new(-0.0, 0.5, 19.0), DT_S),
+            (Vector3::new(0.3, 0.0, 0.1), Vector3::new(2.0, 1.0, 18.5), DT_S),
+            (Vector3::new(0.3, 0.0, 0.1), Vector3::new(2.0, 1.0, 18.5), 1.0),
+            (Vector3::new(0.3, 0.0, 0.1), Vector3::new(f32::NAN, 1.0, 18.5), DT_S),
+            (Vector3::new(0.2, 0.1, 0.1), Vector3::new(2.0, 1.0, 18.5), DT_S),
+            (Vector3::new(3e38, -3e38, 0.1), Vector3::new(f32::MAX, 1.0, 18.5), DT_S),
+            (Vector3::new(0.2, 0.1, 0.1), Vector3::new(2.0, 1.0, 18.5), DT_S),
+        ];
+        for (v, t, dt) in steps {
+            let (f_hat, accel) = c.update_measured(v, t, dt);
+            assert_eq!(f_hat.map(f32::to_bits), c.estimate_n().map(f32::to_bits));
+            assert_eq!(accel.map(f32::to_bits), c.acceleration_estimate_mps2().map(f32::to_bits), "{v:?} {t:?} {dt}");
+        }
     }
 
     proptest! {

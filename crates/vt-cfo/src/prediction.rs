@@ -35,7 +35,8 @@ const HISTORY_MASK: usize = HISTORY_LEN - 1;
 #[must_use]
 pub fn delay_steps(age_s: f32, period_s: f32) -> usize {
     let steps = age_s / period_s;
-    if !(steps.is_finite() && steps >= 0.5) {
+    // `steps - steps == 0.0`: finite (vt_fpu::positive_finite's test).
+    if !(steps - steps == 0.0 && steps >= 0.5) {
         return 0;
     }
     // `as` saturates; the cap keeps the index inside the ring.
@@ -75,11 +76,11 @@ pub fn age_s(now_ms: u32, sample_ms: u32) -> f32 {
 /// zero (or not finite and > 0) returns `pos_m` unchanged; a non-finite result returns `pos_m`.
 #[must_use]
 pub fn extrapolate_constant_velocity(pos_m: Vector3<f32>, vel_mps: Vector3<f32>, age_s: f32) -> Vector3<f32> {
-    if !(age_s.is_finite() && age_s > 0.0) {
+    if !vt_fpu::positive_finite(age_s) {
         return pos_m;
     }
     let p = pos_m + vel_mps * age_s;
-    if p.iter().all(|c| c.is_finite()) {
+    if vt_fpu::all_finite(&p) {
         p
     } else {
         pos_m

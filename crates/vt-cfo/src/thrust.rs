@@ -309,7 +309,7 @@ pub fn thrust_to_attitude(
     let x_b = y_b.cross(&z_b);
 
     // thrust_norm_n > 0 here (possibly +inf for huge finite input): the ratio is never NaN.
-    let collective = if thrust_max_n.is_finite() && thrust_max_n > 0.0 {
+    let collective = if vt_fpu::positive_finite(thrust_max_n) {
         vt_fpu::min(thrust_norm_n / thrust_max_n, 1.0)
     } else {
         0.0

@@ -358,7 +358,7 @@ impl VelocityLoop {
     /// unchanged cap costs one comparison. Used with [`UNLOADED_BANDWIDTH_RAD_S`] while the
     /// cable carries no load.
     pub fn set_bandwidth_cap(&mut self, cap_rad_s: f32) {
-        let cap = if cap_rad_s.is_finite() && cap_rad_s > 0.0 { cap_rad_s } else { f32::INFINITY };
+        let cap = if vt_fpu::positive_finite(cap_rad_s) { cap_rad_s } else { f32::INFINITY };
         if cap == self.bandwidth_cap_rad_s {
             return;
         }
@@ -474,14 +474,15 @@ impl VelocityLoop {
             }
             // The thrust applied over the step that ended at the sample time (k = 0: the last
             // step's, `thrust_applied_n`).
-            let f_hat_n = self.cfo.update_measured(v_meas_mps, self.history.at(k), dt_s);
+            let (f_hat_n, accel_hat_mps2) = self.cfo.update_measured(v_meas_mps, self.history.at(k), dt_s);
             self.prediction = self.predict(v_meas_mps, f_hat_n, k, dt_s);
             // Failsafe for a bad command: brake to zero velocity.
             let v_d = if cmd_ok { v_cmd_mps } else { Vector3::zeros() };
             // e_v = v_d - v (eq:2-2), v predicted to now.
             let e_v = v_d - self.prediction.velocity_mps;
-            // e_v' = v_d' - v' ~ -v_hat' (v_d' = 0, as assumed under eq:2-3).
-            let e_v_dot = -self.cfo.acceleration_estimate_mps2();
+            // e_v' = v_d' - v' ~ -v_hat' (v_d' = 0, as assumed under eq:2-3): the observer's
+            // acceleration estimate after this step.
+            let e_v_dot = -accel_hat_mps2;
             let accel_mps2 = p.gains.kp.component_mul(&e_v)
                 + self.integral_mps2
                 + p.gains.kd.component_mul(&e_v_dot);
@@ -632,7 +633,9 @@ impl VelocityLoop {
 /// further into saturation; `Ki >= 0`); skip a non-finite increment; clamp to `+-limit`.
 fn integrate_axis(integral_mps2: f32, increment_mps2: f32, excess_n: f32, limit_mps2: f32) -> f32 {
     let winds_up = excess_n * increment_mps2 > 0.0;
-    let next = if winds_up || !increment_mps2.is_finite() {
+    // `!increment_mps2.is_finite()` as `x - x != 0.0` (NaN unless finite): a subtraction and
+    // a comparison, where `is_finite` is about ten integer instructions on the Cortex-M4F.
+    let next = if winds_up || increment_mps2 - increment_mps2 != 0.0 {
         integral_mps2
     } else {
         integral_mps2 + increment_mps2
