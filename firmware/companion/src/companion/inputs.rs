@@ -174,12 +174,32 @@ impl Core<'_> {
 }
 
 /// True when every component of `v` is finite and within `+-lim` (`lim` finite and >= 0, in
-/// `v`'s unit): `|c| <= lim` for each `c`, false for an infinity or a NaN. The magnitudes'
-/// bit patterns, compared as integers, order as the magnitudes do, with the infinity above every
-/// finite value and every NaN above the infinity: one integer comparison per component, no
-/// float compare and branch each.
+/// `v`'s unit): `|c| <= lim` for each `c`, false for an infinity or a NaN (a NaN compares
+/// false), so no separate finiteness test. Evaluated without short circuit: three compares
+/// the compiler can take together.
 #[inline]
 fn within(v: &Vec3, lim: f32) -> bool {
-    let magnitude_bits = |c: f32| c.to_bits() & 0x7fff_ffff;
-    magnitude_bits(v.x).max(magnitude_bits(v.y)).max(magnitude_bits(v.z)) <= lim.to_bits()
+    (v.x.abs() <= lim) & (v.y.abs() <= lim) & (v.z.abs() <= lim)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `within` is the first-written test, `finite3(v) && v.iter().all(|c| c.abs() <= lim)`,
+    /// for every special value.
+    #[test]
+    fn within_is_the_finite_and_bounded_test() {
+        let lim = POSITION_LIMIT_M;
+        let vals = [f32::NEG_INFINITY, -f32::MAX, -1.0e5, -99_999.99, -0.0, 0.0, f32::MIN_POSITIVE / 4.0, 1.0e5, 100_000.01, f32::MAX, f32::INFINITY, f32::NAN, -f32::NAN];
+        for x in vals {
+            for y in vals {
+                for z in [0.5, f32::NAN, -1.0e6] {
+                    let v = Vec3::new(x, y, z);
+                    let literal = v.iter().all(|c| c.is_finite()) && v.iter().all(|c| c.abs() <= lim);
+                    assert_eq!(within(&v, lim), literal, "{v:?}");
+                }
+            }
+        }
+    }
 }
