@@ -453,11 +453,12 @@ impl Flight {
             reasons |= HoldReasons::LOAD_STALE;
         }
         let mut view: [Option<Vec3>; MAX_UAVS] = [None; MAX_UAVS];
-        for (j, slot) in view.iter_mut().enumerate().take(self.n) {
+        // Beside the team's slots (both arrays hold `MAX_UAVS`): no index to check.
+        for (j, (slot, received)) in view.iter_mut().zip(src.neighbours.iter()).enumerate().take(self.n) {
             if j == self.id {
                 *slot = own.map(|o| o.pos_m);
             } else {
-                *slot = src.neighbours.get(j).copied().flatten().and_then(|s| s.fresh(now_ms, self.nbr_tmo_ms));
+                *slot = received.and_then(|s| s.fresh(now_ms, self.nbr_tmo_ms));
                 // Hold, or leave the slot empty: the controller drops that neighbour's springs.
                 if slot.is_none() && self.hold_on_stale_neighbour {
                     reasons |= HoldReasons::NEIGHBOUR_STALE;
