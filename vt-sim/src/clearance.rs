@@ -17,7 +17,10 @@
 //!   so it too is a lower bound.
 
 use crate::scenario::{LoadedScenario, SimTube};
+use boundary::{BoundaryAnchor, TubeSeen};
 use nalgebra::{Vector2, Vector3};
+
+mod boundary;
 
 pub use crate::obstacles::Obstacles;
 
@@ -163,7 +166,15 @@ pub struct Clearances {
     uav_radius_m: f64,
     load_radius_m: f64,
     obstacles: Obstacles,
+    /// Per UAV, the segment its last tube lookup answered (the next lookup's warm start).
     hints: Vec<usize>,
+    /// Per UAV, what its last boundary measurement proves about the samples after it.
+    boundary: Vec<Option<BoundaryAnchor>>,
+    /// The tube the anchors that read all of it were made on.
+    seen: TubeSeen,
+    /// Tube lookups made (tests: how many the anchors saved).
+    #[cfg(test)]
+    lookups: usize,
     /// Per UAV, its last measured obstacle clearance (centre, before the envelope).
     uav_measured: Vec<Measured>,
     /// Per cable, its last measured obstacle clearance (UAV centre to load centre).
@@ -185,6 +196,10 @@ impl Clearances {
             load_radius_m,
             obstacles,
             hints: vec![0; n],
+            boundary: vec![None; n],
+            seen: TubeSeen::default(),
+            #[cfg(test)]
+            lookups: 0,
             uav_measured: vec![Measured::NONE; n],
             cable_measured: vec![Measured::NONE; n],
             load_measured: Measured::NONE,
@@ -212,18 +227,36 @@ impl Clearances {
         // The closest pair by squared distance, one square root: `sqrt(x) - 2 r` is monotone,
         // so this is the minimum over the pairs of `|p_i - p_j| - 2 r`, bit for bit.
         let pair_sq = self.pairs.min_sq(uav_pos_m, lost, m.uav_uav_m + 2.0 * r);
+        self.seen.new_sample();
         for (i, p) in uav_pos_m.iter().enumerate().filter(|(i, _)| up(*i)) {
             let xy = p.xy();
-            let hint = self.hints.get(i).copied().unwrap_or(0);
             let q = vt_tube::Vec2::new(xy.x as f32, xy.y as f32);
-            match tube.locate(q, hint) {
-                Some(sec) => {
-                    if let Some(h) = self.hints.get_mut(i) {
-                        *h = sec.segment;
-                    }
-                    m.uav_boundary_m = m.uav_boundary_m.min(f64::from(sec.boundary_distance_m(q)) - r);
+            // The lookup is skipped only when it certainly keeps the hint and the minimum
+            // (`boundary`): every lookup made is the brute force's, bit for bit.
+            let anchor = self.boundary.get_mut(i);
+            let skip = anchor.as_deref().and_then(Option::as_ref).is_some_and(|a| a.skips([f64::from(q.x), f64::from(q.y)], m.uav_boundary_m, tube, &mut self.seen));
+            if !skip {
+                let hint = self.hints.get(i).copied().unwrap_or(0);
+                let mut measured = None;
+                #[cfg(test)]
+                {
+                    self.lookups += 1;
                 }
-                None => m.uav_boundary_m = f64::NEG_INFINITY,
+                match tube.locate(q, hint) {
+                    Some(sec) => {
+                        if let Some(h) = self.hints.get_mut(i) {
+                            *h = sec.segment;
+                        }
+                        let d = sec.boundary_distance_m(q);
+                        m.uav_boundary_m = m.uav_boundary_m.min(f64::from(d) - r);
+                        let scan = anchor.as_deref().and_then(Option::as_ref).and_then(BoundaryAnchor::scan);
+                        measured = BoundaryAnchor::new(tube, sec.segment, [q.x, q.y], d, r, m.uav_boundary_m, &mut self.seen, scan);
+                    }
+                    None => m.uav_boundary_m = f64::NEG_INFINITY,
+                }
+                if let Some(a) = anchor {
+                    *a = measured;
+                }
             }
             if let Some(seen) = self.uav_measured.get_mut(i) {
                 if !seen.above(xy, xy, m.obstacle_m + r) {
@@ -274,76 +307,4 @@ impl Clearances {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::map::Shape;
-
-    #[test]
-    fn clearances_subtract_the_envelopes() {
-        let tube = SimTube::from_waypoints(&[vt_tube::Waypoint::new(0.0, 0.0, 3.0, 3.0), vt_tube::Waypoint::new(20.0, 0.0, 3.0, 3.0)]).unwrap();
-        let obstacles = Obstacles::of_shapes(&[Shape::Circle { center_m: [10.0, 6.0], radius_m: 1.0 }]);
-        let mut c = Clearances::new(3, 0.4, 0.3, obstacles);
-        let uavs = [V3::new(10.0, 2.0, 8.0), V3::new(11.0, 2.0, 8.0), V3::new(5.0, 0.0, 8.0)];
-        c.sample(&uavs, &V3::new(10.0, 0.0, 2.0), &[false, false, false], &[true, true, true], &tube);
-        let m = c.min();
-        assert!((m.uav_uav_m - 0.2).abs() < 1e-9, "{m:?}");
-        assert!((m.uav_boundary_m - 0.6).abs() < 1e-5, "1 m from the boundary less 0.4: {m:?}");
-        // UAV 0 at 4 m from the circle's centre: 3 m from its rim, 2.6 m from its body.
-        assert!((m.obstacle_m - 2.6).abs() < 1e-9, "{m:?}");
-        // A UAV that is down, and a cut cable, are left out.
-        let mut c2 = Clearances::new(3, 0.4, 0.3, Obstacles::of_shapes(&[Shape::Circle { center_m: [10.0, 6.0], radius_m: 1.0 }]));
-        c2.sample(&uavs, &V3::new(10.0, 0.0, 2.0), &[false, true, false], &[true, true, false], &tube);
-        assert!(c2.min().uav_uav_m > 4.0);
-    }
-
-    #[test]
-    fn skipping_what_cannot_be_closer_gives_the_brute_force_minimum_bit_for_bit() {
-        let bodies = vec![
-            Shape::Circle { center_m: [10.0, 6.0], radius_m: 1.0 },
-            Shape::Circle { center_m: [3.0, -4.0], radius_m: 0.5 },
-            Shape::Wall { from_m: [15.0, -5.0], to_m: [18.0, 3.0], thickness_m: 0.3 },
-            Shape::Polygon(vec![[5.0, 2.0], [7.0, 2.5], [6.0, 4.0]]),
-        ];
-        let tube = SimTube::from_waypoints(&[vt_tube::Waypoint::new(0.0, 0.0, 6.0, 6.0), vt_tube::Waypoint::new(20.0, 0.0, 6.0, 6.0)]).unwrap();
-        let (r, rl) = (0.4, 0.3);
-        let mut c = Clearances::new(4, r, rl, Obstacles::of_shapes(&bodies));
-        let bodies: Vec<Obstacles> = bodies.iter().map(|b| Obstacles::of_shapes(std::slice::from_ref(b))).collect();
-        let mut brute = f64::INFINITY;
-        let mut brute_pair = f64::INFINITY;
-        let mut seed = 12345_u64;
-        let mut rnd = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
-        // Random walks (the skip's case: small moves between samples) with a jump every
-        // 500 samples.
-        let mut uavs: Vec<V3> = Vec::new();
-        let mut load = V3::zeros();
-        for k in 0..20_000 {
-            if k % 500 == 0 {
-                uavs = (0..4).map(|_| V3::new(rnd(0.0, 20.0), rnd(-6.0, 6.0), 8.0)).collect();
-                load = V3::new(rnd(0.0, 20.0), rnd(-5.0, 5.0), 2.0);
-            }
-            for u in uavs.iter_mut().chain(std::iter::once(&mut load)) {
-                *u += V3::new(rnd(-0.03, 0.03), rnd(-0.03, 0.03), 0.0);
-            }
-            c.sample(&uavs, &load, &[false; 4], &[true; 4], &tube);
-            let (lx, ly) = (load.x, load.y);
-            for u in &uavs {
-                for b in &bodies {
-                    brute = brute.min(b.point_m(u.xy()) - r).min(b.segment_m(u.xy(), V2::new(lx, ly)));
-                }
-            }
-            for b in &bodies {
-                brute = brute.min(b.point_m(V2::new(lx, ly)) - rl);
-            }
-            for (i, p) in uavs.iter().enumerate() {
-                for q in uavs.iter().skip(i + 1) {
-                    brute_pair = brute_pair.min((p - q).norm() - 2.0 * r);
-                }
-            }
-            assert_eq!(c.min().obstacle_m.to_bits(), brute.to_bits());
-            assert_eq!(c.min().uav_uav_m.to_bits(), brute_pair.to_bits());
-        }
-    }
-}
+mod tests;

@@ -445,6 +445,18 @@ impl<const N: usize> Tube<N> {
         self.samples.iter().map(|s| 0.5 * (s.w_left_m + s.w_right_m)).fold(f32::MAX, f32::min)
     }
 
+    /// The radius within which [`Tube::locate`] takes a local minimum of the distance on
+    /// segment `segment` (`0..N-1`) as the global one without searching, m: the smaller of the
+    /// certification radii of the segment's two samples (0 past the table). A caller that
+    /// knows `q` is nearer to this segment than this radius, and nearer to it than to the
+    /// neighbouring segments, knows [`Tube::locate`] from this hint answers this segment.
+    pub fn certified_radius_m(&self, segment: usize) -> f32 {
+        vt_fpu::min(
+            self.certify_m.get(segment).copied().unwrap_or(0.0),
+            self.certify_m.get(segment + 1).copied().unwrap_or(0.0),
+        )
+    }
+
     /// Section of `q`, warm-started from segment `hint` (use the previous answer's
     /// [`Section::segment`]; any value is correct, a close one is fast).
     ///

@@ -237,6 +237,31 @@ fn hairpin_lookups_equal_brute_force_and_most_are_certified() {
     assert!(certified > 120 * 60 / 2, "certified {certified} of {}", 120 * 60);
 }
 
+#[test]
+fn certified_radius_is_the_lookups_own_and_certifies_what_it_says() {
+    let tube = s_tube();
+    assert_eq!(tube.certified_radius_m(255), 0.0, "past the table");
+    assert_eq!(tube.certified_radius_m(3), tube.certify_m[3].min(tube.certify_m[4]));
+    assert!(straight(3.0, 1.0).certified_radius_m(100) > 2.0, "half the separation beyond a 64-sample window");
+    // A point over a segment's middle, nearer to it than its certified radius, is located on
+    // that segment from that hint, and that is the exhaustive search's segment.
+    let mut checked = 0;
+    for k in 0..255 {
+        let (a, b) = (tube.samples()[k], tube.samples()[k + 1]);
+        let mid = (a.pos_m + b.pos_m) * 0.5;
+        let n = a.normal();
+        let r = tube.certified_radius_m(k);
+        for f in [-0.95f32, -0.5, 0.0, 0.5, 0.95] {
+            let q = mid + n * (f * r);
+            let sec = tube.locate(q, k).unwrap();
+            assert_eq!(sec.segment, k, "segment {k}, offset {f} r");
+            assert_eq!(sec.segment, tube.locate_exact(q).segment, "segment {k}, offset {f} r");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 255 * 5);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
