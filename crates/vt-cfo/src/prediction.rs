@@ -35,8 +35,7 @@ const HISTORY_MASK: usize = HISTORY_LEN - 1;
 #[must_use]
 pub fn delay_steps(age_s: f32, period_s: f32) -> usize {
     let steps = age_s / period_s;
-    // `steps - steps == 0.0`: finite (vt_fpu::positive_finite's test).
-    if !(steps - steps == 0.0 && steps >= 0.5) {
+    if !(vt_fpu::is_finite(steps) && steps >= 0.5) {
         return 0;
     }
     // `as` saturates; the cap keeps the index inside the ring.

@@ -658,7 +658,7 @@ mod tests {
             bits in proptest::array::uniform3(any::<u32>()),
             thrust_max in prop_oneof![Just(f32::MAX), Just(f32::MAX / 2.0), 1e-30f32..1e38],
             min_fraction in prop_oneof![Just(0.0f32), 0.0f32..1.0],
-            tilt in prop_oneof![Just(1.570_796_2f32), Just(1e-6f32), 1e-6f32..1.570_796],
+            tilt in prop_oneof![Just(f32::from_bits(core::f32::consts::FRAC_PI_2.to_bits() - 1)), Just(1e-6f32), 1e-6f32..core::f32::consts::FRAC_PI_2],
             reserve in prop_oneof![Just(0.0f32), 0.0f32..0.999],
             hover in prop_oneof![Just(f32::NAN), Just(f32::INFINITY), any::<f32>()],
         ) {

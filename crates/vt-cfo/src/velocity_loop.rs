@@ -633,9 +633,7 @@ impl VelocityLoop {
 /// further into saturation; `Ki >= 0`); skip a non-finite increment; clamp to `+-limit`.
 fn integrate_axis(integral_mps2: f32, increment_mps2: f32, excess_n: f32, limit_mps2: f32) -> f32 {
     let winds_up = excess_n * increment_mps2 > 0.0;
-    // `!increment_mps2.is_finite()` as `x - x != 0.0` (NaN unless finite): a subtraction and
-    // a comparison, where `is_finite` is about ten integer instructions on the Cortex-M4F.
-    let next = if winds_up || increment_mps2 - increment_mps2 != 0.0 {
+    let next = if winds_up || !vt_fpu::is_finite(increment_mps2) {
         integral_mps2
     } else {
         integral_mps2 + increment_mps2

@@ -50,10 +50,10 @@ impl BarrierParams {
 
     /// True when the parameters describe a usable barrier (finite, `0 < r_s < r_a`, `k >= 0`).
     pub fn is_valid(&self) -> bool {
-        // The three finiteness tests as one sum (`x - x` is NaN unless `x` is finite): it runs
-        // at every evaluation, and `is_finite` is about ten integer instructions a value on the
+        // The three finiteness tests as one sum (vt_fpu::zero_or_nan): it runs at every
+        // evaluation, and `is_finite` is about ten integer instructions a value on the
         // Cortex-M4F.
-        (self.gain - self.gain) + (self.r_safe_m - self.r_safe_m) + (self.r_active_m - self.r_active_m) == 0.0
+        vt_fpu::zero_or_nan(self.gain) + vt_fpu::zero_or_nan(self.r_safe_m) + vt_fpu::zero_or_nan(self.r_active_m) == 0.0
             && self.gain >= 0.0
             && self.r_safe_m > 0.0
             && self.r_active_m > self.r_safe_m
@@ -88,7 +88,7 @@ impl BarrierParams {
         }
         let value = self.gain * sig / den;
         let deriv = self.gain * (dsig * den - sig * dden) / (den * den);
-        if (value - value) + (deriv - deriv) == 0.0 {
+        if vt_fpu::zero_or_nan(value) + vt_fpu::zero_or_nan(deriv) == 0.0 {
             Barrier { value, deriv }
         } else {
             // f32 overflow deep inside the safety zone: saturate, keep the repulsive sign.

@@ -44,9 +44,9 @@ pub fn limit(x: f32, lo: f32, hi: f32) -> f32 {
 #[inline]
 pub fn sat<const D: usize>(u: SVector<f32, D>, a: f32) -> SVector<f32, D> {
     let n2 = u.norm_squared();
-    // `!n2.is_finite() || !a.is_finite() || a <= 0.0`, by one sum (`x - x` is NaN unless `x`
-    // is finite): `is_finite` is about ten integer instructions a value on the Cortex-M4F.
-    if !((n2 - n2) + (a - a) == 0.0 && a > 0.0) {
+    // `!n2.is_finite() || !a.is_finite() || a <= 0.0`, by one sum (vt_fpu::zero_or_nan):
+    // `is_finite` is about ten integer instructions a value on the Cortex-M4F.
+    if !(vt_fpu::zero_or_nan(n2) + vt_fpu::zero_or_nan(a) == 0.0 && a > 0.0) {
         return SVector::zeros();
     }
     if n2 <= a * a {

@@ -580,9 +580,9 @@ impl Flight {
         self.f_hat_n = out.f_hat_n;
         let att = thrust_to_attitude(out.thrust_n, self.heading, self.thrust_max_n);
         let mut sp = Setpoint { q_ned: ned_frd_quaternion(&att.attitude), thrust: att.collective };
-        // Every component finite: one sum (vt_fpu::zero_if_finite).
-        let [a, b, c, d] = sp.q_ned;
-        if (a - a) + (b - b) + (c - c) + (d - d) + (sp.thrust - sp.thrust) != 0.0 {
+        // Every component finite: one sum (vt_fpu::zero_or_nan).
+        let finite_probe = sp.q_ned.iter().fold(vt_fpu::zero_or_nan(sp.thrust), |acc, &c| acc + vt_fpu::zero_or_nan(c));
+        if finite_probe != 0.0 {
             reasons |= HoldReasons::NONFINITE;
             sp = self.level_hover();
         }
