@@ -137,7 +137,7 @@ fn wrench(t: &[F2; 4], d: F2, km: F2) -> (F2, V2x3) {
     let fold = |s: Option<&[f64; 4]>| {
         let mut acc = F2::splat(-0.0);
         for (k, tk) in t.iter().enumerate() {
-            acc = acc + match s {
+            acc += match s {
                 Some(s) => F2::splat(s.get(k).copied().unwrap_or(0.0)) * *tk,
                 None => *tk,
             };
@@ -247,9 +247,9 @@ fn integrate_pair(qs: [&mut Quadrotor; 2], g: &Gathered, f_ext: [&Vector3<f64>; 
         let gain = tk.max(F2::splat(0.0)).sqrt() * gain_per_root;
         let hx = (v_air_b.x - omega.z * ry) * gain;
         let hy = (v_air_b.y + omega.z * rx) * gain;
-        drag_b.x = drag_b.x + hx;
-        drag_b.y = drag_b.y + hy;
-        torque_b.z = torque_b.z + (rx * hy - ry * hx);
+        drag_b.x += hx;
+        drag_b.y += hy;
+        torque_b.z += rx * hy - ry * hx;
     }
     // The drag bound of the scalar step, lane by lane (it binds only in extreme airspeeds).
     let drag_sq = drag_b.dot(drag_b);
