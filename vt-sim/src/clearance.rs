@@ -79,7 +79,7 @@ struct ClosestPair {
     nearest_m: Vec<f64>,
     /// Scratch: the UAVs whose pairs are measured this sample.
     near: Vec<usize>,
-    /// Scratch: how far each UAV moved since the epoch, m.
+    /// Scratch: how far each UAV moved since the epoch, squared, m^2.
     moved: Vec<f64>,
 }
 
@@ -98,15 +98,23 @@ impl ClosestPair {
         if !same_team {
             return self.epoch(pos, lost);
         }
-        self.moved.clear();
-        self.moved.extend(pos.iter().zip(&self.at).map(|(p, a)| (p - a).norm()));
-        let d_max = self.moved.iter().copied().fold(0.0, f64::max);
+        // Squared moves: one square root for the farthest (`sqrt` is monotone, so it is the
+        // largest `|p - a|`, bit for bit), and a UAV's own only when `d - 2 d_max` does not
+        // already clear the limit (`d - moved - d_max` is at least that, rounding included).
+        self.moved.resize(pos.len(), 0.0);
+        let mut sq_max = 0.0f64;
+        for ((moved, p), a) in self.moved.iter_mut().zip(pos).zip(&self.at) {
+            *moved = (p - a).norm_squared();
+            sq_max = sq_max.max(*moved);
+        }
+        let d_max = sq_max.sqrt();
         if d_max.is_nan() || d_max > EPOCH_MOVE_M {
             return self.epoch(pos, lost);
         }
         self.near.clear();
-        for (i, (moved, d)) in self.moved.iter().zip(&self.nearest_m).enumerate() {
-            let clears = d - moved - d_max > limit_m * (1.0 + PRUNE_SLACK) + PRUNE_SLACK;
+        let limit = limit_m * (1.0 + PRUNE_SLACK) + PRUNE_SLACK;
+        for (i, (moved_sq, d)) in self.moved.iter().zip(&self.nearest_m).enumerate() {
+            let clears = d - d_max - d_max > limit || d - moved_sq.sqrt() - d_max > limit;
             if up(i) && !clears {
                 self.near.push(i);
             }

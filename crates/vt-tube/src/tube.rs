@@ -447,9 +447,11 @@ impl<const N: usize> Tube<N> {
 
     /// The radius within which [`Tube::locate`] takes a local minimum of the distance on
     /// segment `segment` (`0..N-1`) as the global one without searching, m: the smaller of the
-    /// certification radii of the segment's two samples (0 past the table). A caller that
-    /// knows `q` is nearer to this segment than this radius, and nearer to it than to the
-    /// neighbouring segments, knows [`Tube::locate`] from this hint answers this segment.
+    /// certification radii of the segment's two samples (0 past the table), as `locate` reads
+    /// them. A caller that knows `q` is nearer to this segment than this radius, and not
+    /// farther from it than from the neighbouring segments (in `locate`'s f32 arithmetic),
+    /// knows that `locate(q, segment)` answers this segment (`vt-sim`'s clearances use it to
+    /// skip lookups that cannot change).
     pub fn certified_radius_m(&self, segment: usize) -> f32 {
         vt_fpu::min(
             self.certify_m.get(segment).copied().unwrap_or(0.0),

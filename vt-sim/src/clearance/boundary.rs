@@ -42,18 +42,23 @@
 //! some segment's `d32` is strictly smaller, so every other segment `j` must stay `2 eps_d`
 //! farther. Along the tube away from `k`, `f(sigma) = |q - gamma(sigma)|^2` has slope 2 on
 //! each segment, and at a vertex `P_v` its slope drops by at most `2 |P_v - q| b_v`
-//! (`b_v = |t_v - t_{v-1}|`); from `P_{k+1}` on (where `f >= d(k)^2` and the slope is
-//! `>= 0`), `f - d(k)^2 >= h(tau) = tau^2 - 2 sum_v c_v (tau - tau_v)+`, `c_v` the bound of
-//! `|P_v - q| b_v` over the reach. The least of `h` over the segments after `k + 1` (backward
-//! alike), [`FOLLOW`] segments each way, must reach `a^2`; the other segments are scanned: at
-//! distance `far` from the anchor, they stay apart while `|q - q_anchor| <= (far - D) / 2 - eps`.
+//! (`b_v = |t_v - t_{v-1}|`); on segment `k` the slope towards `P_{k+1}` is `2 (E - s) >= 0`
+//! and `f(P_{k+1}) >= d(k)^2`, so beyond it `f - d(k)^2 >= h(tau) = tau^2 - 2 sum_v c_v
+//! (tau - tau_v)+` (`tau` the arc length from `P_{k+1}`, `c_v` the bound of `|P_v - q| b_v`
+//! over the reach). The least of `h` over the segments after `k + 1`, [`FOLLOW`] of them
+//! (backward alike), must reach `a^2`; the segments more than [`SCAN_GAP`] from the scan's
+//! own segment are scanned: at distance `far` from the scan's base, they stay apart while
+//! `|q - q_anchor| <= (far - |q_anchor - base| - D) / 2 - eps`. Such a proof is made only for a
+//! UAV whose lookup is not certified (its lookup searches the table, about ten times the cost
+//! of a certified one), and its scan serves the UAV's next anchors while it proves as much.
 //!
-//! Everything the proof reads from the tube (the four samples' positions, the segment's
-//! tangents and widths, its certified radius) is kept as bits and compared at every skip, so
-//! the anchor is valid for any tube it is given: a re-planned tube (`World::set_team_tube`),
-//! even one in the same memory, is measured anew unless it is the same there. A proof beyond
-//! the certified radius reads every position: it also requires the whole table's positions
-//! to be the ones it was made on ([`TubeSeen`], one comparison per sample at most).
+//! Everything the proof reads from the tube near the segment (the four samples' positions,
+//! the segment's tangents and widths, its certified radius) is kept as bits and compared at
+//! every skip, so the anchor is valid for any tube it is given: a re-planned tube
+//! (`World::set_team_tube`), even one in the same memory, is measured anew unless it is the
+//! same there. A proof beyond the certified radius reads every position: it also requires the
+//! whole table's positions to be the ones it was made on ([`TubeSeen`], one comparison per
+//! sample at most).
 
 use crate::scenario::SimTube;
 
@@ -64,6 +69,7 @@ const SLACK_M: f64 = 1e-9;
 /// How far beyond the segment's length a UAV may move from its anchor, m: farther it has left
 /// the segment, so a larger reach would prove nothing and only widen the rounding bounds.
 const REACH_M: f64 = 0.2;
+
 type Xy = [f64; 2];
 
 /// How many pairs of f32 values of the tube an anchor's lookup depends on (see [`window`]).
@@ -404,7 +410,9 @@ impl BoundaryAnchor {
         if !(reach > 0.0 && dot(moved, moved) < reach * reach) {
             return false;
         }
-        self.keeps_segment(q) && window(tube, self.segment).is_some_and(|w| w == self.window) && self.epoch.is_none_or(|e| seen.epoch(tube) == e)
+        // The window compared word by word without a branch (an array `==` calls `bcmp`).
+        let same = window(tube, self.segment).is_some_and(|w| w.iter().zip(&self.window).fold(0, |d, (a, b)| d | (a ^ b)) == 0);
+        self.keeps_segment(q) && same && self.epoch.is_none_or(|e| seen.epoch(tube) == e)
     }
 
     /// True when the neighbouring segments are farther from `q` (m) than this one by the
@@ -428,5 +436,45 @@ impl BoundaryAnchor {
             }
         }
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_epoch_follows_the_positions_not_the_address() {
+        let w = |x, y| vt_tube::Waypoint::new(x, y, 2.0, 2.0);
+        let a = SimTube::from_waypoints(&[w(0.0, 0.0), w(10.0, 1.0), w(20.0, 0.0)]).unwrap();
+        let b = SimTube::from_waypoints(&[w(0.0, 0.0), w(10.0, 1.0), w(20.0, 0.5)]).unwrap();
+        let mut seen = TubeSeen::default();
+        let first = seen.epoch(&a);
+        // Within one sample the comparison is made once.
+        assert_eq!(seen.epoch(&b), first);
+        // A copy elsewhere in memory is the same tube; another one in the same box is not.
+        seen.new_sample();
+        assert_eq!(seen.epoch(&Box::new(a.clone())), first);
+        let mut slot = Box::new(a.clone());
+        seen.new_sample();
+        assert_eq!(seen.epoch(&slot), first);
+        *slot = b;
+        seen.new_sample();
+        let second = seen.epoch(&slot);
+        assert_ne!(second, first);
+        seen.new_sample();
+        assert_ne!(seen.epoch(&a), second);
+    }
+
+    #[test]
+    fn the_rising_bound_is_the_square_of_the_arc_on_a_straight_tube() {
+        let w = |x| vt_tube::Waypoint::new(x, 0.0, 2.0, 2.0);
+        let tube = SimTube::from_waypoints(&[w(0.0), w(25.5)]).unwrap();
+        let mut seen = TubeSeen::default();
+        seen.epoch(&tube);
+        // No turn: h(tau) = tau^2, least at the start of the second segment followed.
+        let h = seen.rising_m2(&tube, 11, 5, true, [1.0, 3.0], 0.3).unwrap();
+        assert!((h - 0.01).abs() < 1e-7, "{h}");
+        assert_eq!(seen.rising_m2(&tube, 11, 1, true, [1.0, 3.0], 0.3), Some(f64::INFINITY));
     }
 }

@@ -94,20 +94,41 @@ fn bend_tube() -> SimTube {
     SimTube::from_waypoints(&[w(0.0, 0.0, 3.0, 3.0), w(6.0, 3.0, 2.5, 2.0), w(12.0, 0.5, 0.9, 1.8), w(17.0, 4.0, 2.0, 2.0), w(22.0, 2.0, 3.0, 2.5)]).unwrap()
 }
 
-#[test]
-fn skipping_boundary_lookups_gives_the_brute_force_minimum_and_hints_bit_for_bit() {
+/// A hairpin: two legs 9 m apart with 2 m between their boundaries, so beyond the certified
+/// radius the other leg is near.
+fn hairpin_tube() -> SimTube {
+    let w = |x, y, l, r| vt_tube::Waypoint::new(x, y, l, r);
+    SimTube::from_waypoints(&[
+        w(0.0, 0.0, 3.5, 3.5),
+        w(12.0, 0.0, 3.5, 3.0),
+        w(18.0, 0.3, 2.0, 2.0),
+        w(21.8, 2.2, 1.5, 1.5),
+        w(22.6, 4.5, 1.5, 1.5),
+        w(21.8, 6.8, 1.5, 1.5),
+        w(18.0, 8.7, 2.0, 2.0),
+        w(12.0, 9.0, 3.0, 3.5),
+        w(0.0, 9.0, 3.5, 3.5),
+    ])
+    .unwrap()
+}
+
+/// Random walks of ten UAVs in and near a tube, each sample measured both ways: `Clearances`
+/// (anchors) and the brute force (a lookup for every UAV at every sample, as `sample` did).
+/// The tube lives in one box and `swap(episode, k)` replaces it in place (the same address,
+/// another tube). A UAV jumps now and then to `reach` m beyond the tube's boundary at most.
+/// Asserts the minimum and every hint equal, bit for bit, at every sample; returns the lookups
+/// made and the UAV samples.
+fn walks_match_the_brute_force(seed: u64, episodes: usize, steps: usize, reach: f64, swap: impl Fn(usize, usize) -> Option<SimTube>) -> (usize, usize) {
     let n = 10;
     let r = 0.4;
-    let mut seed = 2024_u64;
+    let mut seed = seed;
     let mut rnd = |lo: f64, hi: f64| {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
     };
     let (mut lookups, mut samples) = (0, 0);
-    for episode in 0..8 {
-        // The tube lives in one box, swapped in place (the same address, another tube) and
-        // back: the anchors must notice without the pointer changing.
-        let mut tube = Box::new(paper_tube());
+    for episode in 0..episodes {
+        let mut tube = Box::new(swap(episode, 0).unwrap());
         let mut c = Clearances::new(n, r, 0.3, Obstacles::of_shapes(&[]));
         let mut brute = f64::INFINITY;
         let mut brute_hints = vec![0usize; n];
@@ -115,18 +136,16 @@ fn skipping_boundary_lookups_gives_the_brute_force_minimum_and_hints_bit_for_bit
         let mut uavs: Vec<V3> = Vec::new();
         let mut drift = vec![(0.0, 0.0); n];
         let mut lost = vec![false; n];
-        for k in 0..4000 {
-            match k {
-                2000 => *tube = bend_tube(),
-                3000 => *tube = paper_tube(),
-                _ => {}
+        for k in 0..steps {
+            if let Some(next) = swap(episode, k).filter(|_| k > 0) {
+                *tube = next;
             }
             // A UAV jumps to anywhere in or near the tube now and then (and all at the start).
             let table = tube.samples();
             for i in 0..n {
                 if k == 0 || rnd(0.0, 1.0) < 1.0 / 1500.0 {
                     let smp = table[rnd(0.0, 255.99) as usize];
-                    let off = rnd(-f64::from(smp.w_right_m) - 1.0, f64::from(smp.w_left_m) + 1.0);
+                    let off = rnd(-f64::from(smp.w_right_m) - reach, f64::from(smp.w_left_m) + reach);
                     let p = smp.pos_m + smp.normal() * off as f32;
                     let at = V3::new(f64::from(p.x), f64::from(p.y), 8.0);
                     if k == 0 {
@@ -165,7 +184,26 @@ fn skipping_boundary_lookups_gives_the_brute_force_minimum_and_hints_bit_for_bit
         }
         lookups += c.lookups;
     }
+    (lookups, samples)
+}
+
+#[test]
+fn skipping_boundary_lookups_gives_the_brute_force_minimum_and_hints_bit_for_bit() {
+    // The paper's tube, swapped mid-flight for a re-planned one and back.
+    let (lookups, samples) = walks_match_the_brute_force(2024, 8, 4000, 1.0, |episode, k| match k {
+        0 | 3000 => Some(paper_tube()),
+        2000 => Some(if episode % 2 == 0 { bend_tube() } else { hairpin_tube() }),
+        _ => None,
+    });
     // The anchors must also save lookups, or the test proves nothing.
     assert!(lookups * 4 < samples, "{lookups} lookups for {samples} UAV samples");
 }
 
+#[test]
+fn beside_a_hairpin_the_far_leg_is_accounted_for() {
+    // UAVs up to 2.5 m outside a hairpin whose legs' boundaries are 2 m apart: between the
+    // legs, beyond the certified radius, where the lookup searches the whole table and the
+    // other leg may be the nearer.
+    let (lookups, samples) = walks_match_the_brute_force(77, 6, 3000, 2.5, |_, k| (k == 0).then(hairpin_tube));
+    assert!(lookups * 3 < samples, "{lookups} lookups for {samples} UAV samples");
+}
