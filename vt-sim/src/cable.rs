@@ -23,6 +23,13 @@ pub struct CableParams {
 }
 
 impl CableParams {
+    /// True when the parameters can give a force: rest length, stiffness and damping finite,
+    /// `f_max` not NaN ([`cable_force`]'s test; `&`, not `&&`: cheap pure tests, no branches).
+    #[inline]
+    pub(crate) fn usable(&self) -> bool {
+        self.rest_length_m.is_finite() & self.stiffness_n_per_m.is_finite() & self.damping_ns_per_m.is_finite() & !self.f_max_n.is_nan()
+    }
+
     /// Elastic energy stored at length `length_m` (m), J: `0.5 k (len - len0)^2` when taut,
     /// 0 when slack. This is the potential of the uncapped spring; once the `f_max` cap is active
     /// the cable force is no longer conservative and this is not its potential. Non-finite
@@ -68,8 +75,15 @@ impl CableForce {
 /// True when every component is finite. Written out with non-short-circuit `&` (no iterator,
 /// no branches): it runs several times per cable per plant sub-step.
 #[inline]
-fn all_finite(v: &Vector3<f64>) -> bool {
+pub(crate) fn all_finite(v: &Vector3<f64>) -> bool {
     v.x.is_finite() & v.y.is_finite() & v.z.is_finite()
+}
+
+/// True when a cable of rest length `rest_length_m` pulls at a finite endpoint distance
+/// `length_m` (m): not below [`MIN_CABLE_LENGTH_M`] (no direction) and longer than at rest.
+#[inline]
+pub(crate) fn taut(length_m: f64, rest_length_m: f64) -> bool {
+    !(length_m < MIN_CABLE_LENGTH_M || length_m <= rest_length_m)
 }
 
 /// Cable force for the UAV at `p_uav` (m) moving at `v_uav` (m/s) and the load at `p_load` (m)
@@ -92,14 +106,7 @@ pub fn cable_force(
     params: &CableParams,
 ) -> CableForce {
     // `&`, not `&&`: every operand is a cheap pure test, so evaluate all without branching.
-    let inputs_finite = all_finite(&p_uav)
-        & all_finite(&v_uav)
-        & all_finite(&p_load)
-        & all_finite(&v_load)
-        & params.rest_length_m.is_finite()
-        & params.stiffness_n_per_m.is_finite()
-        & params.damping_ns_per_m.is_finite()
-        & !params.f_max_n.is_nan();
+    let inputs_finite = all_finite(&p_uav) & all_finite(&v_uav) & all_finite(&p_load) & all_finite(&v_load) & params.usable();
     if !inputs_finite {
         return CableForce::slack(0.0);
     }
@@ -108,7 +115,7 @@ pub fn cable_force(
     if !length_m.is_finite() {
         return CableForce::slack(0.0);
     }
-    if length_m < MIN_CABLE_LENGTH_M || length_m <= params.rest_length_m {
+    if !taut(length_m, params.rest_length_m) {
         return CableForce::slack(length_m);
     }
     // One division for the three components.

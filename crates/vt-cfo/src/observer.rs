@@ -327,7 +327,7 @@ impl Cfo {
         self.innovation_mps = Vector3::zeros();
         self.thrust_last_n = -self.params.weight_n();
         self.status = Status::Ok;
-        if is_finite(&v_mps) {
+        if vt_fpu::all_finite(&v_mps) {
             self.v_hat_mps = v_mps;
             self.seeded = true;
         } else {
@@ -369,7 +369,7 @@ impl Cfo {
     /// (REFERENCE §4), so `z = a_hat = -f_hat / m`.
     pub fn preload(&mut self, f_hat_n: Vector3<f32>, thrust_applied_n: Vector3<f32>) {
         let a = -f_hat_n / self.params.mass_kg;
-        if !(is_finite(&a) && is_finite(&thrust_applied_n)) {
+        if !(vt_fpu::all_finite(&a) && vt_fpu::all_finite(&thrust_applied_n)) {
             return;
         }
         self.z_mps2 = a;
@@ -389,10 +389,6 @@ impl Cfo {
     }
 }
 
-/// All components finite (`vt_fpu::all_finite`: no branch per component).
-fn is_finite(v: &Vector3<f32>) -> bool {
-    vt_fpu::all_finite(v)
-}
 
 #[cfg(test)]
 mod tests {
@@ -632,7 +628,7 @@ mod tests {
                 let v = Vector3::new(rand(), rand(), rand()) * V_MAX_MPS;
                 let t = Vector3::new(rand(), rand(), rand()) * T_MAX_N;
                 let f_hat = c.update(v, t, DT_S);
-                prop_assert!(is_finite(&f_hat));
+                prop_assert!(vt_fpu::all_finite(&f_hat));
                 prop_assert!(f_hat.amax() <= bound_n, "|f_hat| {} > {bound_n}", f_hat.amax());
                 prop_assert_eq!(c.status(), Status::Ok);
             }

@@ -409,7 +409,7 @@ impl VelocityLoop {
     /// formation"). A non-finite `f_hat_n` leaves the loop unchanged.
     pub fn preload(&mut self, f_hat_n: Vector3<f32>) {
         let thrust_n = f_hat_n - self.params.cfo.weight_n();
-        if !is_finite(&thrust_n) {
+        if !vt_fpu::all_finite(&thrust_n) {
             return;
         }
         self.cfo.preload(f_hat_n, thrust_n);
@@ -464,7 +464,7 @@ impl VelocityLoop {
         // Tested once: the filter, the blind hold and the actuator model take the answer.
         let dt_ok = vt_fpu::positive_finite(dt_s);
         let meas_ok = dt_ok && vt_fpu::all_finite(&v_meas_mps);
-        let cmd_ok = is_finite(&v_cmd_mps);
+        let cmd_ok = vt_fpu::all_finite(&v_cmd_mps);
 
         let (demand_n, f_hat_n, e_v, status) = if meas_ok {
             let k = delay_steps(age_s, dt_s);
@@ -568,7 +568,7 @@ impl VelocityLoop {
         let impulse_n = self.history.sum_newest(k) + (p.cfo.weight_n() - f_hat_n) * steps;
         let velocity_mps = v_meas_mps + impulse_n * (dt_s / p.mass_kg());
         let displacement_m = (v_meas_mps + velocity_mps) * (0.5 * steps * dt_s);
-        if is_finite(&velocity_mps) && is_finite(&displacement_m) {
+        if vt_fpu::all_finite(&velocity_mps) && vt_fpu::all_finite(&displacement_m) {
             Prediction { delay_steps: k, velocity_mps, displacement_m }
         } else {
             Prediction::undelayed(v_meas_mps)
@@ -589,7 +589,7 @@ impl VelocityLoop {
         }
         let gain = first_order_gain(&mut self.lag_gain, dt_s, lag_s);
         let next = self.thrust_applied_n + (thrust_n - self.thrust_applied_n) * gain;
-        if is_finite(&next) {
+        if vt_fpu::all_finite(&next) {
             next
         } else {
             thrust_n
@@ -608,7 +608,7 @@ impl VelocityLoop {
         if dt_ok {
             let gain = first_order_gain(&mut self.filter_gain, dt_s, tau_s);
             let next = self.f_hat_filtered_n + (f_hat_n - self.f_hat_filtered_n) * gain;
-            if is_finite(&next) {
+            if vt_fpu::all_finite(&next) {
                 self.f_hat_filtered_n = next;
             }
         }
@@ -658,10 +658,6 @@ fn hover_vector_n(p: &VelocityLoopParams) -> Vector3<f32> {
     Vector3::new(0.0, 0.0, p.hover_thrust_n())
 }
 
-/// All components finite (`vt_fpu::all_finite`: no branch per component).
-fn is_finite(v: &Vector3<f32>) -> bool {
-    vt_fpu::all_finite(v)
-}
 
 #[cfg(test)]
 #[path = "velocity_loop_tests.rs"]

@@ -4,7 +4,7 @@
 //! term, all evaluated at the UAV's own horizontal position. Its altitude law is the same as
 //! the dissipative controller's (the comparison in the paper is horizontal only).
 
-use crate::controller::{finite3, hold_command, validate_gains, Command, Measurements};
+use crate::controller::{hold_command, validate_gains, Command, Measurements};
 use crate::keeping::keeping_velocity;
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
@@ -102,7 +102,7 @@ impl BaselineController {
     /// One step: own velocity command. Same failure handling as the dissipative controller.
     pub fn update<const S: usize>(&mut self, tube: &Tube<S>, m: &Measurements<'_>, dt_s: f32) -> Command {
         let mut status = Status::default();
-        if !(finite3(&m.own_pos_m) && finite3(&m.load_pos_m)) {
+        if !(vt_fpu::all_finite(&m.own_pos_m) && vt_fpu::all_finite(&m.load_pos_m)) {
             status.invalid_input = true;
             return hold_command(&self.params.vertical, self.vertical.offset_m(), m, Vec2::zeros(), status);
         }
@@ -119,7 +119,7 @@ impl BaselineController {
                 continue;
             }
             match m.neighbours_m.get(j).copied().flatten() {
-                Some(pj) if finite3(&pj) => {
+                Some(pj) if vt_fpu::all_finite(&pj) => {
                     let d = q - pj.xy();
                     let dist = vt_fpu::sqrt(d.norm_squared());
                     let b = self.robot_barrier.eval(dist);
@@ -139,7 +139,7 @@ impl BaselineController {
         let w = sat(u1 + u2 + u3, self.params.v_max_mps);
         let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(w.x, w.y, v_z);
-        if !finite3(&vel) {
+        if !vt_fpu::all_finite(&vel) {
             status.nonfinite_command = true;
             return hold_command(&self.params.vertical, self.vertical.offset_m(), m, Vec2::zeros(), status);
         }

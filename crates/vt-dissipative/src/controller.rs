@@ -539,7 +539,7 @@ impl<const N: usize> DissipativeController<N> {
                 continue;
             }
             match m.neighbours_m.get(j).copied().flatten() {
-                Some(pj) if finite3(&pj) => *slot = Some(p.tray.project(&pj, &m.load_pos_m).0),
+                Some(pj) if vt_fpu::all_finite(&pj) => *slot = Some(p.tray.project(&pj, &m.load_pos_m).0),
                 _ => status.neighbours_dropped = status.neighbours_dropped.saturating_add(1),
             }
         }
@@ -624,7 +624,7 @@ impl<const N: usize> DissipativeController<N> {
         }
         let v_z = self.vertical.update(&m.own_pos_m, &m.load_pos_m, m.own_cable_force_n, dt_s);
         let vel = Vec3::new(v_xy.x, v_xy.y, v_z);
-        if !finite3(&vel) {
+        if !vt_fpu::all_finite(&vel) {
             status.nonfinite_command = true;
             return self.hold(m, status);
         }
@@ -699,7 +699,7 @@ impl<const N: usize> DissipativeController<N> {
 /// Hold command shared by both controllers: zero horizontal velocity; the altitude law when
 /// own altitude and load position are finite, else zero vertical velocity.
 pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measurements<'_>, center_m: Vec2, status: Status) -> Command {
-    let v_z = if finite3(&m.load_pos_m) && finite3(&m.own_pos_m) {
+    let v_z = if vt_fpu::all_finite(&m.load_pos_m) && vt_fpu::all_finite(&m.own_pos_m) {
         vertical.vertical_velocity_mps(m.own_pos_m.z - offset_m, vt_fpu::norm(&(m.own_pos_m.xy() - m.load_pos_m.xy())))
     } else {
         0.0
@@ -715,11 +715,6 @@ pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measure
     }
 }
 
-/// Every component finite (`vt_fpu::all_finite`: one sum, no branch per component).
-#[inline]
-pub(crate) fn finite3(v: &Vec3) -> bool {
-    vt_fpu::all_finite(v)
-}
 
 /// The centroid of the first `n` nodes seen (`None`: dropped), m; `None` when none is seen. Out
 /// of line: it runs once per team hold (the replica's re-seat), and the control step's MCU

@@ -93,13 +93,13 @@ impl<const N: usize> Formation<N> {
         if uav_pos_m.len() > N {
             return Err(ControlError::TooManyUavs { capacity: N });
         }
-        if !finite3(load_pos_m) {
+        if !vt_fpu::all_finite(load_pos_m) {
             return Err(ControlError::BadTakeoff { index: 0 });
         }
         let mut nodes = [Vec2::zeros(); N];
         for (i, (p, slot)) in uav_pos_m.iter().zip(nodes.iter_mut()).enumerate() {
             let (q, floored) = tray.project(p, load_pos_m);
-            if !finite3(p) || floored {
+            if !vt_fpu::all_finite(p) || floored {
                 return Err(ControlError::BadTakeoff { index: i });
             }
             *slot = q;
@@ -175,11 +175,6 @@ fn half_sq(x: f32) -> f32 {
     0.5 * x * x
 }
 
-/// Every component finite (`vt_fpu::all_finite`: one sum, no branch per component).
-#[inline]
-fn finite3(v: &Vec3) -> bool {
-    vt_fpu::all_finite(v)
-}
 
 #[cfg(test)]
 mod tests {

@@ -72,44 +72,45 @@ fn skipping_what_cannot_be_closer_gives_the_brute_force_minimum_bit_for_bit() {
     }
 }
 
+/// A tube through `[x, y, half-width left, half-width right]` waypoints (m).
+fn tube_of(waypoints: &[[f32; 4]]) -> SimTube {
+    let w: Vec<vt_tube::Waypoint> = waypoints.iter().map(|&[x, y, l, r]| vt_tube::Waypoint::new(x, y, l, r)).collect();
+    SimTube::from_waypoints(&w).unwrap()
+}
+
 /// The paper's tube (scenarios/paper-10uav.toml): two narrow passages, the second asymmetric.
 fn paper_tube() -> SimTube {
-    let w = |x, y, l, r| vt_tube::Waypoint::new(x, y, l, r);
-    SimTube::from_waypoints(&[
-        w(2.0, 0.0, 5.5, 5.5),
-        w(9.0, 1.5, 5.5, 5.5),
-        w(16.0, 2.0, 2.4, 2.4),
-        w(23.0, 0.0, 5.0, 5.0),
-        w(30.0, -2.5, 2.1, 2.6),
-        w(37.0, -1.5, 5.0, 5.0),
-        w(43.0, 0.5, 5.5, 5.5),
-        w(48.0, 1.0, 5.5, 5.5),
+    tube_of(&[
+        [2.0, 0.0, 5.5, 5.5],
+        [9.0, 1.5, 5.5, 5.5],
+        [16.0, 2.0, 2.4, 2.4],
+        [23.0, 0.0, 5.0, 5.0],
+        [30.0, -2.5, 2.1, 2.6],
+        [37.0, -1.5, 5.0, 5.0],
+        [43.0, 0.5, 5.5, 5.5],
+        [48.0, 1.0, 5.5, 5.5],
     ])
-    .unwrap()
 }
 
 /// A re-planned tube: tighter bends, a lopsided narrowing, a short table spacing.
 fn bend_tube() -> SimTube {
-    let w = |x, y, l, r| vt_tube::Waypoint::new(x, y, l, r);
-    SimTube::from_waypoints(&[w(0.0, 0.0, 3.0, 3.0), w(6.0, 3.0, 2.5, 2.0), w(12.0, 0.5, 0.9, 1.8), w(17.0, 4.0, 2.0, 2.0), w(22.0, 2.0, 3.0, 2.5)]).unwrap()
+    tube_of(&[[0.0, 0.0, 3.0, 3.0], [6.0, 3.0, 2.5, 2.0], [12.0, 0.5, 0.9, 1.8], [17.0, 4.0, 2.0, 2.0], [22.0, 2.0, 3.0, 2.5]])
 }
 
 /// A hairpin: two legs 9 m apart with 2 m between their boundaries, so beyond the certified
 /// radius the other leg is near.
 fn hairpin_tube() -> SimTube {
-    let w = |x, y, l, r| vt_tube::Waypoint::new(x, y, l, r);
-    SimTube::from_waypoints(&[
-        w(0.0, 0.0, 3.5, 3.5),
-        w(12.0, 0.0, 3.5, 3.0),
-        w(18.0, 0.3, 2.0, 2.0),
-        w(21.8, 2.2, 1.5, 1.5),
-        w(22.6, 4.5, 1.5, 1.5),
-        w(21.8, 6.8, 1.5, 1.5),
-        w(18.0, 8.7, 2.0, 2.0),
-        w(12.0, 9.0, 3.0, 3.5),
-        w(0.0, 9.0, 3.5, 3.5),
+    tube_of(&[
+        [0.0, 0.0, 3.5, 3.5],
+        [12.0, 0.0, 3.5, 3.0],
+        [18.0, 0.3, 2.0, 2.0],
+        [21.8, 2.2, 1.5, 1.5],
+        [22.6, 4.5, 1.5, 1.5],
+        [21.8, 6.8, 1.5, 1.5],
+        [18.0, 8.7, 2.0, 2.0],
+        [12.0, 9.0, 3.0, 3.5],
+        [0.0, 9.0, 3.5, 3.5],
     ])
-    .unwrap()
 }
 
 /// Random walks of ten UAVs in and near a tube, each sample measured both ways: `Clearances`

@@ -15,7 +15,7 @@
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use super::{mixer, AttitudeTarget, Quadrotor, GRAVITY_MPS2, SERIES_HALF_ANGLE_RAD};
-use crate::cable::{cable_force, CableForce, CableParams};
+use crate::cable::{all_finite, cable_force, taut, CableForce, CableParams};
 
 /// One `f64` per vehicle of the pair (`wide`'s two-lane vector: SSE2 on x86-64, NEON on
 /// aarch64, each lane an IEEE operation as the scalar one).
@@ -131,21 +131,13 @@ impl M2x3 {
 }
 
 /// [`mixer::Mixer::wrench`] of two vehicles: the collective `((T1 + T2) + T3) + T4` and the
-/// three torques, each a sum folded from `-0.0` as `Iterator::sum` does.
+/// three torques, each a sum folded from `-0.0` as `Iterator::sum` does (the collective's
+/// weights 1: `1 T` is `T` exactly).
 #[inline(always)]
 fn wrench(t: &[F2; 4], d: F2, km: F2) -> (F2, V2x3) {
-    let fold = |s: Option<&[f64; 4]>| {
-        let mut acc = F2::splat(-0.0);
-        for (k, tk) in t.iter().enumerate() {
-            acc += match s {
-                Some(s) => F2::splat(s.get(k).copied().unwrap_or(0.0)) * *tk,
-                None => *tk,
-            };
-        }
-        acc
-    };
-    let torque = V2x3 { x: d * fold(Some(&mixer::ROLL_SIGN)), y: d * fold(Some(&mixer::PITCH_SIGN)), z: km * fold(Some(&mixer::YAW_SIGN)) };
-    (fold(None), torque)
+    let fold = |signs: [f64; 4]| t.iter().zip(signs).fold(F2::splat(-0.0), |acc, (tk, s)| acc + F2::splat(s) * *tk);
+    let torque = V2x3 { x: d * fold(mixer::ROLL_SIGN), y: d * fold(mixer::PITCH_SIGN), z: km * fold(mixer::YAW_SIGN) };
+    (fold([1.0; 4]), torque)
 }
 
 /// The state of two vehicles at the start of a step, in lanes.
@@ -191,18 +183,15 @@ fn cable_forces(hook: V2x3, hook_v: V2x3, load: (&Vector3<f64>, &Vector3<f64>), 
     let (lp, lv) = load;
     let [ca, cb] = cables;
     let scalar = || [0, 1].map(|k| cable_force(hook.lane(k), hook_v.lane(k), *lp, *lv, cables[k]));
-    let finite = |v: &Vector3<f64>| v.x.is_finite() & v.y.is_finite() & v.z.is_finite();
-    let params_ok = |c: &CableParams| c.rest_length_m.is_finite() & c.stiffness_n_per_m.is_finite() & c.damping_ns_per_m.is_finite() & !c.f_max_n.is_nan();
-    let inputs_ok = (0..2).all(|k| finite(&hook.lane(k)) & finite(&hook_v.lane(k))) & finite(lp) & finite(lv) & params_ok(ca) & params_ok(cb);
+    let inputs_ok = (0..2).all(|k| all_finite(&hook.lane(k)) & all_finite(&hook_v.lane(k))) & all_finite(lp) & all_finite(lv) & ca.usable() & cb.usable();
     if !inputs_ok {
         return scalar();
     }
     let d = hook.sub(V2x3::of(lp, lp));
     let len = d.dot(d).sqrt();
     let rest = f2(ca.rest_length_m, cb.rest_length_m);
-    let taut = |l: f64, r: f64| l.is_finite() && !(l < crate::cable::MIN_CABLE_LENGTH_M || l <= r);
     let ([la, lb], [ra, rb]) = (len.to_array(), rest.to_array());
-    if !(taut(la, ra) && taut(lb, rb)) {
+    if !(la.is_finite() && lb.is_finite() && taut(la, ra) && taut(lb, rb)) {
         return scalar();
     }
     // One division for the three components, as `cable_force`.
@@ -215,7 +204,7 @@ fn cable_forces(hook: V2x3, hook_v: V2x3, load: (&Vector3<f64>, &Vector3<f64>), 
     let on_load = u.scale(tension);
     let out = [0, 1].map(|k| {
         let (t, f) = (lane_of(tension, k), on_load.lane(k));
-        (t.is_finite() & finite(&f)).then(|| CableForce { tension_n: t, on_uav_n: -f, on_load_n: f, length_m: lane_of(len, k) })
+        (t.is_finite() & all_finite(&f)).then(|| CableForce { tension_n: t, on_uav_n: -f, on_load_n: f, length_m: lane_of(len, k) })
     });
     match out {
         [Some(fa), Some(fb)] => [fa, fb],
