@@ -86,7 +86,12 @@ fn declared_bodies_keep_their_clearance_with_the_separation_barrier() {
 /// 0.327 / 0.898 / 0.977 m, arrival 36.3 s; with the stadium as long as the ring, 0.035 m
 /// between two bodies (docs/design.md, "A formation shaped to the tube"). Since 2026-12-01 the
 /// passages are flown at 2/3 of `v_max` (docs/design.md, "The passage speed"): 0.358 m between
-/// bodies, arrival 47.5 s.
+/// bodies, arrival 47.5 s. Since session 46 the shape narrows as a passage comes and widens only
+/// once the passage has left the stadium's length (docs/design.md, "The shape narrows as the
+/// passage comes"): this calm flight 0.292 m, while over 200 paired seeds of `nominal-bodies` and
+/// of `nominal-bodies-ground` the closest pairs came 2.0 +- 2.0 and 11.1 +- 2.5 mm farther apart
+/// (worst 0.228 -> 0.252 and 0.203 -> 0.237 m): one flight's closest pair moves by centimetres
+/// with any change, so the bound is the floor plus 5 cm.
 #[test]
 fn the_paper_team_with_bodies_keeps_the_floor_on_the_default_plant() {
     let mut t = PAPER_10UAV.replacen("[uavs]\n", "[uavs]\nbody_radius_m = 0.445\n", 1);
@@ -94,7 +99,7 @@ fn the_paper_team_with_bodies_keeps_the_floor_on_the_default_plant() {
     t.push_str("\n[controller.shape]\nenabled = true\n");
     let (s, _) = fly(&t);
     assert!(s.success, "{:?}", s.failures);
-    assert!(s.min_uav_uav_clearance_m >= 0.3, "{}", s.min_uav_uav_clearance_m);
+    assert!(s.min_uav_uav_clearance_m >= 0.25, "{}", s.min_uav_uav_clearance_m);
     assert!(s.min_uav_boundary_clearance_m >= 0.2, "{}", s.min_uav_boundary_clearance_m);
     assert!(s.min_obstacle_clearance_m >= 0.2, "{}", s.min_obstacle_clearance_m);
     // The passage speed costs the two passages about 11 s; it must not crawl.

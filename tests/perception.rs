@@ -49,12 +49,17 @@ fn the_paper_world_unknown_is_mapped_and_flown_to_the_goal_on_replanned_tubes() 
 }
 
 /// The paper's world unknown, flown by the paper team with its 0.445 m bodies declared, the
-/// formation shaped to the tube and a 0.2 m floor. The onboard map sees the first passage (2.34 m
-/// of half-width on the known map's plan) about 0.4 m narrower through the LiDAR's 5 deg sectors,
-/// under the 2.1-2.2 m in which the separated stadium keeps the floor; the re-planner asks for
-/// that width (`DissipativeController::shaped_need_half_width_m`), so the team holds with no
-/// route instead of flying a passage its formation cannot keep apart in (it flew through before,
-/// and pairs came to 0.05 m; docs/design.md, "The width the shaped formation needs").
+/// formation shaped to the tube and a 0.2 m floor. The onboard map sees the passages narrower
+/// than the known map's plan through the LiDAR's 5 deg sectors, often under the 2.1-2.2 m in
+/// which the separated stadium keeps the floor; the re-planner asks for that width
+/// (`DissipativeController::shaped_need_half_width_m`), so the team holds with no route instead
+/// of flying a passage its formation cannot keep apart in (it flew through before, and pairs
+/// came to 0.05 m; docs/design.md, "The width the shaped formation needs"). Which passage the
+/// map as seen still opens depends on where the UAVs looked from: with the shape narrowing as a
+/// passage comes (docs/design.md, "The shape narrows as the passage comes", session 46), this
+/// seed's map opens the first passage and the team holds short of the second, 1.7 m before
+/// x = 30 m (load path 31.7 m; before, it held before the first, 19.1 m). What must hold on any
+/// map: a hold with no route, no body touching another, every surface a metre from the trunks.
 #[test]
 fn the_paper_team_with_bodies_holds_before_a_passage_its_shaped_formation_cannot_fly_apart() {
     let mut ls = load("paper-10uav-unknown.toml");
@@ -66,7 +71,8 @@ fn the_paper_team_with_bodies_holds_before_a_passage_its_shaped_formation_cannot
     eprintln!("paper unknown, bodies: {p:?}, outcome {}, clearances {} / {} / {} m", s.outcome, s.min_uav_uav_clearance_m, s.min_uav_boundary_clearance_m, s.min_obstacle_clearance_m);
     assert!(p.no_route && s.outcome == "no_route", "{p:?} {}", s.outcome);
     assert!(s.completion_time_s.is_none());
-    assert!(p.load_path_m < 25.0, "held before the first passage (x = 16 m): {p:?}");
+    assert!(p.load_path_m < p.known_plan_path_m, "held short of the goal: {p:?}");
+    assert!(s.min_uav_uav_clearance_m > 0.0, "bodies never touch: {}", s.min_uav_uav_clearance_m);
     assert!(s.min_obstacle_clearance_m > 1.0, "{}", s.min_obstacle_clearance_m);
 }
 

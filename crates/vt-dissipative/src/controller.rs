@@ -15,7 +15,7 @@
 use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
-use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ShapeParams, QUANTA};
+use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
 use crate::keeping::keeping_velocity;
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
@@ -408,8 +408,10 @@ impl<const N: usize> DissipativeController<N> {
 
     /// The tube-shaped formation's look at the tube (every few steps; `load_sec` the load's
     /// section): the stadium whose half-width fits the narrowest section from one ring radius
-    /// behind the load to one radius plus `ahead_m` ahead of it, less the barrier's safety
-    /// radius and `margin_m`, in [`QUANTA`] steps (narrower at once, wider with hysteresis);
+    /// behind the load to one radius plus `ahead_m` ahead of it (with a separation floor, the
+    /// sections beyond the formation's reach weighed by their distance, [`ramped_half_width_m`]),
+    /// less the barrier's safety radius and `margin_m`, in [`QUANTA`] steps (narrower at once,
+    /// wider with hysteresis);
     /// the rest lengths change only when the step does. Nothing without [`Self::set_shape`].
     #[cold]
     #[inline(never)]
@@ -427,7 +429,17 @@ impl<const N: usize> DissipativeController<N> {
             }
         };
         let ring_m = shape.radius_m * self.rest_scale;
-        let Some(w) = narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m) else {
+        // With a separation floor the narrow sections are weighed by where they lie (the shape
+        // narrows as a passage comes); without one the narrowest section of the window decides.
+        let w = if shape.separation_m > 0.0 {
+            // The formation reaches the longer of the ring's radius and the stadium's half-length
+            // flown ahead of and behind its centre.
+            let reach_m = vt_fpu::max(ring_m, shape.half_length_m * self.rest_scale);
+            ramped_half_width_m(tube, load_sec.s_m, ring_m, reach_m, shape.params.ahead_m, RAMP_LEAD_M, RAMP_BEHIND_M)
+        } else {
+            narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m)
+        };
+        let Some(w) = w else {
             return;
         };
         let q = next_quantum(shape.quantum, quantum(w - self.params.r_safe_m - shape.params.margin_m, ring_m, min_quantum(self.n)));

@@ -15,7 +15,7 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
     let (uavs, load) = takeoff(n, 4.0);
     let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
     let lengths: Vec<u16> = uavs.iter().map(|u| ((u - load).norm() * 1e3).round() as u16).collect();
-    let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
+    let narrow = t.locate(Vec2::new(27.0, 0.5), 0).unwrap();
     let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
     // The take-off ring keeps 1.42 m between neighbours where they fly; a 1.3 m floor.
     let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
@@ -67,6 +67,53 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
     for bad in [ShapeSeparation { separation_m: f32::NAN, ..sep }, ShapeSeparation { takeoff_m: &uavs[..3], ..sep }, ShapeSeparation { load_m: uavs[0], ..sep }, ShapeSeparation { min_cos_sum: -1.0, ..sep }] {
         assert!(team(n, &uavs, &load).remove(0).set_shape(ShapeParams::default(), &f, Some(bad)).is_err());
     }
+}
+
+/// The separated stadium reaches further than the ring: it stays narrow until the passage has
+/// left its half-length behind the load, not the ring's radius (docs/design.md, "The shape
+/// narrows as the passage comes"; the rear pair leaving a passage met there).
+#[test]
+fn a_separated_stadium_widens_only_once_the_passage_is_behind_its_length() {
+    let n = 10;
+    // A 5 m waist with abrupt ends.
+    let t: Tube<256> = Tube::from_waypoints(&[
+        Waypoint::new(0.0, 0.0, 6.0, 6.0),
+        Waypoint::new(24.0, 0.0, 5.0, 5.0),
+        Waypoint::new(25.0, 0.0, 2.2, 2.2),
+        Waypoint::new(30.0, 0.0, 2.2, 2.2),
+        Waypoint::new(31.0, 0.0, 5.0, 5.0),
+        Waypoint::new(60.0, 0.0, 6.0, 6.0),
+    ])
+    .unwrap();
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
+    let mut c = team(n, &uavs, &load).remove(0);
+    c.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+    // Into the waist, a look every 0.2 m.
+    let mut x = 20.0f32;
+    while x <= 30.0 {
+        c.shape_to_tube(&t, &t.locate(Vec2::new(x, 0.0), 0).unwrap());
+        x += 0.2;
+    }
+    let (r, a, q_waist) = {
+        let s = c.shape.as_ref().unwrap();
+        (s.radius_m, s.half_length_m, s.quantum)
+    };
+    assert!(a > r + 0.5, "a long stadium at the waist: {a} against the ring's {r}");
+    // The waist just inside the stadium's half-length behind the load, beyond the ring's radius.
+    let behind = a - 0.1;
+    while x <= 30.0 + behind {
+        c.shape_to_tube(&t, &t.locate(Vec2::new(x, 0.0), 0).unwrap());
+        x += 0.2;
+    }
+    let held = c.shape.as_ref().unwrap().quantum;
+    assert!(held <= q_waist + 1, "held narrow while the rear is in the waist: {held} against {q_waist}");
+    // Reaching only the ring's radius, the tube there would already have widened it.
+    let sec = t.locate(Vec2::new(x, 0.0), 0).unwrap();
+    let ring_reach = crate::shape::ramped_half_width_m(&t, sec.s_m, r, r, ShapeParams::default().ahead_m, crate::shape::RAMP_LEAD_M, crate::shape::RAMP_BEHIND_M).unwrap();
+    let q_ring_reach = crate::shape::quantum(ring_reach - c.params.r_safe_m - ShapeParams::default().margin_m, r, crate::shape::min_quantum(n));
+    assert!(q_ring_reach >= held + 2, "the ring's reach would widen: {q_ring_reach} against {held}");
 }
 
 /// Issue 28: the half-width a planner must give the shaped formation. In a tube of that width
@@ -157,7 +204,7 @@ fn shaped_rest_lengths_agree_at_both_ends() {
         c.set_shape(ShapeParams::default(), &f, None).unwrap();
     }
     let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
-    let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
+    let narrow = t.locate(Vec2::new(27.0, 0.5), 0).unwrap();
     for (c, r) in ctl.iter_mut().zip(ring.iter()) {
         c.shape_to_tube(&t, &wide);
         assert_eq!(c.shape_fraction(), 1.0);
@@ -267,7 +314,7 @@ fn a_separated_stadium_flies_its_passage_slower() {
     let t = tube();
     let (uavs, load) = takeoff(n, 4.0);
     let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
-    let narrow = t.locate(Vec2::new(24.0, 1.0), 0).unwrap();
+    let narrow = t.locate(Vec2::new(27.0, 0.5), 0).unwrap();
     let wide = t.locate(Vec2::new(4.0, 0.0), 0).unwrap();
     let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
     let nb = neighbours(&uavs);

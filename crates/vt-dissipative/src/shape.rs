@@ -246,6 +246,59 @@ pub fn narrowest_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, behind_m
     tube.samples().get(k0..=k1.max(k0)).map(|w| w.iter().fold(f32::INFINITY, |m, s| vt_fpu::min(m, 0.5 * (s.w_left_m + s.w_right_m))))
 }
 
+/// How far past the formation's front a narrow section counts in full when the shape keeps a
+/// separation floor, m ([`ramped_half_width_m`]; docs/design.md, "The shape narrows as the
+/// passage comes").
+pub const RAMP_LEAD_M: f32 = 1.0;
+
+/// How far behind the formation's back a narrow section is still felt, fading, when the shape
+/// keeps a separation floor, m ([`ramped_half_width_m`]).
+pub const RAMP_BEHIND_M: f32 = 4.0;
+
+/// The half-width the tube-shaped formation is sized to at arc length `s_m` when the narrow
+/// sections are weighed by where they lie, m; `None` for a non-finite window (docs/design.md,
+/// "The shape narrows as the passage comes"). A section within the formation's reach
+/// (`reach_m` behind the load to `reach_m + lead_m` ahead; `reach_m` the longer of the ring's
+/// radius and the stadium's half-length flown) counts in full, as in
+/// [`narrowest_half_width_m`]. Beyond it, out to `reach_m + ahead_m` ahead and
+/// `reach_m + behind_m` behind, its half-width is widened by `ring_m` times the fraction of the
+/// way to the window's edge: a passage entering the window asks for a shape a little narrower
+/// than the ring, and the full narrowing arrives as the load comes to it, a quantum or two a
+/// look instead of every rest length at one look; after it the shape widens only once the
+/// passage has left the formation's reach, fading over `behind_m`. It depends on the tube, the
+/// load's place and the shape flown, which every UAV shares, so every UAV derives the same; and a
+/// re-planned tube gives its answer at once (no memory to lag behind it). With `reach_m =
+/// ring_m`, `lead_m >= ahead_m` and `behind_m = 0` it is [`narrowest_half_width_m`] bit for bit.
+#[allow(clippy::too_many_arguments)]
+pub fn ramped_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, ring_m: f32, reach_m: f32, ahead_m: f32, lead_m: f32, behind_m: f32) -> Option<f32> {
+    let ds = tube.ds_m();
+    let (lo, hi) = ((s_m - (reach_m + behind_m)) / ds, (s_m + (reach_m + ahead_m)) / ds);
+    if !(lo.is_finite() && hi.is_finite() && ds > 0.0) {
+        return None;
+    }
+    // Distances from the load at which a section starts to fade, and the fades' lengths (a
+    // fade of no length: the window's edge).
+    let (near_ahead, fade_ahead) = (reach_m + lead_m, ahead_m - lead_m);
+    let (near_behind, fade_behind) = (reach_m, behind_m);
+    let last = S.saturating_sub(1);
+    let k0 = (lo.max(0.0) as usize).min(last);
+    let k1 = (libm::ceilf(hi.max(0.0)) as usize).min(last);
+    let samples = tube.samples().get(k0..=k1.max(k0))?;
+    let mut narrowest = f32::INFINITY;
+    for (k, sample) in (k0..).zip(samples.iter()) {
+        let d = k as f32 * ds - s_m;
+        let fade = if d > near_ahead && fade_ahead > 0.0 {
+            (d - near_ahead) / fade_ahead
+        } else if d < -near_behind && fade_behind > 0.0 {
+            (-near_behind - d) / fade_behind
+        } else {
+            0.0
+        };
+        narrowest = vt_fpu::min(narrowest, 0.5 * (sample.w_left_m + sample.w_right_m) + ring_m * fade);
+    }
+    Some(narrowest)
+}
+
 /// The narrowest quantum for a ring of `n` nodes: the stadium's sides stay at least the ring's
 /// neighbour spacing `2 r sin(pi / n)` apart (`b >= r sin(pi / n)`), so a small team is not
 /// folded flat (two rows of two are closer across than neighbours on their ring); at least
@@ -420,5 +473,43 @@ mod tests {
         assert!((near - 2.0).abs() < 0.1, "{near}");
         assert!(narrowest_half_width_m(&tube, f32::NAN, 1.0, 3.0).is_none());
         assert!(narrowest_half_width_m(&tube, 1e6, 1.0, 3.0).unwrap() > 4.9, "clamped to the tube's end");
+    }
+
+    /// The ramp: a passage far ahead asks for a little, the whole narrowing arrives as the load
+    /// comes to it (a few quanta a look instead of all at once), the widening behind fades, and
+    /// with no fade it is the narrowest section bit for bit.
+    #[test]
+    fn a_passage_is_weighed_by_where_it_lies() {
+        let w = |x: f32, h: f32| Waypoint::new(x, 0.0, h, h);
+        let tube: Tube<256> = Tube::from_waypoints(&[w(0.0, 5.0), w(12.0, 5.0), w(13.0, 2.0), w(17.0, 2.0), w(18.0, 5.0), w(40.0, 5.0)]).unwrap();
+        let (ring, ahead, r_safe, margin) = (3.0f32, 6.0f32, 0.645f32, 0.5f32);
+        let q_of = |half_width: f32| quantum(half_width - r_safe - margin, ring, min_quantum(10));
+        // The load walks the tube at the passage speed's 1 m/s, a look every 0.2 m.
+        let (mut held_step, mut held_ramp) = (QUANTA, QUANTA);
+        let (mut jump_step, mut jump_ramp) = (0, 0);
+        let mut s = 0.0f32;
+        while s < 35.0 {
+            let step = narrowest_half_width_m(&tube, s, ring, ring + ahead).unwrap();
+            let ramp = ramped_half_width_m(&tube, s, ring, ring, ahead, RAMP_LEAD_M, RAMP_BEHIND_M).unwrap();
+            assert_eq!(ramped_half_width_m(&tube, s, ring, ring, ahead, ahead, 0.0).unwrap().to_bits(), step.to_bits(), "no fade: the window's narrowest at s = {s}");
+            // Never narrower than the narrowest section of its own window, which reaches
+            // further behind than the step's.
+            let widest_window = narrowest_half_width_m(&tube, s, ring + RAMP_BEHIND_M, ring + ahead).unwrap();
+            assert!(ramp >= widest_window, "{ramp} < {widest_window} at s = {s}");
+            // With the passage (13-17 m) within the formation's reach the whole narrowing applies.
+            if s + ring >= 13.0 && s - ring <= 17.0 {
+                assert!((ramp - step).abs() < 1e-6, "in reach at s = {s}: {ramp} against {step}");
+            }
+            let (q_step, q_ramp) = (next_quantum(held_step, q_of(step)), next_quantum(held_ramp, q_of(ramp)));
+            jump_step = jump_step.max((q_step - held_step).abs());
+            jump_ramp = jump_ramp.max((q_ramp - held_ramp).abs());
+            (held_step, held_ramp) = (q_step, q_ramp);
+            s += 0.2;
+        }
+        assert!(jump_step >= 10, "the window's narrowest jumps: {jump_step} quanta at one look");
+        assert!(jump_ramp <= 3, "the ramp moves a few quanta a look: {jump_ramp}");
+        assert_eq!((held_step, held_ramp), (QUANTA, QUANTA), "both back to the ring");
+        assert!(ramped_half_width_m(&tube, f32::NAN, ring, ring, ahead, RAMP_LEAD_M, RAMP_BEHIND_M).is_none());
+        assert!(ramped_half_width_m(&tube, 1e6, ring, ring, ahead, RAMP_LEAD_M, RAMP_BEHIND_M).unwrap() > 4.9, "clamped to the tube's end");
     }
 }
