@@ -17,7 +17,17 @@ mkdir -p "$IMG"
 cargo build --release -q -p host-sim
 for c in nominal nominal-point-mass cable-uncertainty cable-snap uav-silent own-feed-stall nominal-levels intensity-3x latency-levels latency-150ms; do
   echo "## $c"
-  ./target/release/host-sim sweep "scenarios/campaigns/$c.toml" --world "$WORLD" --out "$OUT/$c" | sed -n '1,20p'
+  file="scenarios/campaigns/$c.toml"
+  if [ "$c" = nominal-levels ] && [ "$WORLD" != scenario ]; then
+    # Levels 4 and 5 times the real-aircraft world's light turbulence exceed the Dryden model's
+    # severe (3), which the validation refuses: that world flies levels 0-3 (docs/robustness.md).
+    mkdir -p "$OUT"
+    file="$OUT/nominal-levels-0-3.toml"
+    sed -e "s|^base = \"../paper-10uav.toml\"|base = \"$PWD/scenarios/paper-10uav.toml\"|" \
+        -e 's|^values = \[0.0, 1.0, 2.0, 3.0, 4.0, 5.0\]|values = [0.0, 1.0, 2.0, 3.0]|' \
+        scenarios/campaigns/nominal-levels.toml > "$file"
+  fi
+  ./target/release/host-sim sweep "$file" --world "$WORLD" --out "$OUT/$c" | sed -n '1,20p'
 done
 cp "$OUT/latency-levels/success_rate_vs_level.png" "$IMG/robustness_latency_rigid.png"
 cp "$OUT/nominal-levels/success_rate_vs_level.png" "$IMG/robustness_intensity_rigid.png"

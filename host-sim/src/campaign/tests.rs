@@ -193,6 +193,11 @@ fn campaigns_fly_the_real_aircraft_world_unless_told_otherwise() {
     assert_eq!(s.uavs.body_radius_m, Some(envelope));
     assert!((envelope - 0.404).abs() < 1e-3, "the 1.47 kg airframe: {envelope}");
     assert!(s.controller.shape.enabled);
+    assert_eq!(
+        (s.controller.share_gain_mps_per_n, s.controller.load_altitude_gain_per_s, s.controller.share_offset_max_m),
+        (world::SHARE_GAIN_MPS_PER_N, world::LOAD_ALTITUDE_GAIN_PER_S, world::SHARE_OFFSET_MAX_M),
+        "load sharing on"
+    );
     assert_eq!(s.velocity_loop.rigid_body.and_then(|t| t.actuator_lag_s), Some(world::STOCK_AUTOPILOT_LAG_S));
     assert_eq!((s.sensing.position, s.sensing.attitude), (PositionModel::Rtk, AttitudeModel::Px4));
     assert_eq!((s.disturbances.turbulence, s.disturbances.thrust_scale_error), (world::TURBULENCE, world::THRUST_SCALE_ERROR));

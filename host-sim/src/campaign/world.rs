@@ -11,6 +11,10 @@
 //! - `[uavs] body_radius_m`: the sized airframe's envelope, declared to the companions, and
 //!   `[controller.shape] enabled = true` (the formation shaped to the tube); a generated
 //!   campaign draws its airframe per run, so there the bodies are measured but not declared;
+//! - `[controller]` load sharing on (`share_gain_mps_per_n`, `load_altitude_gain_per_s`,
+//!   `share_offset_max_m`: [`SHARE_GAIN_MPS_PER_N`] and the two below it), which evens out the
+//!   tensions that the take-off's RTK-measured cable lengths leave uneven (docs/design.md,
+//!   "Load sharing in the real-aircraft world");
 //! - `[sensing] position = "rtk"`, `attitude = "px4"`;
 //! - `[disturbances] turbulence = 1` (light Dryden) and `thrust_scale_error = 0.05`, both
 //!   scaled by the campaign's intensity like the other disturbances.
@@ -33,6 +37,16 @@ pub const TURBULENCE: f64 = 1.0;
 
 /// Spread of each UAV's true maximum thrust about what its firmware believes (issue 27 §4).
 pub const THRUST_SCALE_ERROR: f64 = 0.05;
+
+/// Load-sharing gain `k_T` of the real-aircraft world's teams, (m/s)/N (docs/design.md, "Load
+/// sharing in the real-aircraft world"; `vt_dissipative::vertical`).
+pub const SHARE_GAIN_MPS_PER_N: f64 = 0.001;
+
+/// Load-altitude gain `k_L` of the sharing integrator in the real-aircraft world, 1/s.
+pub const LOAD_ALTITUDE_GAIN_PER_S: f64 = 0.1;
+
+/// Bound on each UAV's sharing altitude offset in the real-aircraft world, m.
+pub const SHARE_OFFSET_MAX_M: f64 = 0.3;
 
 /// Which world a campaign flies in (campaign key `world`, `host-sim sweep --world`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -86,9 +100,15 @@ impl World {
             uav_keys.push(("body_radius_m", spec.envelope_radius_m(spec.model).into()));
         }
         over.insert("uavs".into(), table(&uav_keys));
+        let mut controller = vec![
+            ("share_gain_mps_per_n", Value::from(SHARE_GAIN_MPS_PER_N)),
+            ("load_altitude_gain_per_s", Value::from(LOAD_ALTITUDE_GAIN_PER_S)),
+            ("share_offset_max_m", Value::from(SHARE_OFFSET_MAX_M)),
+        ];
         if !generated {
-            over.insert("controller".into(), table(&[("shape", table(&[("enabled", true.into())]))]));
+            controller.push(("shape", table(&[("enabled", true.into())])));
         }
+        over.insert("controller".into(), table(&controller));
         if base.contains_key("velocity_loop") {
             over.insert("velocity_loop".into(), table(&[("rigid_body", table(&[("actuator_lag_s", STOCK_AUTOPILOT_LAG_S.into())]))]));
         }
