@@ -402,7 +402,7 @@ impl<const N: usize> DissipativeController<N> {
             radius_m = vt_fpu::max(radius_m, vt_fpu::norm(&(*p - centre_m)));
         }
         let load_node_m = formation.node_m(NodeId::Load);
-        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_mm, separation_m, min_cos_sum, half_length_m: radius_m, frame: None, drift: Vec2::new(1.0, 0.0), quantum: QUANTA });
+        self.shape = Some(TubeShape { params, nodes_m, load_node_m, centre_m, radius_m, lengths_mm, separation_m, min_cos_sum, half_length_m: radius_m, frame: None, drift: Vec2::new(1.0, 0.0), quantum: QUANTA, speed_quantum: QUANTA });
         Ok(())
     }
 
@@ -431,18 +431,25 @@ impl<const N: usize> DissipativeController<N> {
         let ring_m = shape.radius_m * self.rest_scale;
         // With a separation floor the narrow sections are weighed by where they lie (the shape
         // narrows as a passage comes); without one the narrowest section of the window decides.
+        let Some(narrowest) = narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m) else {
+            return;
+        };
+        let ask = |w: f32| quantum(w - self.params.r_safe_m - shape.params.margin_m, ring_m, min_quantum(self.n));
+        // The passage speed follows the window's narrowest section (a passage entering the
+        // look-ahead slows the team at once, as before the ramp).
+        shape.speed_quantum = next_quantum(shape.speed_quantum, ask(narrowest));
         let w = if shape.separation_m > 0.0 {
             // The formation reaches the longer of the ring's radius and the stadium's half-length
             // flown ahead of and behind its centre.
             let reach_m = vt_fpu::max(ring_m, shape.half_length_m * self.rest_scale);
-            ramped_half_width_m(tube, load_sec.s_m, ring_m, reach_m, shape.params.ahead_m, RAMP_LEAD_M, RAMP_BEHIND_M)
+            let Some(w) = ramped_half_width_m(tube, load_sec.s_m, ring_m, reach_m, shape.params.ahead_m, RAMP_LEAD_M, RAMP_BEHIND_M) else {
+                return;
+            };
+            w
         } else {
-            narrowest_half_width_m(tube, load_sec.s_m, ring_m, ring_m + shape.params.ahead_m)
+            narrowest
         };
-        let Some(w) = w else {
-            return;
-        };
-        let q = next_quantum(shape.quantum, quantum(w - self.params.r_safe_m - shape.params.margin_m, ring_m, min_quantum(self.n)));
+        let q = next_quantum(shape.quantum, ask(w));
         if q == shape.quantum {
             return;
         }

@@ -90,6 +90,14 @@ fn a_separated_stadium_widens_only_once_the_passage_is_behind_its_length() {
     let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
     let mut c = team(n, &uavs, &load).remove(0);
     c.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+    // A first look with the waist in the look-ahead: the team slows at once (the passage speed
+    // follows the window's narrowest section), while the shape has narrowed only part of the way.
+    c.shape_to_tube(&t, &t.locate(Vec2::new(16.5, 0.0), 0).unwrap());
+    {
+        let s = c.shape.as_ref().unwrap();
+        assert_eq!((s.quantum, s.speed_fraction()), (QUANTA, crate::shape::PASSAGE_SPEED_FRACTION), "slowed, still the ring");
+        assert!(s.speed_quantum < QUANTA);
+    }
     // Into the waist, a look every 0.2 m.
     let mut x = 20.0f32;
     while x <= 30.0 {

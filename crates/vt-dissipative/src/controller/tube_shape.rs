@@ -35,6 +35,10 @@ pub(super) struct TubeShape<const N: usize> {
     pub(super) drift: Vec2,
     /// The quantum flown.
     pub(super) quantum: i32,
+    /// The quantum the window's narrowest section asks for (with the quanta's hysteresis): with
+    /// a separation floor the team flies the passage speed from it, as soon as a passage enters
+    /// the look-ahead, however gradually the shape itself narrows ([`QUANTA`]: not slowed).
+    pub(super) speed_quantum: i32,
 }
 
 /// Averaging time of the formation's drift before the first look, s ([`TubeShape`]): long
@@ -46,7 +50,7 @@ impl<const N: usize> TubeShape<N> {
     /// The fraction of `v_max` the formation flies at now: [`PASSAGE_SPEED_FRACTION`] while the
     /// stadium keeps a separation floor (bodies declared) and is narrower than the ring, else 1.
     pub(super) fn speed_fraction(&self) -> f32 {
-        if self.quantum < QUANTA && self.separation_m > 0.0 {
+        if self.speed_quantum < QUANTA && self.separation_m > 0.0 {
             PASSAGE_SPEED_FRACTION
         } else {
             1.0
