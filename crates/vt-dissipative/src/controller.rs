@@ -734,7 +734,6 @@ pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measure
     }
 }
 
-
 /// The centroid of the first `n` nodes seen (`None`: dropped), m; `None` when none is seen. Out
 /// of line: it runs once per team hold (the replica's re-seat), and the control step's MCU
 /// budget is counted on the transport path.

@@ -20,7 +20,7 @@
 
 use crate::{ControlError, Vec2, Vec3};
 use core::f32::consts::{FRAC_PI_2, PI, TAU};
-use vt_tube::Tube;
+use vt_tube::{Tube, TubeSample};
 
 /// Steps of the stadium's half-width between the narrowest shape and the ring: `b = r q / QUANTA`.
 pub const QUANTA: i32 = 32;
@@ -232,18 +232,24 @@ fn on_circle(centre_x_m: f32, b_m: f32, a_rad: f32) -> Vec2 {
     Vec2::new(centre_x_m + b_m * cos, b_m * sin)
 }
 
-/// The narrowest half-width `(w_L + w_R) / 2` of `tube` over arc lengths
-/// `[s_m - behind_m, s_m + ahead_m]` (clamped to the tube), m; `None` for a non-finite window.
-pub fn narrowest_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, behind_m: f32, ahead_m: f32) -> Option<f32> {
+/// The samples of `tube` over arc lengths `[from_m, to_m]` (clamped to the tube, at least one)
+/// and the index of the first; `None` for a non-finite window. Both section scans below use it.
+fn window<const S: usize>(tube: &Tube<S>, from_m: f32, to_m: f32) -> Option<(usize, &[TubeSample])> {
     let ds = tube.ds_m();
-    let (lo, hi) = ((s_m - behind_m) / ds, (s_m + ahead_m) / ds);
+    let (lo, hi) = (from_m / ds, to_m / ds);
     if !(lo.is_finite() && hi.is_finite() && ds > 0.0) {
         return None;
     }
     let last = S.saturating_sub(1);
     let k0 = (lo.max(0.0) as usize).min(last);
     let k1 = (libm::ceilf(hi.max(0.0)) as usize).min(last);
-    tube.samples().get(k0..=k1.max(k0)).map(|w| w.iter().fold(f32::INFINITY, |m, s| vt_fpu::min(m, 0.5 * (s.w_left_m + s.w_right_m))))
+    tube.samples().get(k0..=k1.max(k0)).map(|w| (k0, w))
+}
+
+/// The narrowest half-width `(w_L + w_R) / 2` of `tube` over arc lengths
+/// `[s_m - behind_m, s_m + ahead_m]` (clamped to the tube), m; `None` for a non-finite window.
+pub fn narrowest_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, behind_m: f32, ahead_m: f32) -> Option<f32> {
+    window(tube, s_m - behind_m, s_m + ahead_m).map(|(_, w)| w.iter().fold(f32::INFINITY, |m, s| vt_fpu::min(m, 0.5 * (s.w_left_m + s.w_right_m))))
 }
 
 /// How far past the formation's front a narrow section counts in full when the shape keeps a
@@ -271,19 +277,12 @@ pub const RAMP_BEHIND_M: f32 = 4.0;
 /// ring_m`, `lead_m >= ahead_m` and `behind_m = 0` it is [`narrowest_half_width_m`] bit for bit.
 #[allow(clippy::too_many_arguments)]
 pub fn ramped_half_width_m<const S: usize>(tube: &Tube<S>, s_m: f32, ring_m: f32, reach_m: f32, ahead_m: f32, lead_m: f32, behind_m: f32) -> Option<f32> {
+    let (k0, samples) = window(tube, s_m - (reach_m + behind_m), s_m + (reach_m + ahead_m))?;
     let ds = tube.ds_m();
-    let (lo, hi) = ((s_m - (reach_m + behind_m)) / ds, (s_m + (reach_m + ahead_m)) / ds);
-    if !(lo.is_finite() && hi.is_finite() && ds > 0.0) {
-        return None;
-    }
     // Distances from the load at which a section starts to fade, and the fades' lengths (a
     // fade of no length: the window's edge).
     let (near_ahead, fade_ahead) = (reach_m + lead_m, ahead_m - lead_m);
     let (near_behind, fade_behind) = (reach_m, behind_m);
-    let last = S.saturating_sub(1);
-    let k0 = (lo.max(0.0) as usize).min(last);
-    let k1 = (libm::ceilf(hi.max(0.0)) as usize).min(last);
-    let samples = tube.samples().get(k0..=k1.max(k0))?;
     let mut narrowest = f32::INFINITY;
     for (k, sample) in (k0..).zip(samples.iter()) {
         let d = k as f32 * ds - s_m;
