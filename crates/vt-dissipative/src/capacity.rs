@@ -121,6 +121,13 @@ impl CapacityParams {
     pub fn need_cos_sum(&self) -> f32 {
         (1.0 + self.margin) * self.weight_n() / self.uav_capacity_n
     }
+
+    /// The load's own need on `sum_i cos theta_i`, without the margin: `W / f` (0 without a
+    /// declared load). The tube-shaped formation may spend the margin to keep its pairs apart in
+    /// a passage, never the load itself (docs/design.md, "Heavy loads keep their pairs apart").
+    pub fn weight_cos_sum(&self) -> f32 {
+        self.weight_n() / self.uav_capacity_n
+    }
 }
 
 /// What the law chose for a team and its declared load.

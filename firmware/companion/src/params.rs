@@ -463,7 +463,7 @@ impl Params {
             load_mass_kg: if self.get_u32(Param::CapOn) == 1 { g(Param::LoadKg) } else { 0.0 },
             uav_capacity_n: g(Param::CableRated),
             margin: g(Param::CapMargin),
-            separation_m: g(Param::SepMin).max(self.separation_m()),
+            separation_m: g(Param::SepMin).max(self.formation_separation_m()),
             rate_per_s: g(Param::CapRate),
             sag_start_m: g(Param::SagLo),
             sag_full_m: g(Param::SagHi),
@@ -557,6 +557,14 @@ impl Params {
         if body > 0.0 { 2.0 * body + self.get(Param::ClrMin) } else { 0.0 }
     }
 
+    /// The capacity-aware formation's separation floor from the body, m: [`Self::separation_m`]
+    /// plus [`vt_dissipative::separation::FORMATION_GUARD_M`], so that the pairs keep the floor
+    /// where the UAVs fly and not only where their nodes lie; 0 when `VT_BODY_R` is 0.
+    pub fn formation_separation_m(&self) -> f32 {
+        let sep = self.separation_m();
+        if sep > 0.0 { sep + vt_dissipative::separation::FORMATION_GUARD_M } else { 0.0 }
+    }
+
     /// Pole of the separation barrier flown, m: [`Self::separation_m`], or 0 (off) with the
     /// formation shaped to the tube (`VT_SHAPE` 1). Measured on the paper mission with 0.445 m
     /// bodies (docs/design.md, "A formation shaped to the tube"): the barrier against the shaped
@@ -620,8 +628,9 @@ mod tests {
     use super::*;
 
     /// Issue 27: a body turns on the separation barrier at `2 VT_BODY_R + VT_CLR_MIN` and raises
-    /// the tube safety radius and the formation's separation floor to what it needs; without
-    /// one the controller is the paper's (barrier off, radii as given).
+    /// the tube safety radius and the formation's separation floor to what it needs (the floor
+    /// plus `FORMATION_GUARD_M`); without one the controller is the paper's (barrier off, radii
+    /// as given).
     #[test]
     fn a_body_derives_the_separation_and_the_safety_radius() {
         let mut p = Params::default();
@@ -629,7 +638,9 @@ mod tests {
         p.set(Param::BodyR, 0.445).unwrap();
         assert!((p.separation_m() - 1.09).abs() < 1e-6);
         assert!((p.r_safe_m() - 0.645).abs() < 1e-6);
-        assert!((p.capacity().unwrap().separation_m - 1.09).abs() < 1e-6, "raised from VT_SEP_MIN 0.9");
+        // The formation's floor: the barrier's plus the guard for where the UAVs fly.
+        assert!((p.formation_separation_m() - 1.39).abs() < 1e-6);
+        assert!((p.capacity().unwrap().separation_m - 1.39).abs() < 1e-6, "raised from VT_SEP_MIN 0.9");
         p.set(Param::RSafe, 0.8).unwrap();
         assert_eq!(p.r_safe_m(), 0.8, "a larger VT_R_SAFE is kept");
         assert_eq!(p.separation_barrier_m(), p.separation_m());
@@ -644,7 +655,8 @@ mod tests {
         p.set(Param::ShapeMrg, 0.3).unwrap();
         assert_eq!(p.shape(), Some(ShapeParams { margin_m: 0.3, ahead_m: 6.0 }));
         assert_eq!(p.separation_barrier_m(), 0.0);
-        assert!((p.separation_m() - 1.09).abs() < 1e-6, "the capacity floor keeps the body's separation");
+        assert!((p.separation_m() - 1.09).abs() < 1e-6, "the floor keeps the body's separation");
+        assert!((p.capacity().unwrap().separation_m - 1.39).abs() < 1e-6, "and the formation its guard above it");
         assert!((p.r_safe_m() - 0.645).abs() < 1e-6, "and the tube barrier its radius");
     }
 
