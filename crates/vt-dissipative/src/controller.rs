@@ -239,7 +239,10 @@ pub struct ShapeSeparation<'a> {
     pub load_m: Vec3,
     /// Distance every pair of UAVs keeps where they fly, m (`CapacityParams::separation_m`).
     pub separation_m: f32,
-    /// The capacity law's need `(1 + rho) W / f` on `sum_i cos theta_i` (0: no declared load).
+    /// Least `sum_i cos theta_i` a lengthened stadium keeps (0: no declared load); the
+    /// companion passes the load's own `W / f` (`CapacityParams::weight_cos_sum`: a passage may
+    /// spend the capacity margin, never the load; docs/design.md, "Heavy loads keep their pairs
+    /// apart").
     pub min_cos_sum: f32,
 }
 

@@ -140,7 +140,8 @@ pub struct StadiumLimits {
     pub separation_m: f32,
     /// The scale the floor is checked at (`lambda_min`).
     pub separation_scale: f32,
-    /// Least `sum_i cos theta_i` (the capacity law's `(1 + rho) W / f`); 0: no declared load.
+    /// Least `sum_i cos theta_i` the stadium keeps as it lengthens (the flight gives the load's
+    /// own `W / f`, `CapacityParams::weight_cos_sum`); 0: no declared load.
     pub min_cos_sum: f32,
     /// The scale the capacity is checked at (`lambda*`).
     pub capacity_scale: f32,
@@ -202,7 +203,7 @@ impl<'a> StadiumTeam<'a> {
 /// ([`StadiumTeam::min_distance_m`] at `limits.separation_scale`), else the shortest of
 /// [`LENGTH_STEPS`] equal steps up to `2 r - b` (it lengthens by at most what it narrows) that
 /// keeps it. A node farther from the centre than on the ring leans its cable more, so no step
-/// is taken that brings the team's vertical capacity below the capacity law's need
+/// is taken that brings the team's vertical capacity below `limits.min_cos_sum`
 /// ([`StadiumTeam::cos_sum`] at `limits.capacity_scale`): the last step before that one, or
 /// the longest, when the floor is not reached (docs/design.md, "A formation shaped to the
 /// tube").

@@ -24,7 +24,7 @@ pub(super) struct TubeShape<const N: usize> {
     pub(super) lengths_mm: [u16; N],
     /// Distance every pair of UAVs keeps where they fly, m (0: the stadium as long as the ring).
     pub(super) separation_m: f32,
-    /// The capacity law's need on `sum_i cos theta_i` (shape.rs, [`StadiumLimits`]).
+    /// Least `sum_i cos theta_i` a lengthened stadium keeps (shape.rs, [`StadiumLimits`]).
     pub(super) min_cos_sum: f32,
     /// The stadium's half-length flown, m (node space, before the capacity-aware scale).
     pub(super) half_length_m: f32,
