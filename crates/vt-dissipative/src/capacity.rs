@@ -504,6 +504,17 @@ mod tests {
         assert!(p.margin() > 0.08);
     }
 
+    /// The stadium's bound (the load alone) lies below the law's need (the load and its margin)
+    /// by exactly the margin, and both vanish without a declared load.
+    #[test]
+    fn the_weight_bound_is_the_need_without_its_margin() {
+        let p = paper(19.4);
+        assert_relative_eq!(p.weight_cos_sum(), 19.4 * GRAVITY_MPS2 / 20.0, epsilon = 1e-5);
+        assert_relative_eq!(p.need_cos_sum(), (1.0 + p.margin) * p.weight_cos_sum(), epsilon = 1e-5);
+        assert!(p.weight_cos_sum() < p.need_cos_sum());
+        assert_eq!((paper(0.0).weight_cos_sum(), paper(0.0).need_cos_sum()), (0.0, 0.0));
+    }
+
     #[test]
     fn heavy_load_stands_the_cables_up_to_the_separation_floor() {
         let p = plan_circle(3.0, &PAPER_CABLES, 10.0, &paper(19.8)).unwrap();
