@@ -766,12 +766,10 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
         let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         high.set_capacity(FormationScale::new(&plan, &cap));
         if let Some(shape) = params.shape() {
-            // With bodies declared (`VT_BODY_R`), the stadium keeps the capacity-aware
-            // formation's separation floor (`Params::formation_separation_m`) where the UAVs
-            // fly: from their taut cable lengths at take-off (vt_dissipative::shape), lengthening
-            // as far as the load's own weight allows (the capacity margin may be spent in a
-            // passage, never the load: `weight_cos_sum`). Without,
-            // it is as long as the ring (the generated campaign's teams; docs/design.md).
+            // With bodies declared (`VT_BODY_R`), the stadium keeps `formation_separation_m`
+            // where the UAVs fly (from their taut cables at take-off, vt_dissipative::shape),
+            // lengthening down to the load's own weight (`weight_cos_sum`: a passage spends the
+            // margin, never the load). Without, it is as long as the ring (docs/design.md).
             let sep = (params.separation_m() > 0.0).then_some(ShapeSeparation { takeoff_m: takeoff, load_m: *load_pos_m, separation_m: cap.separation_m, min_cos_sum: cap.weight_cos_sum() });
             high.set_shape(shape, &formation, sep).map_err(StartError::Controller)?;
         }
