@@ -225,7 +225,14 @@ fn finite3(v: &Vector3<f64>) -> bool {
 /// m/s: the uniform wind `wind_mps` sheared over ground of roughness `roughness_m`
 /// ([`shear_factor`]) plus the body's turbulent gust from `gusts_mps` (none when missing).
 fn body_wind(wind_mps: &Vector3<f64>, height_m: f64, roughness_m: f64, gusts_mps: &[Vector3<f64>], index: usize) -> Vector3<f64> {
-    wind_mps * shear_factor(height_m, roughness_m) + gusts_mps.get(index).copied().unwrap_or_else(Vector3::zeros)
+    let gust = gusts_mps.get(index).copied().unwrap_or_else(Vector3::zeros);
+    // Calm air: the sheared wind is zero at any height (the shear factor is finite), so the two
+    // logarithms are skipped; `0 x f + g` and `g` are the same bits (`-0 + x = x` for x != -0,
+    // and a zero gust is +0).
+    if *wind_mps == Vector3::zeros() {
+        return Vector3::zeros() + gust;
+    }
+    wind_mps * shear_factor(height_m, roughness_m) + gust
 }
 
 /// Scale `v` (N) down to magnitude `max_n` (N) if it is longer; direction kept.
