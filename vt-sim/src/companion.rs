@@ -174,6 +174,7 @@ pub fn params_for(s: &Scenario, i: usize, kind: ControllerKind, cable_rated_n: f
         (Param::Shape, flag(s.controller.shape.enabled)),
         (Param::ShapeMrg, f(s.controller.shape.margin_m)),
         (Param::ShapeAhd, f(s.controller.shape.ahead_m)),
+        (Param::ShapeTeam, flag(s.controller.shape.team_keeping)),
         (Param::HReserve, vl.horizontal_reserve(s.uavs.model).map_or(AUTO, f)),
         (Param::CalN, s.controller.survey_samples as f32),
         (Param::CableL, f(s.cables.lengths_m[i])),

@@ -16,7 +16,7 @@ use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
-use crate::keeping::keeping_velocity;
+use crate::keeping::{keeping_velocity, team_keeping_velocity};
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
@@ -220,6 +220,10 @@ pub struct DissipativeController<const N: usize> {
     scale: FormationScale,
     /// The formation shaped to the tube ahead (`None`: the paper's rest lengths; shape.rs).
     shape: Option<TubeShape<N>>,
+    /// Team keeping (extension, keeping.rs): the tube keeping term is the team's mean plus half
+    /// the own node's; `node_hints` are the other nodes' warm starts in the tube.
+    team_keeping: bool,
+    node_hints: [usize; N],
 }
 
 /// How far above the separation floor a formation squeezed narrower than its narrowest stadium
@@ -293,6 +297,8 @@ impl<const N: usize> DissipativeController<N> {
             join_m: 0.0,
             scale: FormationScale::NEUTRAL,
             shape: None,
+            team_keeping: false,
+            node_hints: [0; N],
         })
     }
 
@@ -368,6 +374,12 @@ impl<const N: usize> DissipativeController<N> {
     /// Without it the controller is the paper's, bit for bit.
     pub fn set_capacity(&mut self, scale: FormationScale) {
         self.scale = scale;
+    }
+
+    /// Turns the team keeping on or off (extension; [`team_keeping_velocity`], docs/design.md
+    /// "The tube keeps the team, not one node"). Off, the keeping term is the paper's, bit for bit.
+    pub fn set_team_keeping(&mut self, on: bool) {
+        self.team_keeping = on;
     }
 
     /// Turns on the formation shaped to the tube ahead (extension; shape.rs, docs/design.md "A
@@ -615,6 +627,12 @@ impl<const N: usize> DissipativeController<N> {
         let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest.own_center_m, p.k2, true);
         status.coincident_nodes |= c_l | c_u;
         let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
+        let v_t = if self.team_keeping {
+            let join_m = self.join_m;
+            team_keeping_velocity(tube, &nodes, &mut self.node_hints, self.n, self.id, v_t, &self.barrier, |s| joined(s, join_m))
+        } else {
+            v_t
+        };
         status.outside_tube = d_t <= 0.0;
         vbar += v_l + v_u + v_t;
 
@@ -683,11 +701,7 @@ impl<const N: usize> DissipativeController<N> {
     /// `sec` as the barriers see it while joining a tube: both half-widths `join_m` wider.
     #[inline]
     fn joining(&self, sec: &vt_tube::Section) -> vt_tube::Section {
-        if self.join_m > 0.0 {
-            vt_tube::Section { half_width_m: sec.half_width_m + self.join_m, ..*sec }
-        } else {
-            *sec
-        }
+        joined(sec, self.join_m)
     }
 
     fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, v_max: f32, dt_s: f32, status: &mut Status) {
@@ -734,6 +748,16 @@ pub(crate) fn hold_command(vertical: &VerticalParams, offset_m: f32, m: &Measure
         boundary_distance_m: 0.0,
         section_s_m: 0.0,
         status,
+    }
+}
+
+/// `sec` with both half-widths `join_m` wider when `join_m > 0` (a tube being joined).
+#[inline]
+fn joined(sec: &vt_tube::Section, join_m: f32) -> vt_tube::Section {
+    if join_m > 0.0 {
+        vt_tube::Section { half_width_m: sec.half_width_m + join_m, ..*sec }
+    } else {
+        *sec
     }
 }
 

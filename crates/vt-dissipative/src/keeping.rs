@@ -5,9 +5,13 @@
 //! to `vbar_t = (dV_t/dd_t) (q - m) / |q - m|` (REFERENCE §2). With `dV_t/dd_t <= 0` it points
 //! from the node towards the section's midpoint, i.e. away from the nearer boundary.
 //! A node exactly on the midpoint gets zero (both boundaries equally far; gradient undefined).
+//!
+//! [`team_keeping_velocity`] is an extension (issue 27; docs/design.md, "The tube keeps the
+//! team, not one node"): every UAV adds the team's mean keeping term, so a boundary that one
+//! node meets moves the whole formation instead of pressing that node into its neighbours.
 
 use crate::Vec2;
-use vt_tube::{BarrierParams, Section};
+use vt_tube::{BarrierParams, Section, Tube};
 
 /// `|q - m|` below this is "on the midpoint", m.
 pub const ON_MIDPOINT_M: f32 = 1e-6;
@@ -24,6 +28,50 @@ pub fn keeping_velocity(section: &Section, q_m: &Vec2, barrier: &BarrierParams) 
     }
     let b = barrier.eval(d_t);
     (off * (b.deriv / r), d_t)
+}
+
+/// The share of its own node's keeping term a UAV keeps beside the team's mean in
+/// [`team_keeping_velocity`] (measured, docs/design.md "The tube keeps the team, not one node":
+/// 0 lets a node near the boundary, 1 squeezes pairs as the paper's term alone does).
+pub const OWN_KEEPING_SHARE: f32 = 0.5;
+
+/// Team keeping (extension): the mean over the team's `n` nodes of their keeping terms
+/// (eq:2-14/15 at each node, a missing node counting zero) plus [`OWN_KEEPING_SHARE`] times the
+/// own node's, m/s (node velocity).
+///
+/// The mean is the same for every UAV that sees the same nodes, so it moves the formation as
+/// a whole: it is `-1/n` times the gradient of the team's tube potential `sum_j V_t(q_j)` with
+/// respect to a common translation, along which that potential decreases. The own share keeps
+/// the paper's per-node barrier, halved: still unbounded at the safety radius, so a node the
+/// formation presses towards the boundary is held inside.
+///
+/// `own` is the UAV's index and `own_v_t` its own term (as [`keeping_velocity`] or the
+/// controller's overload variant gives it); `hints` are the nodes' warm starts for
+/// [`Tube::locate`], updated; `widen` maps a located section to the one the barrier sees (the
+/// joining of a re-planned tube). A node outside the tube's table contributes zero.
+#[allow(clippy::too_many_arguments)]
+pub fn team_keeping_velocity<const S: usize, const N: usize>(
+    tube: &Tube<S>,
+    nodes: &[Option<Vec2>; N],
+    hints: &mut [usize; N],
+    n: usize,
+    own: usize,
+    own_v_t: Vec2,
+    barrier: &BarrierParams,
+    widen: impl Fn(&Section) -> Section,
+) -> Vec2 {
+    let mut sum = Vec2::zeros();
+    for (j, (node, hint)) in nodes.iter().zip(hints.iter_mut()).enumerate().take(n) {
+        let Some(q) = node else { continue };
+        if j == own {
+            sum += own_v_t;
+        } else if let Some(sec) = tube.locate(*q, *hint) {
+            *hint = sec.segment;
+            sum += keeping_velocity(&widen(&sec), q, barrier).0;
+        }
+    }
+    let mean = if n > 0 { sum / n as f32 } else { Vec2::zeros() };
+    mean + own_v_t * OWN_KEEPING_SHARE
 }
 
 #[cfg(test)]
@@ -74,6 +122,80 @@ mod tests {
             last = v.x;
             assert_eq!(crate::passing::passing_velocity(&sec, &q, 1.0, 1.5), Vec2::zeros());
         }
+    }
+
+    /// A straight 4 m-wide tube and a row of three nodes across it, 0.8 m apart, offset by
+    /// `shift` (m, to the left).
+    fn row(shift: f32) -> (Tube<256>, [Option<Vec2>; 4]) {
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 2.0, 2.0), Waypoint::new(20.0, 0.0, 2.0, 2.0)]).unwrap();
+        let node = |y: f32| Some(Vec2::new(10.0, y + shift));
+        (t, [node(0.8), node(0.0), node(-0.8), None])
+    }
+
+    fn own_term(t: &Tube<256>, q: Vec2) -> Vec2 {
+        keeping_velocity(&t.locate(q, 0).unwrap(), &q, &BARRIER).0
+    }
+
+    fn team_term(t: &Tube<256>, nodes: &[Option<Vec2>; 4], n: usize, own: usize) -> Vec2 {
+        let own_v_t = nodes[own].map_or(Vec2::zeros(), |q| own_term(t, q));
+        team_keeping_velocity(t, nodes, &mut [0; 4], n, own, own_v_t, &BARRIER, |s| *s)
+    }
+
+    #[test]
+    fn a_boundary_one_node_meets_moves_the_whole_team_away() {
+        // Shifted 0.45 m left: the left node is 0.75 m from the boundary (inside the active
+        // band, 0.5-1.5 m), the others 1.55 and 1.65 m (beyond it).
+        let (t, nodes) = row(0.45);
+        let pushed = own_term(&t, nodes[0].unwrap());
+        assert!(pushed.y < -1.0, "{pushed:?}");
+        let mean = pushed / 3.0;
+        // The two free nodes get the same velocity, the team's mean, away from the boundary.
+        for own in [1, 2] {
+            assert_relative_eq!(team_term(&t, &nodes, 3, own), mean, epsilon = 1e-6);
+        }
+        // The pushed node: the mean plus half its own term, less than the paper's term alone.
+        let v0 = team_term(&t, &nodes, 3, 0);
+        assert_relative_eq!(v0, mean + pushed * OWN_KEEPING_SHARE, epsilon = 1e-6);
+        assert!(v0.y < 0.0 && v0.y > pushed.y);
+    }
+
+    #[test]
+    fn a_formation_pressed_from_both_sides_is_not_moved_only_held() {
+        // A row 3.2 m wide in a 4 m tube: both outer nodes in the band, the pushes cancel in
+        // the mean; each outer node keeps half its own term, inwards.
+        let t = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 2.0, 2.0), Waypoint::new(20.0, 0.0, 2.0, 2.0)]).unwrap();
+        let nodes = [Some(Vec2::new(10.0, 1.6)), Some(Vec2::new(10.0, 0.0)), Some(Vec2::new(10.0, -1.6)), None];
+        assert!(team_term(&t, &nodes, 3, 1).norm() < 1e-5);
+        let left = own_term(&t, nodes[0].unwrap());
+        assert_relative_eq!(team_term(&t, &nodes, 3, 0), left * OWN_KEEPING_SHARE, epsilon = 1e-5);
+    }
+
+    #[test]
+    fn the_common_translation_lowers_the_teams_tube_potential() {
+        // Lyapunov: moving every node by the team's mean term (a small step) lowers
+        // sum_j V_t(q_j), the team's tube potential (dV/dt = -|sum grad|^2 / n <= 0).
+        let potential = |t: &Tube<256>, nodes: &[Option<Vec2>; 4]| -> f32 {
+            nodes.iter().flatten().map(|q| BARRIER.eval(t.locate(*q, 0).unwrap().boundary_distance_m(*q)).value).sum()
+        };
+        for shift in [0.3f32, 0.45, -0.35] {
+            let (t, nodes) = row(shift);
+            let before = potential(&t, &nodes);
+            let mean = team_term(&t, &nodes, 3, 1);
+            let moved = nodes.map(|q| q.map(|q| q + mean * 0.01));
+            let after = potential(&t, &moved);
+            assert!(before > 0.0 && after < before, "shift {shift}: {before} -> {after}");
+        }
+    }
+
+    #[test]
+    fn missing_nodes_count_zero_and_an_empty_team_keeps_the_own_share() {
+        let (t, nodes) = row(0.45);
+        let pushed = own_term(&t, nodes[0].unwrap());
+        // The pushed node unseen by UAV 1: nothing from it.
+        let unseen = [None, nodes[1], nodes[2], None];
+        assert!(team_term(&t, &unseen, 3, 1).norm() < 1e-6);
+        let alone = team_keeping_velocity(&t, &[None; 4], &mut [0; 4], 0, 0, pushed, &BARRIER, |s| *s);
+        assert_relative_eq!(alone, pushed * OWN_KEEPING_SHARE);
     }
 
     #[test]

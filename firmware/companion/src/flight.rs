@@ -772,6 +772,7 @@ fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3
             // margin, never the load). Without, it is as long as the ring (docs/design.md).
             let sep = (params.separation_m() > 0.0).then_some(ShapeSeparation { takeoff_m: takeoff, load_m: *load_pos_m, separation_m: cap.separation_m, min_cos_sum: cap.weight_cos_sum() });
             high.set_shape(shape, &formation, sep).map_err(StartError::Controller)?;
+            high.set_team_keeping(params.team_keeping());
         }
         HighLevel::Dissipative(high)
     })

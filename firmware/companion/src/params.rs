@@ -196,6 +196,7 @@ params! {
     Shape => int("VT_SHAPE", 0.0, 0.0, 1.0), "Formation shape: 0 the take-off ring (the paper's rest lengths); 1 shaped to the tube ahead, a stadium of the ring's perimeter as narrow as the narrowest section ahead allows (extension; `vt_dissipative::shape`, docs/design.md \"A formation shaped to the tube\").";
     ShapeMrg => real("VT_SHAPE_MRG", 0.5, 0.0, LENGTH_MAX_M), "Shaped formation: room kept between the nodes and the tube barrier's safety radius, m.";
     ShapeAhd => real("VT_SHAPE_AHD", 6.0, 0.0, LENGTH_MAX_M), "Shaped formation: how far past the formation's front the tube's width is looked at, m.";
+    ShapeTeam => int("VT_SHAPE_TEAM", 1.0, 0.0, 1.0), "Shaped formation: 1 the team keeps the tube together (each UAV's keeping term is the mean of every node's plus half its own; extension, `vt_dissipative::keeping`, docs/design.md \"The tube keeps the team, not one node\"); 0 each node its own, as the paper.";
     PrMap => int("PR_MAP", 0.0, 0.0, 1.0), "Onboard map (issue 28): 0 the tube is given before the flight; 1 unknown: the companion maps its range scans and the team's, and the team re-plans its tube in flight on the world `PR_X0`..`PR_Y1` to `PR_GOAL_X/Y` (a build without the `perception` feature refuses the start, refusal 11).";
     PrX0 => real("PR_X0", 0.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Onboard map: the world's west edge, m (ENU x).";
     PrX1 => real("PR_X1", 50.0, -ALTITUDE_MAX_M, ALTITUDE_MAX_M), "Onboard map: the world's east edge, m.";
@@ -451,6 +452,12 @@ impl Params {
     /// The tube-shaped formation's settings, `None` when `VT_SHAPE` is 0 (the paper's ring).
     pub fn shape(&self) -> Option<ShapeParams> {
         (self.get_u32(Param::Shape) == 1).then(|| ShapeParams { margin_m: self.get(Param::ShapeMrg), ahead_m: self.get(Param::ShapeAhd) })
+    }
+
+    /// Whether the shaped formation keeps the tube as a team (`VT_SHAPE_TEAM` 1 with `VT_SHAPE`
+    /// 1; `vt_dissipative::keeping::team_keeping_velocity`).
+    pub fn team_keeping(&self) -> bool {
+        self.get_u32(Param::Shape) == 1 && self.get_u32(Param::ShapeTeam) == 1
     }
 
     /// The capacity-aware formation's parameters (validated by `vt-dissipative`; issue 15).

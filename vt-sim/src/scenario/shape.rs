@@ -17,16 +17,24 @@ pub struct ShapeSpec {
     /// How far past the formation's front the tube's width is looked at, m (`VT_SHAPE_AHD`).
     #[serde(default = "default_ahead")]
     pub ahead_m: f64,
+    /// The team keeps the tube together: each UAV's keeping term is the mean of every node's
+    /// plus half its own (`VT_SHAPE_TEAM`; extension, docs/design.md "The tube keeps the team,
+    /// not one node"). Off: each node its own, as the paper.
+    #[serde(default = "default_team_keeping")]
+    pub team_keeping: bool,
 }
 
 impl Default for ShapeSpec {
     fn default() -> Self {
-        Self { enabled: false, margin_m: default_margin(), ahead_m: default_ahead() }
+        Self { enabled: false, margin_m: default_margin(), ahead_m: default_ahead(), team_keeping: default_team_keeping() }
     }
 }
 
 fn default_margin() -> f64 {
     f64::from(vt_dissipative::ShapeParams::default().margin_m)
+}
+fn default_team_keeping() -> bool {
+    true
 }
 fn default_ahead() -> f64 {
     f64::from(vt_dissipative::ShapeParams::default().ahead_m)
