@@ -35,6 +35,25 @@ pub fn keeping_velocity(section: &Section, q_m: &Vec2, barrier: &BarrierParams) 
 /// 0 lets a node near the boundary, 1 squeezes pairs as the paper's term alone does).
 pub const OWN_KEEPING_SHARE: f32 = 0.5;
 
+/// What [`team_keeping_velocity`] keeps of another node between steps: its warm start in the
+/// tube, and where it was and how far from the boundary when last located.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeKeeping {
+    hint: usize,
+    at_m: Vec2,
+    d_m: f32,
+    skipped: u8,
+}
+
+impl NodeKeeping {
+    /// Nothing known: the node is located at its next step.
+    pub const UNSEEN: Self = Self { hint: 0, at_m: Vec2::new(0.0, 0.0), d_m: f32::NEG_INFINITY, skipped: 0 };
+}
+
+/// Steps a node may be skipped as certainly beyond the barrier before it is located anyway (a
+/// fresh warm start; a tube replaced without [`crate::DissipativeController::join_tube`]).
+pub const KEEPING_REFRESH_STEPS: u8 = 25;
+
 /// Team keeping (extension): the mean over the team's `n` nodes of their keeping terms
 /// (eq:2-14/15 at each node, a missing node counting zero) plus [`OWN_KEEPING_SHARE`] times the
 /// own node's, m/s (node velocity).
@@ -46,29 +65,47 @@ pub const OWN_KEEPING_SHARE: f32 = 0.5;
 /// formation presses towards the boundary is held inside.
 ///
 /// `own` is the UAV's index and `own_v_t` its own term (as [`keeping_velocity`] or the
-/// controller's overload variant gives it); `hints` are the nodes' warm starts for
-/// [`Tube::locate`], updated; `widen` maps a located section to the one the barrier sees (the
-/// joining of a re-planned tube). A node outside the tube's table contributes zero.
+/// controller's overload variant gives it). `cache` holds what is kept of the other nodes: a
+/// node whose last boundary distance, less [`Tube::boundary_lipschitz`] times how far it moved
+/// since, is still beyond the barrier's reach contributes zero without being located (exactly
+/// what locating it would give), for at most [`KEEPING_REFRESH_STEPS`] steps. `widen` maps a
+/// located section to the one the barrier sees; `exact_widen` says it is the identity (no tube
+/// being joined): only then is a node skipped. A node outside the tube's table contributes
+/// zero.
 #[allow(clippy::too_many_arguments)]
 pub fn team_keeping_velocity<const S: usize, const N: usize>(
     tube: &Tube<S>,
     nodes: &[Option<Vec2>; N],
-    hints: &mut [usize; N],
+    cache: &mut [NodeKeeping; N],
     n: usize,
     own: usize,
     own_v_t: Vec2,
     barrier: &BarrierParams,
     widen: impl Fn(&Section) -> Section,
+    exact_widen: bool,
 ) -> Vec2 {
+    let lipschitz = tube.boundary_lipschitz();
     let mut sum = Vec2::zeros();
-    for (j, (node, hint)) in nodes.iter().zip(hints.iter_mut()).enumerate().take(n) {
+    for (j, (node, c)) in nodes.iter().zip(cache.iter_mut()).enumerate().take(n) {
         let Some(q) = node else { continue };
         if j == own {
             sum += own_v_t;
-        } else if let Some(sec) = tube.locate(*q, *hint) {
-            *hint = sec.segment;
-            sum += keeping_velocity(&widen(&sec), q, barrier).0;
+            continue;
         }
+        // Certainly beyond the barrier's reach: `d - L |q - q_last| >= r_a`, on squares.
+        let slack = c.d_m - barrier.r_active_m;
+        if exact_widen && c.skipped < KEEPING_REFRESH_STEPS && slack >= 0.0 && slack * slack >= lipschitz * lipschitz * (q - c.at_m).norm_squared() {
+            c.skipped += 1;
+            continue;
+        }
+        *c = match tube.locate(*q, c.hint) {
+            Some(sec) => {
+                let (v, d) = keeping_velocity(&widen(&sec), q, barrier);
+                sum += v;
+                NodeKeeping { hint: sec.segment, at_m: *q, d_m: d, skipped: 0 }
+            }
+            None => NodeKeeping::UNSEEN,
+        };
     }
     let mean = if n > 0 { sum / n as f32 } else { Vec2::zeros() };
     mean + own_v_t * OWN_KEEPING_SHARE
@@ -138,7 +175,7 @@ mod tests {
 
     fn team_term(t: &Tube<256>, nodes: &[Option<Vec2>; 4], n: usize, own: usize) -> Vec2 {
         let own_v_t = nodes[own].map_or(Vec2::zeros(), |q| own_term(t, q));
-        team_keeping_velocity(t, nodes, &mut [0; 4], n, own, own_v_t, &BARRIER, |s| *s)
+        team_keeping_velocity(t, nodes, &mut [NodeKeeping::UNSEEN; 4], n, own, own_v_t, &BARRIER, |s| *s, true)
     }
 
     #[test]
@@ -194,8 +231,30 @@ mod tests {
         // The pushed node unseen by UAV 1: nothing from it.
         let unseen = [None, nodes[1], nodes[2], None];
         assert!(team_term(&t, &unseen, 3, 1).norm() < 1e-6);
-        let alone = team_keeping_velocity(&t, &[None; 4], &mut [0; 4], 0, 0, pushed, &BARRIER, |s| *s);
+        let alone = team_keeping_velocity(&t, &[None; 4], &mut [NodeKeeping::UNSEEN; 4], 0, 0, pushed, &BARRIER, |s| *s, true);
         assert_relative_eq!(alone, pushed * OWN_KEEPING_SHARE);
+    }
+
+    #[test]
+    fn skipping_far_nodes_gives_what_locating_them_gives() {
+        // A team drifting across a narrowing tube, stepped with one cache: every step's term
+        // equals the term of a fresh cache (every node located), bit for bit, and nodes are
+        // skipped on the way.
+        let t = tube();
+        let mut cache = [NodeKeeping::UNSEEN; 4];
+        let mut skipped = 0;
+        for k in 0..400 {
+            let c = Vec2::new(2.0 + 0.06 * k as f32, 0.5 * (0.02 * k as f32).sin());
+            let nodes = [Some(c + Vec2::new(0.0, 1.2)), Some(c), Some(c + Vec2::new(-0.8, -1.0)), Some(c + Vec2::new(0.9, -0.6))];
+            let own_v_t = own_term(&t, nodes[1].unwrap());
+            let before: u32 = cache.iter().map(|c| u32::from(c.skipped)).sum();
+            let cached = team_keeping_velocity(&t, &nodes, &mut cache, 4, 1, own_v_t, &BARRIER, |s| *s, true);
+            let after: u32 = cache.iter().map(|c| u32::from(c.skipped)).sum();
+            skipped += u32::from(after > before);
+            let fresh = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 4, 1, own_v_t, &BARRIER, |s| *s, true);
+            assert_eq!(cached, fresh, "step {k}");
+        }
+        assert!(skipped > 100, "{skipped}");
     }
 
     #[test]

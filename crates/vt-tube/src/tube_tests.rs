@@ -294,3 +294,49 @@ proptest! {
         }
     }
 }
+
+/// The paper's tube (scenarios/paper-10uav.toml): two narrow passages, one asymmetric.
+fn paper_tube() -> T {
+    let w = |x: f32, y: f32, l: f32, r: f32| Waypoint::new(x, y, l, r);
+    T::from_waypoints(&[
+        w(2.0, 0.0, 5.5, 5.5),
+        w(9.0, 1.5, 5.5, 5.5),
+        w(16.0, 2.0, 2.4, 2.4),
+        w(23.0, 0.0, 5.0, 5.0),
+        w(30.0, -2.5, 2.1, 2.6),
+        w(37.0, -1.5, 5.0, 5.0),
+        w(43.0, 0.5, 5.5, 5.5),
+        w(48.0, 1.0, 5.5, 5.5),
+    ])
+    .unwrap()
+}
+
+#[test]
+fn the_boundary_lipschitz_bound_is_finite_and_at_least_one() {
+    let l = paper_tube().boundary_lipschitz();
+    assert!(l.is_finite() && l >= 1.25 && l < 5.0, "{l}");
+    // A straight tube of constant width: the distance itself, 1, with the 25 % margin.
+    assert_relative_eq!(straight(2.0, 1.0).boundary_lipschitz(), 1.25, epsilon = 1e-4);
+    assert!(T::placeholder().boundary_lipschitz().is_infinite());
+}
+
+proptest! {
+    /// `|d_t(q) - d_t(p)| <= L |q - p|` for points inside the paper's tube, through its
+    /// narrowing passages (what `vt_dissipative::keeping` relies on to skip far nodes).
+    #[test]
+    fn the_boundary_distance_moves_no_faster_than_the_bound(
+        s in 1.0f32..48.0, lat in -0.9f32..0.9, dx in -0.6f32..0.6, dy in -0.6f32..0.6,
+    ) {
+        let t = paper_tube();
+        let k = ((s / t.ds_m()) as usize).min(254);
+        let a = t.samples()[k];
+        let sec = t.locate_exact(a.pos_m);
+        let p = sec.midpoint_m + a.normal() * (lat * sec.half_width_m);
+        let q = p + Vec2::new(dx, dy);
+        let (dp, dq) = (t.locate_exact(p), t.locate_exact(q));
+        let (bp, bq) = (dp.boundary_distance_m(p), dq.boundary_distance_m(q));
+        prop_assume!(bp > 0.0 && bq > 0.0);
+        let moved = (q - p).norm();
+        prop_assert!((bq - bp).abs() <= t.boundary_lipschitz() * moved + 1e-4, "{bp} -> {bq} over {moved} m, L {}", t.boundary_lipschitz());
+    }
+}
