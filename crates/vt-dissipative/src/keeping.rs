@@ -73,6 +73,7 @@ pub const KEEPING_REFRESH_STEPS: u8 = 25;
 /// being joined): only then is a node skipped. A node outside the tube's table contributes
 /// zero.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 pub fn team_keeping_velocity<const S: usize, const N: usize>(
     tube: &Tube<S>,
     nodes: &[Option<Vec2>; N],

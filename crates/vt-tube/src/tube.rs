@@ -119,7 +119,7 @@ pub struct Tube<const N: usize = DEFAULT_SAMPLES> {
     chunk_len: usize,
     ds_m: f32,
     length_m: f32,
-    /// [`Tube::boundary_lipschitz`].
+    /// [`Tube::boundary_lipschitz`] (0 until built: the placeholder stays all zero bits).
     lipschitz: f32,
 }
 
@@ -165,7 +165,7 @@ impl<const N: usize> Tube<N> {
             chunk_len: 0,
             ds_m: 0.0,
             length_m: 0.0,
-            lipschitz: f32::INFINITY,
+            lipschitz: 0.0,
         }
     }
 
@@ -445,7 +445,7 @@ impl<const N: usize> Tube<N> {
     /// `L = 1 + max |r_t' + m_lat'| / (1 - fold)` over the sampled table, with `m_lat =
     /// (w_L - w_R)/2`; taken 25 % larger for the piecewise-linear sections between samples.
     pub fn boundary_lipschitz(&self) -> f32 {
-        self.lipschitz
+        if self.lipschitz > 0.0 { self.lipschitz } else { f32::INFINITY }
     }
 
     /// Total arc length `L`, m.
