@@ -314,7 +314,7 @@ fn paper_tube() -> T {
 #[test]
 fn the_boundary_lipschitz_bound_is_finite_and_at_least_one() {
     let l = paper_tube().boundary_lipschitz();
-    assert!(l.is_finite() && l >= 1.25 && l < 5.0, "{l}");
+    assert!((1.25..5.0).contains(&l), "{l}");
     // A straight tube of constant width: the distance itself, 1, with the 25 % margin.
     assert_relative_eq!(straight(2.0, 1.0).boundary_lipschitz(), 1.25, epsilon = 1e-4);
     assert!(T::placeholder().boundary_lipschitz().is_infinite());
