@@ -631,7 +631,7 @@ impl<const N: usize> DissipativeController<N> {
         let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         let v_t = if self.team_keeping {
             let join_m = self.join_m;
-            team_keeping_velocity(tube, &nodes, &mut self.node_keeping, self.n, self.id, v_t, &self.barrier, |s| joined(s, join_m), !(join_m > 0.0))
+            team_keeping_velocity(tube, &nodes, &mut self.node_keeping, self.n, self.id, v_t, self.params.v_max_mps, &self.barrier, |s| joined(s, join_m), !(join_m > 0.0))
         } else {
             v_t
         };

@@ -55,8 +55,12 @@ impl NodeKeeping {
 pub const KEEPING_REFRESH_STEPS: u8 = 25;
 
 /// Team keeping (extension): the mean over the team's `n` nodes of their keeping terms
-/// (eq:2-14/15 at each node, a missing node counting zero) plus [`OWN_KEEPING_SHARE`] times the
-/// own node's, m/s (node velocity).
+/// (eq:2-14/15 at each node, each limited to `clip_mps`, a missing node counting zero) plus
+/// [`OWN_KEEPING_SHARE`] times the own node's, m/s (node velocity).
+///
+/// The limit is the controller's speed limit `v_max` (eq:2-21): no node moves the team faster
+/// than it could command itself, so one node deep in its barrier (whose term is unbounded) does
+/// not drive another into the opposite boundary against that one's own share.
 ///
 /// The mean is the same for every UAV that sees the same nodes, so it moves the formation as
 /// a whole: it is `-1/n` times the gradient of the team's tube potential `sum_j V_t(q_j)` with
@@ -81,6 +85,7 @@ pub fn team_keeping_velocity<const S: usize, const N: usize>(
     n: usize,
     own: usize,
     own_v_t: Vec2,
+    clip_mps: f32,
     barrier: &BarrierParams,
     widen: impl Fn(&Section) -> Section,
     exact_widen: bool,
@@ -90,7 +95,7 @@ pub fn team_keeping_velocity<const S: usize, const N: usize>(
     for (j, (node, c)) in nodes.iter().zip(cache.iter_mut()).enumerate().take(n) {
         let Some(q) = node else { continue };
         if j == own {
-            sum += own_v_t;
+            sum += limited(own_v_t, clip_mps);
             continue;
         }
         // Certainly beyond the barrier's reach: `d - L |q - q_last| >= r_a`, on squares.
@@ -102,7 +107,7 @@ pub fn team_keeping_velocity<const S: usize, const N: usize>(
         *c = match tube.locate(*q, c.hint) {
             Some(sec) => {
                 let (v, d) = keeping_velocity(&widen(&sec), q, barrier);
-                sum += v;
+                sum += limited(v, clip_mps);
                 NodeKeeping { hint: sec.segment, at_m: *q, d_m: d, skipped: 0 }
             }
             None => NodeKeeping::UNSEEN,
@@ -110,6 +115,19 @@ pub fn team_keeping_velocity<const S: usize, const N: usize>(
     }
     let mean = if n > 0 { sum / n as f32 } else { Vec2::zeros() };
     mean + own_v_t * OWN_KEEPING_SHARE
+}
+
+/// `v` limited to magnitude `clip_mps` (direction kept), m/s: also for a finite `v` whose
+/// square overflows (a barrier term deep in its safety radius saturates at `f32::MAX`); zero for
+/// a non-finite `v` or a limit that is not a number >= 0.
+fn limited(v: Vec2, clip_mps: f32) -> Vec2 {
+    let m = v.amax();
+    if !(m > 0.0 && m.is_finite() && clip_mps >= 0.0) {
+        return Vec2::zeros();
+    }
+    let u = v / m;
+    let n = vt_fpu::norm(&u);
+    if m * n <= clip_mps { v } else { u * (clip_mps / n) }
 }
 
 #[cfg(test)]
@@ -176,7 +194,7 @@ mod tests {
 
     fn team_term(t: &Tube<256>, nodes: &[Option<Vec2>; 4], n: usize, own: usize) -> Vec2 {
         let own_v_t = nodes[own].map_or(Vec2::zeros(), |q| own_term(t, q));
-        team_keeping_velocity(t, nodes, &mut [NodeKeeping::UNSEEN; 4], n, own, own_v_t, &BARRIER, |s| *s, true)
+        team_keeping_velocity(t, nodes, &mut [NodeKeeping::UNSEEN; 4], n, own, own_v_t, f32::INFINITY, &BARRIER, |s| *s, true)
     }
 
     #[test]
@@ -232,8 +250,26 @@ mod tests {
         // The pushed node unseen by UAV 1: nothing from it.
         let unseen = [None, nodes[1], nodes[2], None];
         assert!(team_term(&t, &unseen, 3, 1).norm() < 1e-6);
-        let alone = team_keeping_velocity(&t, &[None; 4], &mut [NodeKeeping::UNSEEN; 4], 0, 0, pushed, &BARRIER, |s| *s, true);
+        let alone = team_keeping_velocity(&t, &[None; 4], &mut [NodeKeeping::UNSEEN; 4], 0, 0, pushed, f32::INFINITY, &BARRIER, |s| *s, true);
         assert_relative_eq!(alone, pushed * OWN_KEEPING_SHARE);
+    }
+
+    #[test]
+    fn no_node_moves_the_team_faster_than_the_speed_limit() {
+        // The left node deep in its barrier (0.05 m past the safety radius): its term is large,
+        // its share of the team's motion at most the limit over n.
+        let (t, _) = row(0.0);
+        let nodes = [Some(Vec2::new(10.0, 1.45)), Some(Vec2::new(10.0, 0.0)), Some(Vec2::new(10.0, -0.3)), None];
+        let deep = own_term(&t, nodes[0].unwrap());
+        assert!(deep.norm() > 10.0, "{deep:?}");
+        let v1 = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 3, 1, Vec2::zeros(), 1.5, &BARRIER, |s| *s, true);
+        assert_relative_eq!(v1, Vec2::new(0.0, -1.5 / 3.0), epsilon = 1e-5);
+        // The deep node itself keeps its whole half share, unlimited.
+        let v0 = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 3, 0, deep, 1.5, &BARRIER, |s| *s, true);
+        assert_relative_eq!(v0, limited(deep, 1.5) / 3.0 + deep * OWN_KEEPING_SHARE, max_relative = 1e-5);
+        assert_relative_eq!(limited(Vec2::new(f32::MAX, f32::MAX), 1.5).norm(), 1.5, epsilon = 1e-5);
+        assert_eq!(limited(Vec2::new(f32::NAN, 0.0), 1.5), Vec2::zeros());
+        assert_eq!(limited(Vec2::new(1.0, 0.0), f32::NAN), Vec2::zeros());
     }
 
     #[test]
@@ -249,10 +285,10 @@ mod tests {
             let nodes = [Some(c + Vec2::new(0.0, 1.2)), Some(c), Some(c + Vec2::new(-0.8, -1.0)), Some(c + Vec2::new(0.9, -0.6))];
             let own_v_t = own_term(&t, nodes[1].unwrap());
             let before: u32 = cache.iter().map(|c| u32::from(c.skipped)).sum();
-            let cached = team_keeping_velocity(&t, &nodes, &mut cache, 4, 1, own_v_t, &BARRIER, |s| *s, true);
+            let cached = team_keeping_velocity(&t, &nodes, &mut cache, 4, 1, own_v_t, 1.5, &BARRIER, |s| *s, true);
             let after: u32 = cache.iter().map(|c| u32::from(c.skipped)).sum();
             skipped += u32::from(after > before);
-            let fresh = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 4, 1, own_v_t, &BARRIER, |s| *s, true);
+            let fresh = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 4, 1, own_v_t, 1.5, &BARRIER, |s| *s, true);
             assert_eq!(cached, fresh, "step {k}");
         }
         assert!(skipped > 100, "{skipped}");
