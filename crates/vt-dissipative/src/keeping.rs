@@ -120,6 +120,7 @@ pub fn team_keeping_velocity<const S: usize, const N: usize>(
 /// `v` limited to magnitude `clip_mps` (direction kept), m/s: also for a finite `v` whose
 /// square overflows (a barrier term deep in its safety radius saturates at `f32::MAX`); zero for
 /// a non-finite `v` or a limit that is not a number >= 0.
+#[inline(never)]
 fn limited(v: Vec2, clip_mps: f32) -> Vec2 {
     let m = v.amax();
     if !(m > 0.0 && m.is_finite() && clip_mps >= 0.0) {
