@@ -16,7 +16,7 @@ use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
-use crate::keeping::{keeping_velocity, team_keeping_velocity, NodeKeeping};
+use crate::keeping::{keeping_velocity, team_keeping_velocity};
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
@@ -221,9 +221,8 @@ pub struct DissipativeController<const N: usize> {
     /// The formation shaped to the tube ahead (`None`: the paper's rest lengths; shape.rs).
     shape: Option<TubeShape<N>>,
     /// Team keeping (extension, keeping.rs): the tube keeping term is the team's mean plus half
-    /// the own node's; `node_keeping` is what it keeps of the other nodes between steps.
+    /// the own node's.
     team_keeping: bool,
-    node_keeping: [NodeKeeping; N],
 }
 
 /// How far above the separation floor a formation squeezed narrower than its narrowest stadium
@@ -298,7 +297,6 @@ impl<const N: usize> DissipativeController<N> {
             scale: FormationScale::NEUTRAL,
             shape: None,
             team_keeping: false,
-            node_keeping: [NodeKeeping::UNSEEN; N],
         })
     }
 
@@ -348,7 +346,6 @@ impl<const N: usize> DissipativeController<N> {
     /// left it on its old tube.
     pub fn join_tube(&mut self) {
         self.join_m = f32::INFINITY;
-        self.node_keeping = [NodeKeeping::UNSEEN; N];
     }
 
     /// The widening still in force while joining a tube, m (0: none).
@@ -381,7 +378,6 @@ impl<const N: usize> DissipativeController<N> {
     /// "The tube keeps the team, not one node"). Off, the keeping term is the paper's, bit for bit.
     pub fn set_team_keeping(&mut self, on: bool) {
         self.team_keeping = on;
-        self.node_keeping = [NodeKeeping::UNSEEN; N];
     }
 
     /// Turns on the formation shaped to the tube ahead (extension; shape.rs, docs/design.md "A
@@ -631,7 +627,7 @@ impl<const N: usize> DissipativeController<N> {
         let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         let v_t = if self.team_keeping {
             let join_m = self.join_m;
-            team_keeping_velocity(tube, &nodes, &mut self.node_keeping, self.n, self.id, v_t, self.params.v_max_mps, &self.barrier, |s| joined(s, join_m), !(join_m > 0.0))
+            team_keeping_velocity(tube, &nodes, self.n, self.id, v_t, sec.segment, self.params.v_max_mps, &self.barrier, |s| joined(s, join_m))
         } else {
             v_t
         };

@@ -35,25 +35,6 @@ pub fn keeping_velocity(section: &Section, q_m: &Vec2, barrier: &BarrierParams) 
 /// 0 lets a node near the boundary, 1 squeezes pairs as the paper's term alone does).
 pub const OWN_KEEPING_SHARE: f32 = 0.5;
 
-/// What [`team_keeping_velocity`] keeps of another node between steps: its warm start in the
-/// tube, and where it was and how far from the boundary when last located.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NodeKeeping {
-    hint: usize,
-    at_m: Vec2,
-    d_m: f32,
-    skipped: u8,
-}
-
-impl NodeKeeping {
-    /// Nothing known: the node is located at its next step.
-    pub const UNSEEN: Self = Self { hint: 0, at_m: Vec2::new(0.0, 0.0), d_m: f32::NEG_INFINITY, skipped: 0 };
-}
-
-/// Steps a node may be skipped as certainly beyond the barrier before it is located anyway (a
-/// fresh warm start; a tube replaced without [`crate::DissipativeController::join_tube`]).
-pub const KEEPING_REFRESH_STEPS: u8 = 25;
-
 /// Team keeping (extension): the mean over the team's `n` nodes of their keeping terms
 /// (eq:2-14/15 at each node, each limited to `clip_mps`, a missing node counting zero) plus
 /// [`OWN_KEEPING_SHARE`] times the own node's, m/s (node velocity).
@@ -68,50 +49,32 @@ pub const KEEPING_REFRESH_STEPS: u8 = 25;
 /// the paper's per-node barrier, halved: still unbounded at the safety radius, so a node the
 /// formation presses towards the boundary is held inside.
 ///
-/// `own` is the UAV's index and `own_v_t` its own term (as [`keeping_velocity`] or the
-/// controller's overload variant gives it). `cache` holds what is kept of the other nodes: a
-/// node whose last boundary distance, less [`Tube::boundary_lipschitz`] times how far it moved
-/// since, is still beyond the barrier's reach contributes zero without being located (exactly
-/// what locating it would give), for at most [`KEEPING_REFRESH_STEPS`] steps. `widen` maps a
-/// located section to the one the barrier sees; `exact_widen` says it is the identity (no tube
-/// being joined): only then is a node skipped. A node outside the tube's table contributes
-/// zero.
+/// `own` is the UAV's index, `own_v_t` its own term (as [`keeping_velocity`] or the
+/// controller's overload variant gives it) and `hint` its section's segment, the warm start of
+/// every other node's [`Tube::locate`] (the nodes lie within the formation's span of it).
+/// `widen` maps a located section to the one the barrier sees. A node outside the tube's table
+/// contributes zero.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub fn team_keeping_velocity<const S: usize, const N: usize>(
     tube: &Tube<S>,
     nodes: &[Option<Vec2>; N],
-    cache: &mut [NodeKeeping; N],
     n: usize,
     own: usize,
     own_v_t: Vec2,
+    hint: usize,
     clip_mps: f32,
     barrier: &BarrierParams,
     widen: impl Fn(&Section) -> Section,
-    exact_widen: bool,
 ) -> Vec2 {
-    let lipschitz = tube.boundary_lipschitz();
     let mut sum = Vec2::zeros();
-    for (j, (node, c)) in nodes.iter().zip(cache.iter_mut()).enumerate().take(n) {
+    for (j, node) in nodes.iter().enumerate().take(n) {
         let Some(q) = node else { continue };
         if j == own {
             sum += limited(own_v_t, clip_mps);
-            continue;
+        } else if let Some(sec) = tube.locate(*q, hint) {
+            sum += limited(keeping_velocity(&widen(&sec), q, barrier).0, clip_mps);
         }
-        // Certainly beyond the barrier's reach: `d - L |q - q_last| >= r_a`, on squares.
-        let slack = c.d_m - barrier.r_active_m;
-        if exact_widen && c.skipped < KEEPING_REFRESH_STEPS && slack >= 0.0 && slack * slack >= lipschitz * lipschitz * (q - c.at_m).norm_squared() {
-            c.skipped += 1;
-            continue;
-        }
-        *c = match tube.locate(*q, c.hint) {
-            Some(sec) => {
-                let (v, d) = keeping_velocity(&widen(&sec), q, barrier);
-                sum += limited(v, clip_mps);
-                NodeKeeping { hint: sec.segment, at_m: *q, d_m: d, skipped: 0 }
-            }
-            None => NodeKeeping::UNSEEN,
-        };
     }
     let mean = if n > 0 { sum / n as f32 } else { Vec2::zeros() };
     mean + own_v_t * OWN_KEEPING_SHARE
@@ -195,7 +158,7 @@ mod tests {
 
     fn team_term(t: &Tube<256>, nodes: &[Option<Vec2>; 4], n: usize, own: usize) -> Vec2 {
         let own_v_t = nodes[own].map_or(Vec2::zeros(), |q| own_term(t, q));
-        team_keeping_velocity(t, nodes, &mut [NodeKeeping::UNSEEN; 4], n, own, own_v_t, f32::INFINITY, &BARRIER, |s| *s, true)
+        team_keeping_velocity(t, nodes, n, own, own_v_t, 0, f32::INFINITY, &BARRIER, |s| *s)
     }
 
     #[test]
@@ -251,7 +214,7 @@ mod tests {
         // The pushed node unseen by UAV 1: nothing from it.
         let unseen = [None, nodes[1], nodes[2], None];
         assert!(team_term(&t, &unseen, 3, 1).norm() < 1e-6);
-        let alone = team_keeping_velocity(&t, &[None; 4], &mut [NodeKeeping::UNSEEN; 4], 0, 0, pushed, f32::INFINITY, &BARRIER, |s| *s, true);
+        let alone = team_keeping_velocity(&t, &[None; 4], 0, 0, pushed, 0, f32::INFINITY, &BARRIER, |s| *s);
         assert_relative_eq!(alone, pushed * OWN_KEEPING_SHARE);
     }
 
@@ -263,36 +226,14 @@ mod tests {
         let nodes = [Some(Vec2::new(10.0, 1.45)), Some(Vec2::new(10.0, 0.0)), Some(Vec2::new(10.0, -0.3)), None];
         let deep = own_term(&t, nodes[0].unwrap());
         assert!(deep.norm() > 10.0, "{deep:?}");
-        let v1 = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 3, 1, Vec2::zeros(), 1.5, &BARRIER, |s| *s, true);
+        let v1 = team_keeping_velocity(&t, &nodes, 3, 1, Vec2::zeros(), 0, 1.5, &BARRIER, |s| *s);
         assert_relative_eq!(v1, Vec2::new(0.0, -1.5 / 3.0), epsilon = 1e-5);
         // The deep node itself keeps its whole half share, unlimited.
-        let v0 = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 3, 0, deep, 1.5, &BARRIER, |s| *s, true);
+        let v0 = team_keeping_velocity(&t, &nodes, 3, 0, deep, 0, 1.5, &BARRIER, |s| *s);
         assert_relative_eq!(v0, limited(deep, 1.5) / 3.0 + deep * OWN_KEEPING_SHARE, max_relative = 1e-5);
         assert_relative_eq!(limited(Vec2::new(f32::MAX, f32::MAX), 1.5).norm(), 1.5, epsilon = 1e-5);
         assert_eq!(limited(Vec2::new(f32::NAN, 0.0), 1.5), Vec2::zeros());
         assert_eq!(limited(Vec2::new(1.0, 0.0), f32::NAN), Vec2::zeros());
-    }
-
-    #[test]
-    fn skipping_far_nodes_gives_what_locating_them_gives() {
-        // A team drifting across a narrowing tube, stepped with one cache: every step's term
-        // equals the term of a fresh cache (every node located), bit for bit, and nodes are
-        // skipped on the way.
-        let t = tube();
-        let mut cache = [NodeKeeping::UNSEEN; 4];
-        let mut skipped = 0;
-        for k in 0..400 {
-            let c = Vec2::new(2.0 + 0.06 * k as f32, 0.5 * (0.02 * k as f32).sin());
-            let nodes = [Some(c + Vec2::new(0.0, 1.2)), Some(c), Some(c + Vec2::new(-0.8, -1.0)), Some(c + Vec2::new(0.9, -0.6))];
-            let own_v_t = own_term(&t, nodes[1].unwrap());
-            let before: u32 = cache.iter().map(|c| u32::from(c.skipped)).sum();
-            let cached = team_keeping_velocity(&t, &nodes, &mut cache, 4, 1, own_v_t, 1.5, &BARRIER, |s| *s, true);
-            let after: u32 = cache.iter().map(|c| u32::from(c.skipped)).sum();
-            skipped += u32::from(after > before);
-            let fresh = team_keeping_velocity(&t, &nodes, &mut [NodeKeeping::UNSEEN; 4], 4, 1, own_v_t, 1.5, &BARRIER, |s| *s, true);
-            assert_eq!(cached, fresh, "step {k}");
-        }
-        assert!(skipped > 100, "{skipped}");
     }
 
     #[test]
