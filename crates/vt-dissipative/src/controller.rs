@@ -16,7 +16,7 @@ use crate::capacity::FormationScale;
 use crate::passing::passing_velocity;
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
-use crate::keeping::{keeping_velocity, team_keeping_velocity};
+use crate::keeping::{keeping_velocity, team_keeping_velocity, team_mean_keeping, TEAM_KEEPING_EVERY};
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
@@ -221,8 +221,10 @@ pub struct DissipativeController<const N: usize> {
     /// The formation shaped to the tube ahead (`None`: the paper's rest lengths; shape.rs).
     shape: Option<TubeShape<N>>,
     /// Team keeping (extension, keeping.rs): the tube keeping term is the team's mean plus half
-    /// the own node's.
+    /// the own node's; the mean held and the steps since it was computed.
     team_keeping: bool,
+    team_mean: Vec2,
+    team_age: u8,
 }
 
 /// How far above the separation floor a formation squeezed narrower than its narrowest stadium
@@ -297,6 +299,8 @@ impl<const N: usize> DissipativeController<N> {
             scale: FormationScale::NEUTRAL,
             shape: None,
             team_keeping: false,
+            team_mean: Vec2::zeros(),
+            team_age: 0,
         })
     }
 
@@ -346,6 +350,7 @@ impl<const N: usize> DissipativeController<N> {
     /// left it on its old tube.
     pub fn join_tube(&mut self) {
         self.join_m = f32::INFINITY;
+        self.team_age = 0;
     }
 
     /// The widening still in force while joining a tube, m (0: none).
@@ -378,6 +383,7 @@ impl<const N: usize> DissipativeController<N> {
     /// "The tube keeps the team, not one node"). Off, the keeping term is the paper's, bit for bit.
     pub fn set_team_keeping(&mut self, on: bool) {
         self.team_keeping = on;
+        self.team_age = 0;
     }
 
     /// Turns on the formation shaped to the tube ahead (extension; shape.rs, docs/design.md "A
@@ -627,7 +633,11 @@ impl<const N: usize> DissipativeController<N> {
         let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         let v_t = if self.team_keeping {
             let join_m = self.join_m;
-            team_keeping_velocity(tube, &nodes, self.n, self.id, v_t, sec.segment, self.params.v_max_mps, &self.barrier, |s| joined(s, join_m))
+            if self.team_age == 0 {
+                self.team_mean = team_mean_keeping(tube, &nodes, self.n, self.id, v_t, &sec, self.params.v_max_mps, &self.barrier, |s| joined(s, join_m));
+            }
+            self.team_age = (self.team_age + 1) % TEAM_KEEPING_EVERY;
+            team_keeping_velocity(self.team_mean, v_t)
         } else {
             v_t
         };

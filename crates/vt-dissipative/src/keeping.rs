@@ -35,9 +35,17 @@ pub fn keeping_velocity(section: &Section, q_m: &Vec2, barrier: &BarrierParams) 
 /// 0 lets a node near the boundary, 1 squeezes pairs as the paper's term alone does).
 pub const OWN_KEEPING_SHARE: f32 = 0.5;
 
-/// Team keeping (extension): the mean over the team's `n` nodes of their keeping terms
-/// (eq:2-14/15 at each node, each limited to `clip_mps`, a missing node counting zero) plus
-/// [`OWN_KEEPING_SHARE`] times the own node's, m/s (node velocity).
+/// How often the team's mean keeping term is recomputed: every this many high-level steps
+/// (8.3 Hz at 50 Hz), held between (locating every other node costs about 420 Cortex-M4
+/// instructions each, 3,700 a step for ten UAVs; held, the per-UAV step stays within the
+/// 5,000 budget; docs/design.md "The tube keeps the team, not one node"). The own share is
+/// computed at every step.
+pub const TEAM_KEEPING_EVERY: u8 = 6;
+
+/// Team keeping (extension), the team's part: the mean over the team's `n` nodes of their
+/// keeping terms (eq:2-14/15 at each node, each limited to `clip_mps`, a missing node counting
+/// zero), m/s (node velocity). [`team_keeping_velocity`] adds [`OWN_KEEPING_SHARE`] times the
+/// own node's term.
 ///
 /// The limit is the controller's speed limit `v_max` (eq:2-21): no node moves the team faster
 /// than it could command itself, so one node deep in its barrier (whose term is unbounded) does
@@ -50,34 +58,51 @@ pub const OWN_KEEPING_SHARE: f32 = 0.5;
 /// formation presses towards the boundary is held inside.
 ///
 /// `own` is the UAV's index, `own_v_t` its own term (as [`keeping_velocity`] or the
-/// controller's overload variant gives it) and `hint` its section's segment, the warm start of
-/// every other node's [`Tube::locate`] (the nodes lie within the formation's span of it).
+/// controller's overload variant gives it) and `own_sec` its node's section: every other node's
+/// [`Tube::locate`] starts at the segment the node projects to along that section's tangent
+/// (no memory of the nodes between steps, so nothing is added to the controller).
 /// `widen` maps a located section to the one the barrier sees. A node outside the tube's table
 /// contributes zero.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-pub fn team_keeping_velocity<const S: usize, const N: usize>(
+pub fn team_mean_keeping<const S: usize, const N: usize>(
     tube: &Tube<S>,
     nodes: &[Option<Vec2>; N],
     n: usize,
     own: usize,
     own_v_t: Vec2,
-    hint: usize,
+    own_sec: &Section,
     clip_mps: f32,
     barrier: &BarrierParams,
     widen: impl Fn(&Section) -> Section,
 ) -> Vec2 {
+    let own_at = nodes.get(own).copied().flatten().unwrap_or(own_sec.point_m);
     let mut sum = Vec2::zeros();
     for (j, node) in nodes.iter().enumerate().take(n) {
         let Some(q) = node else { continue };
         if j == own {
             sum += limited(own_v_t, clip_mps);
-        } else if let Some(sec) = tube.locate(*q, hint) {
+        } else if let Some(sec) = tube.locate(*q, projected_segment(tube, own_at, own_sec, q)) {
             sum += limited(keeping_velocity(&widen(&sec), q, barrier).0, clip_mps);
         }
     }
-    let mean = if n > 0 { sum / n as f32 } else { Vec2::zeros() };
+    if n > 0 { sum / n as f32 } else { Vec2::zeros() }
+}
+
+/// [`team_mean_keeping`] plus [`OWN_KEEPING_SHARE`] times `own_v_t`: the team keeping term of
+/// the UAV whose own term is `own_v_t` for the team's mean `mean`, m/s.
+#[must_use]
+pub fn team_keeping_velocity(mean: Vec2, own_v_t: Vec2) -> Vec2 {
     mean + own_v_t * OWN_KEEPING_SHARE
+}
+
+/// The segment node `q` projects to from the own node at `own_at` along the own section's
+/// tangent: the warm start of its [`Tube::locate`] (within a segment or two of its own for
+/// nodes in the formation's span).
+fn projected_segment<const S: usize>(tube: &Tube<S>, own_at: Vec2, own_sec: &Section, q: &Vec2) -> usize {
+    let ds = tube.ds_m();
+    let k = own_sec.segment as f32 + (q - own_at).dot(&own_sec.tangent) / ds;
+    if k.is_finite() && k > 0.0 { vt_fpu::min(k, (S - 2) as f32) as usize } else { 0 }
 }
 
 /// `v` limited to magnitude `clip_mps` (direction kept), m/s: also for a finite `v` whose
@@ -152,13 +177,17 @@ mod tests {
         (t, [node(0.8), node(0.0), node(-0.8), None])
     }
 
+    fn sec_of(t: &Tube<256>, nodes: &[Option<Vec2>; 4], own: usize) -> Section {
+        t.locate(nodes[own].unwrap_or(Vec2::new(10.0, 0.0)), 0).unwrap()
+    }
+
     fn own_term(t: &Tube<256>, q: Vec2) -> Vec2 {
         keeping_velocity(&t.locate(q, 0).unwrap(), &q, &BARRIER).0
     }
 
     fn team_term(t: &Tube<256>, nodes: &[Option<Vec2>; 4], n: usize, own: usize) -> Vec2 {
         let own_v_t = nodes[own].map_or(Vec2::zeros(), |q| own_term(t, q));
-        team_keeping_velocity(t, nodes, n, own, own_v_t, 0, f32::INFINITY, &BARRIER, |s| *s)
+        team_keeping_velocity(team_mean_keeping(t, nodes, n, own, own_v_t, &sec_of(t, nodes, own), f32::INFINITY, &BARRIER, |s| *s), own_v_t)
     }
 
     #[test]
@@ -214,7 +243,7 @@ mod tests {
         // The pushed node unseen by UAV 1: nothing from it.
         let unseen = [None, nodes[1], nodes[2], None];
         assert!(team_term(&t, &unseen, 3, 1).norm() < 1e-6);
-        let alone = team_keeping_velocity(&t, &[None; 4], 0, 0, pushed, 0, f32::INFINITY, &BARRIER, |s| *s);
+        let alone = team_keeping_velocity(team_mean_keeping(&t, &[None; 4], 0, 0, pushed, &t.locate(nodes[0].unwrap(), 0).unwrap(), f32::INFINITY, &BARRIER, |s| *s), pushed);
         assert_relative_eq!(alone, pushed * OWN_KEEPING_SHARE);
     }
 
@@ -226,10 +255,10 @@ mod tests {
         let nodes = [Some(Vec2::new(10.0, 1.45)), Some(Vec2::new(10.0, 0.0)), Some(Vec2::new(10.0, -0.3)), None];
         let deep = own_term(&t, nodes[0].unwrap());
         assert!(deep.norm() > 10.0, "{deep:?}");
-        let v1 = team_keeping_velocity(&t, &nodes, 3, 1, Vec2::zeros(), 0, 1.5, &BARRIER, |s| *s);
+        let v1 = team_keeping_velocity(team_mean_keeping(&t, &nodes, 3, 1, Vec2::zeros(), &sec_of(&t, &nodes, 1), 1.5, &BARRIER, |s| *s), Vec2::zeros());
         assert_relative_eq!(v1, Vec2::new(0.0, -1.5 / 3.0), epsilon = 1e-5);
         // The deep node itself keeps its whole half share, unlimited.
-        let v0 = team_keeping_velocity(&t, &nodes, 3, 0, deep, 0, 1.5, &BARRIER, |s| *s);
+        let v0 = team_keeping_velocity(team_mean_keeping(&t, &nodes, 3, 0, deep, &sec_of(&t, &nodes, 0), 1.5, &BARRIER, |s| *s), deep);
         assert_relative_eq!(v0, limited(deep, 1.5) / 3.0 + deep * OWN_KEEPING_SHARE, max_relative = 1e-5);
         assert_relative_eq!(limited(Vec2::new(f32::MAX, f32::MAX), 1.5).norm(), 1.5, epsilon = 1e-5);
         assert_eq!(limited(Vec2::new(f32::NAN, 0.0), 1.5), Vec2::zeros());
