@@ -119,8 +119,6 @@ pub struct Tube<const N: usize = DEFAULT_SAMPLES> {
     chunk_len: usize,
     ds_m: f32,
     length_m: f32,
-    /// [`Tube::boundary_lipschitz`] (0 until built: the placeholder stays all zero bits).
-    lipschitz: f32,
 }
 
 /// Squared distance from `q` to segment `a`-`b` and the clamped parameter along it.
@@ -165,7 +163,6 @@ impl<const N: usize> Tube<N> {
             chunk_len: 0,
             ds_m: 0.0,
             length_m: 0.0,
-            lipschitz: 0.0,
         }
     }
 
@@ -179,7 +176,6 @@ impl<const N: usize> Tube<N> {
         self.chunk_len = (N - 1).div_ceil(CHUNKS);
         self.resample(&spline);
         self.check_folding()?;
-        self.build_lipschitz();
         self.build_chunks();
         self.build_certification();
         self.check_terminals()?;
@@ -246,21 +242,6 @@ impl<const N: usize> Tube<N> {
         if let Some(slot) = self.samples.get_mut(k) {
             *slot = TubeSample { pos_m: pos, tangent, curvature_pm: curvature, w_left_m: wl, w_right_m: wr };
         }
-    }
-
-    /// Sets [`Tube::boundary_lipschitz`] from the resampled table (after the folding check).
-    fn build_lipschitz(&mut self) {
-        let mut slope = 0.0f32;
-        for w in self.samples.windows(2) {
-            if let [a, b] = w {
-                let dr = 0.5 * ((b.w_left_m + b.w_right_m) - (a.w_left_m + a.w_right_m));
-                let dm = 0.5 * ((b.w_left_m - b.w_right_m) - (a.w_left_m - a.w_right_m));
-                slope = vt_fpu::max(slope, dr.abs() + dm.abs());
-            }
-        }
-        let fold = self.max_fold_ratio();
-        let l = 1.25 * (1.0 + slope / (self.ds_m * (1.0 - fold)));
-        self.lipschitz = if l.is_finite() && l > 0.0 { l } else { f32::INFINITY };
     }
 
     fn check_folding(&self) -> Result<(), TubeError> {
@@ -434,18 +415,6 @@ impl<const N: usize> Tube<N> {
     #[inline]
     fn seg(&self, q: Vec2, k: usize) -> (f32, f32) {
         segment_dist2(q, self.sample(k).pos_m, self.sample(k + 1).pos_m)
-    }
-
-    /// A bound `L` on how fast a point's boundary distance changes as the point moves inside
-    /// the tube: `|d_t(q) - d_t(p)| <= L |q - p|` (dimensionless; infinite for a tube not built).
-    ///
-    /// `d_t = r_t(s) - |q - m(s)|`: moving `q` moves `s` by at most `|dq| / (1 - max(w) |kappa|)`
-    /// (the tube does not fold), and only the lateral motion of the midpoint and the change of
-    /// `r_t` along `s` move `d_t` beyond the `|dq|` of the distance itself, so
-    /// `L = 1 + max |r_t' + m_lat'| / (1 - fold)` over the sampled table, with `m_lat =
-    /// (w_L - w_R)/2`; taken 25 % larger for the piecewise-linear sections between samples.
-    pub fn boundary_lipschitz(&self) -> f32 {
-        if self.lipschitz > 0.0 { self.lipschitz } else { f32::INFINITY }
     }
 
     /// Total arc length `L`, m.
