@@ -30,6 +30,16 @@ pub const SEPARATION_BAND_M: f32 = 0.3;
 /// heavier load sinking; docs/design.md, "Heavy loads keep their pairs apart").
 pub const FORMATION_GUARD_M: f32 = 0.3;
 
+/// How much farther apart than the capacity-aware formation's floor (`2 r_u + c` plus
+/// [`FORMATION_GUARD_M`]) the stadium flown in a passage lengthens to put its pairs, m, as far
+/// as the load's capacity lets it lengthen (extension; docs/design.md, "The stadium flown keeps
+/// a wider floor"). The capacity-aware ring and the planner's width keep the formation's own
+/// floor: a wider ring floor sank the 19.4 kg load (0.41 m guard: 2 / 20 flown), a wider need
+/// would close corridors. Measured on the paper's team in the real-aircraft world: nominal 195
+/// -> 198 / 200, held-out 197 -> 199 / 200, and 0.1, 0.2 and 0.3 m fly the same bits there
+/// (the stadium reaches its longest, `2 r - b`, or the capacity bound).
+pub const STADIUM_GUARD_M: f32 = 0.2;
+
 /// Largest push of one pair, m/s (any value far above every speed limit: the caller
 /// saturates the sum).
 const PAIR_CAP_MPS: f32 = 1.0e3;

@@ -4,6 +4,7 @@
 
 use super::RestLengths;
 use crate::capacity::FormationScale;
+use crate::separation::STADIUM_GUARD_M;
 use crate::shape::{separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, PASSAGE_SPEED_FRACTION, QUANTA};
 use crate::Vec2;
 
@@ -135,17 +136,22 @@ impl<const N: usize> TubeShape<N> {
         vt_fpu::atan2(o.y, o.x)
     }
 
-    /// The half-length of the stadium of quantum `q` (shape.rs, [`separated_half_length_m`]):
+    /// The half-length of the stadium of quantum `q` flown (shape.rs, [`separated_half_length_m`]):
     /// the ring's radius, or longer where the pairs of UAVs would otherwise come closer than
-    /// the separation floor where they fly (the tray's projection puts a UAV below its node,
-    /// `L / sqrt(d^2 + H^2)` of its node's offset).
+    /// the separation floor plus [`STADIUM_GUARD_M`] where they fly (the tray's projection puts
+    /// a UAV below its node, `L / sqrt(d^2 + H^2)` of its node's offset), never spending the
+    /// capacity the load needs.
     #[inline(never)]
     pub(super) fn half_length_for(&self, q: i32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
         if q >= QUANTA || self.separation_m <= 0.0 {
             return self.radius_m;
         }
         let mut angles = [0.0f32; N];
-        let (team, limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
+        let (team, mut limits) = self.stadium_team(&mut angles, frame, n, tray_height_m, scale);
+        // The stadium flown lengthens for a wider floor than the capacity-aware formation's, as far
+        // as the load's capacity lets it (`min_cos_sum`); the planner's need below keeps the
+        // formation's own floor (docs/design.md, "The stadium flown keeps a wider floor").
+        limits.separation_m += STADIUM_GUARD_M;
         separated_half_length_m(&team, &limits, self.radius_m, self.radius_m * q as f32 / QUANTA as f32)
     }
 
