@@ -196,6 +196,53 @@ fn the_planner_is_asked_for_the_width_the_separated_stadium_keeps_its_floor_in()
     assert_eq!(c.shaped_need_half_width_m(&Vec2::new(f32::NAN, 0.0)), None, "a degenerate frame asks nothing");
 }
 
+/// The stadium flown lengthens until its pairs keep the floor plus [`STADIUM_GUARD_M`] where
+/// they fly, or to its longest (`2 r - b`), never past the load's capacity; it is never shorter
+/// than the stadium the planner's need is computed on, and its closest pair never closer
+/// (docs/design.md, "The stadium flown keeps a wider floor").
+#[test]
+fn the_stadium_flown_keeps_a_wider_floor_than_the_planner_asks_for() {
+    use crate::separation::STADIUM_GUARD_M;
+    use crate::shape::{min_quantum, separated_half_length_m, StadiumLimits};
+    let n = 10;
+    let (uavs, load) = takeoff(n, 4.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let lengths: Vec<u16> = uavs.iter().map(|u| ((u - load).norm() * 1e3).round() as u16).collect();
+    let frame = Vec2::new(1.0, 0.0);
+    let h = params().tray.height_above_load_m;
+    let sep = ShapeSeparation { takeoff_m: &uavs, load_m: load, separation_m: 1.3, min_cos_sum: 0.0 };
+    let mut c = team(n, &uavs, &load).remove(0);
+    c.set_shape(ShapeParams::default(), &f, Some(sep)).unwrap();
+    let shape = c.shape.as_ref().unwrap();
+    let r = shape.radius_m;
+    // The node angles about the tray centre in the frame (x along the tube, as `angle_rad`).
+    let angles: Vec<f32> = shape.nodes_m.iter().take(n).map(|p| {
+        let o = p - shape.centre_m;
+        vt_fpu::atan2(o.y, o.x)
+    }).collect();
+    let st = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: shape.load_node_m - shape.centre_m, tray_height_m: h };
+    let limits = StadiumLimits { separation_m: 1.3, separation_scale: c.scale.scale_min(), min_cos_sum: 0.0, capacity_scale: c.scale.scale_target() };
+    let mut wider = 0;
+    for q in min_quantum(n)..QUANTA {
+        let b = r * q as f32 / QUANTA as f32;
+        let need = separated_half_length_m(&st, &limits, r, b);
+        let flown = shape.half_length_for(q, frame, n, h, &c.scale);
+        assert!(flown >= need, "quantum {q}: {flown} shorter than {need}");
+        let (d_need, d_flown) = (st.min_distance_m(need, b, 1.0), st.min_distance_m(flown, b, 1.0));
+        assert!((d_need - shape.flown_min_distance_m(q, 1.0, frame, n, h, &c.scale)).abs() < 1e-5, "quantum {q}: the need's stadium as the shape sees it");
+        assert!(d_flown >= d_need, "quantum {q}: closest pair {d_flown} < {d_need}");
+        assert!(d_flown >= 1.3 + STADIUM_GUARD_M || (flown - (2.0 * r - b)).abs() < 1e-3, "quantum {q}: {d_flown} short of the wider floor at {flown} (longest {})", 2.0 * r - b);
+        wider += i32::from(flown > need);
+    }
+    assert!(wider > 0, "the wider floor lengthens some stadium");
+    // The load's capacity first: a need the ring itself barely meets leaves the ring's length.
+    let b = r * min_quantum(n) as f32 / QUANTA as f32;
+    let tight = ShapeSeparation { min_cos_sum: st.cos_sum(r, b, c.scale.scale_target()), ..sep };
+    let mut t = team(n, &uavs, &load).remove(0);
+    t.set_shape(ShapeParams::default(), &f, Some(tight)).unwrap();
+    assert_eq!(t.shape.as_ref().unwrap().half_length_for(min_quantum(n), frame, n, h, &t.scale), r, "capacity first");
+}
+
 /// Every UAV derives the same stadium: each spring's rest length is the same at both ends,
 /// the tray centre's are the same in every replica; the wide tube leaves the ring bit for bit,
 /// and without `set_shape` a look changes nothing.

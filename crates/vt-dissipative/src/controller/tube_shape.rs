@@ -195,7 +195,8 @@ impl<const N: usize> TubeShape<N> {
     }
 
     /// The closest pair of UAVs where they fly at `lambda*`, m, the stadium of quantum `q` at the
-    /// half-length [`Self::half_length_for`] gives it and squeezed sideways by `squeeze` (the
+    /// half-length the planner's need gives it (the formation's own floor; the stadium flown,
+    /// [`Self::half_length_for`], is at least as long) and squeezed sideways by `squeeze` (the
     /// tests' view of [`Self::floor_width_quanta`]).
     #[cfg(test)]
     pub(super) fn flown_min_distance_m(&self, q: i32, squeeze: f32, frame: Vec2, n: usize, tray_height_m: f32, scale: &FormationScale) -> f32 {
