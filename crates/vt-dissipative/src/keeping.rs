@@ -102,7 +102,7 @@ pub fn team_keeping_velocity(mean: Vec2, own_v_t: Vec2) -> Vec2 {
 fn projected_segment<const S: usize>(tube: &Tube<S>, own_at: Vec2, own_sec: &Section, q: &Vec2) -> usize {
     let ds = tube.ds_m();
     let k = own_sec.segment as f32 + (q - own_at).dot(&own_sec.tangent) / ds;
-    if k.is_finite() && k > 0.0 { vt_fpu::min(k, (S - 2) as f32) as usize } else { 0 }
+    if k.is_finite() && k > 0.0 { vt_fpu::min(k, S.saturating_sub(2) as f32) as usize } else { 0 }
 }
 
 /// `v` limited to magnitude `clip_mps` (direction kept), m/s: also for a finite `v` whose

@@ -34,8 +34,8 @@ pub const FORMATION_GUARD_M: f32 = 0.3;
 /// [`FORMATION_GUARD_M`]) the stadium flown in a passage lengthens to put its pairs, m, as far
 /// as the load's capacity lets it lengthen (extension; docs/design.md, "The stadium flown keeps
 /// a wider floor"). The capacity-aware ring and the planner's width keep the formation's own
-/// floor: a wider ring floor sank the 19.4 kg load (0.41 m guard: 2 / 20 flown), a wider need
-/// would close corridors. Measured on the paper's team in the real-aircraft world: nominal 195
+/// floor: a ring floor 0.1 / 0.2 m wider sank the 19.4 kg load (3 / 20 and 2 / 20 seeds flown
+/// at the 20 N clamp), a wider need would close corridors. Measured on the paper's team in the real-aircraft world: nominal 195
 /// -> 198 / 200, held-out 197 -> 199 / 200, and 0.1, 0.2 and 0.3 m fly the same bits there
 /// (the stadium reaches its longest, `2 r - b`, or the capacity bound).
 pub const STADIUM_GUARD_M: f32 = 0.2;
