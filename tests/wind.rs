@@ -178,3 +178,65 @@ fn a_member_that_lands_after_its_refusal_leaves_the_armed_law() {
     assert!(s.failures[0].contains("UAV 3") && s.failures[0].contains("refusal code 8"), "{:?}", s.failures);
     assert!(s.min_uav_uav_m >= vt_dissipative::landing::LAND_SPACING_M as f64, "UAV-UAV {:.3} m", s.min_uav_uav_m);
 }
+
+/// How many of `seeds` (of `d`'s wind) blow a team-mean wind beyond each of `limits_mps`
+/// (m/s) within `window_s` of flight: the wind the plant blows (mean, gusts and, when `d` has
+/// it, Dryden turbulence at `altitude_m`, as `World` draws them per seed), horizontal, averaged
+/// over the team's `n` UAVs and low-passed over `average_s` (the team's and the load's inertia
+/// ride out shorter gusts).
+fn seeds_beyond(s: &host_sim::scenario::Scenario, d: &host_sim::scenario::DisturbanceSpec, seeds: std::ops::Range<u64>, altitude_m: f64, window_s: f64, average_s: f64, limits_mps: &[f64]) -> Vec<usize> {
+    let n = s.cables.lengths_m.len();
+    let dt = 0.01;
+    let mean = nalgebra::Vector3::from(d.wind_mean_mps) * d.intensity;
+    let mut beyond = vec![0; limits_mps.len()];
+    for seed in seeds {
+        let mut wind = host_sim::disturbance::Wind::new(d, seed);
+        let mut turb = vt_sim::turbulence::Turbulence::new(d.turbulence * d.intensity, altitude_m, &mean, s.controller.v_max_mps, 2.0 * s.uavs.formation_radius_m, n, seed);
+        let mut averaged: Option<f64> = None;
+        let mut peak: f64 = 0.0;
+        for _ in 0..(window_s / dt) as usize {
+            let mut w = wind.step(dt);
+            if let Some(t) = &mut turb {
+                t.step(dt);
+                w += t.gusts().iter().take(n).sum::<nalgebra::Vector3<f64>>() / n as f64;
+            }
+            let speed = w.xy().norm();
+            let a = averaged.map_or(speed, |a| a + (speed - a) * dt / average_s);
+            averaged = Some(a);
+            peak = peak.max(a);
+        }
+        for (b, limit) in beyond.iter_mut().zip(limits_mps) {
+            *b += usize::from(peak > *limit);
+        }
+    }
+    beyond
+}
+
+/// Issue 27's 3x target (>= 95 % of 100 runs in the real-aircraft world) against the wind that
+/// world blows. Its levels scale light Dryden turbulence with the rest, so 3x is severe
+/// turbulence (`W20` 45 kt: `sigma_u` 4.3 m/s at the UAVs' 14 m) over a 9 m/s wind with 3 m/s
+/// gusts. Over seeds 2000-2099 and 90 s of transport, the team-mean wind averaged over 5 s
+/// passes the paper team's capacity (14.6 m/s, cable-bound, what its companions check) in about
+/// three runs of four, and the airframes' own (16.3 m/s with the cables' rating lifted,
+/// thrust-bound: no controller of these rotors holds it) in about half. Without the turbulence
+/// (issue 15's 3x world, where 97 of 100 flew) it passes the capacity in 6. So the 95 % target
+/// asks for success where the team cannot hold its station (docs/robustness.md, "3x in the
+/// real-aircraft world: the wind beyond the team").
+#[test]
+fn the_3x_real_aircraft_wind_passes_the_paper_teams_capacity_in_most_flights() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/intensity-3x.toml");
+    let c = host_sim::campaign::load_in(Some(&path), Some(host_sim::campaign::World::RealAircraft)).expect("campaign");
+    let s = &c.levels[0].1.scenario;
+    let cap = sim::wind_check(s, s.cables.rated_n, 0.0, 0.0).expect("holds calm air");
+    let rotors = sim::wind_check(s, 20.0 * s.uavs.thrust_max_n, 0.0, 0.0).expect("holds calm air");
+    assert_eq!(format!("{:?}", rotors.limit), "Thrust", "{rotors:?}");
+    let (cap, rotors) = (f64::from(cap.steady_wind_max_mps), f64::from(rotors.steady_wind_max_mps));
+    assert!(s.disturbances.intensity == 3.0 && s.disturbances.turbulence == 1.0, "{:?}", s.disturbances);
+    let altitude = s.load.altitude_m + s.cables.lengths_m.iter().sum::<f64>() / s.cables.lengths_m.len() as f64;
+    let severe = seeds_beyond(s, &s.disturbances, 2000..2100, altitude, 90.0, 5.0, &[cap, rotors]);
+    let calm = host_sim::scenario::DisturbanceSpec { turbulence: 0.0, ..s.disturbances.clone() };
+    let gusts = seeds_beyond(s, &calm, 2000..2100, altitude, 90.0, 5.0, &[cap, rotors]);
+    println!("capacity {cap:.2} m/s, rotors {rotors:.2} m/s; of 100 seeds beyond them: with turbulence {severe:?}, without {gusts:?}");
+    assert!(severe[0] >= 60 && severe[1] >= 30, "{severe:?}");
+    assert!(gusts[0] <= 10 && gusts[1] <= 5, "{gusts:?}");
+}
