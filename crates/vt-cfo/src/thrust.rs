@@ -99,6 +99,17 @@ impl ThrustLimits {
         })
     }
 
+    /// The same limits with the tilt cone widened to `tilt_max_tan` (the tangent of the largest
+    /// tilt) where that is wider; a narrower, non-finite or non-positive tangent keeps `self`.
+    #[must_use]
+    pub fn with_tilt_tan_at_least(self, tilt_max_tan: f32) -> Self {
+        if !(vt_fpu::positive_finite(tilt_max_tan) && tilt_max_tan > self.tilt_max_tan) {
+            return self;
+        }
+        // cos = 1 / sqrt(1 + tan^2) on (0, pi/2).
+        Self { tilt_max_cos: 1.0 / vt_fpu::sqrt(1.0 + tilt_max_tan * tilt_max_tan), tilt_max_tan, ..self }
+    }
+
     /// The same limits keeping `fraction` (in `[0, 1)`) of `thrust_max_n` for the horizontal
     /// part: the vertical component is capped at `thrust_max_n sqrt(1 - fraction^2)`, so a
     /// saturated climb can never starve the horizontal demand (tube keeping, springs) of

@@ -33,6 +33,13 @@ pub const BLIND_HOLD_TAU_S: f32 = 3.0;
 /// (0.003 m/s), 10 rad/s leaves 0.05 m/s.
 pub const UNLOADED_BANDWIDTH_RAD_S: f32 = 5.0;
 
+/// Tangent of the largest tilt of a UAV flying free of its load after the release (60 deg):
+/// landing on its own it has no cable to swing and its rotors to spare (50 N for a 2 kg
+/// airframe), and at the 45 deg of `MPC_TILTMAX_AIR` a UAV released in a 9 m/s wind with
+/// severe turbulence was carried 4.5 m/s downwind with its demand cut at the cone
+/// (docs/design.md, "The landing after the release tilts to 60 deg").
+pub const FREE_TILT_MAX_TAN: f32 = 1.732_050_8;
+
 /// Diagonal PID gains of eq:2-3, per axis (x east, y north, z up).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {
@@ -327,6 +334,11 @@ pub struct VelocityLoop {
     prediction: Prediction,
     /// Cap on the observer's bandwidth, rad/s (`f32::INFINITY`: none; [`Self::set_bandwidth_cap`]).
     bandwidth_cap_rad_s: f32,
+    /// The limits flown free of the load ([`Self::set_free`]): the tilt cone widened to
+    /// [`FREE_TILT_MAX_TAN`].
+    free_limits: ThrustLimits,
+    /// Flying free of the load (after the release): `free_limits` clamp the thrust.
+    free: bool,
     status: Status,
 }
 
@@ -348,8 +360,17 @@ impl VelocityLoop {
             history: ThrustHistory::new(hover_vector_n(&params)),
             prediction: Prediction::undelayed(Vector3::zeros()),
             bandwidth_cap_rad_s: f32::INFINITY,
+            free_limits: params.limits.with_tilt_tan_at_least(FREE_TILT_MAX_TAN),
+            free: false,
             status: Status::Ok,
         }
+    }
+
+    /// Flies free of the load (`true`: the thrust clamped to a tilt cone of up to
+    /// [`FREE_TILT_MAX_TAN`]) or on it (`false`: the configured limits). Used after the release,
+    /// when the UAV lands on its own.
+    pub fn set_free(&mut self, free: bool) {
+        self.free = free;
     }
 
     /// Caps the observer's bandwidth at `cap_rad_s` (rad/s) from now on, under the configured
@@ -522,7 +543,8 @@ impl VelocityLoop {
         // Finite for every demand: the clamp replaces a non-finite one by the hover, and its
         // validated limits keep every branch finite (tested: thrust.rs,
         // `clamp_output_is_finite_and_within_limits_for_any_input`), so no second test here.
-        let thrust_n = p.limits.clamp(demand_n, hover_n);
+        let limits = if self.free { &self.free_limits } else { &p.limits };
+        let thrust_n = limits.clamp(demand_n, hover_n);
         let excess_n = demand_n - thrust_n;
         let saturated = excess_n != Vector3::zeros();
 

@@ -484,3 +484,49 @@ proptest! {
         }
     }
 }
+
+/// The cone flown free of the load (after the release) is the configured one widened to
+/// `FREE_TILT_MAX_TAN` (60 deg), never narrowed: a narrower, NaN or non-positive tangent keeps
+/// the limits, and the magnitude sphere still binds.
+#[test]
+fn the_free_cone_widens_the_tilt_and_nothing_else() {
+    let l = ThrustLimits::default();
+    let w = l.with_tilt_tan_at_least(FREE_TILT_MAX_TAN);
+    assert_relative_eq!(w.tilt_max_tan(), 3f32.sqrt(), epsilon = 1e-6);
+    assert_relative_eq!(w.tilt_max_cos(), 0.5, epsilon = 1e-6);
+    assert_eq!((w.thrust_min_n(), w.thrust_max_n(), w.vertical_max_n()), (l.thrust_min_n(), l.thrust_max_n(), l.vertical_max_n()));
+    for keep in [0.5, l.tilt_max_tan(), f32::NAN, 0.0, -1.0, f32::INFINITY] {
+        assert_eq!(l.with_tilt_tan_at_least(keep), l, "{keep}");
+    }
+    // At a 19.6 N vertical part the 45 deg cone passes 19.6 N sideways, the 60 deg one 33.9 N.
+    let demand = Vector3::new(-40.0, 0.0, 19.6);
+    assert_relative_eq!(l.clamp(demand, 19.6).x, -19.6, epsilon = 1e-4);
+    assert_relative_eq!(w.clamp(demand, 19.6).x, -19.6 * 3f32.sqrt(), epsilon = 1e-3);
+    assert!(within_limits(&w.clamp(demand, 19.6), &w));
+    // The sphere: 50 N at most, whatever the cone.
+    let steep = w.with_tilt_tan_at_least(100.0).clamp(Vector3::new(-100.0, 0.0, 19.6), 19.6);
+    assert_relative_eq!(steep.norm(), l.thrust_max_n(), epsilon = 1e-3);
+}
+
+/// A loop set free passes the horizontal demand its configured cone cuts (a UAV landing in a
+/// wind it must lean into), and set back it flies bit for bit what a loop never set free flies.
+#[test]
+fn a_free_loop_leans_further_and_set_back_flies_as_before() {
+    let p = VelocityLoopParams::default();
+    let (mut free, mut plain) = (VelocityLoop::new(p), VelocityLoop::new(p));
+    free.set_free(true);
+    // Commanded 3 m/s upwind while blown 8 m/s downwind: a demand outside either cone.
+    let (cmd, v) = (Vector3::new(-3.0, 0.0, 0.0), Vector3::new(8.0, 0.0, 0.0));
+    let (a, b) = (free.update(cmd, v, DT_S).thrust_n, plain.update(cmd, v, DT_S).thrust_n);
+    assert_eq!(a.z, b.z, "the vertical part first, unchanged");
+    assert_relative_eq!(-b.x, b.z * p.limits.tilt_max_tan(), epsilon = 1e-3);
+    assert_relative_eq!(-a.x, a.z * FREE_TILT_MAX_TAN, epsilon = 1e-3);
+    let mut back = VelocityLoop::new(p);
+    back.set_free(true);
+    back.set_free(false);
+    let mut again = VelocityLoop::new(p);
+    for k in 0..200 {
+        let v = Vector3::new(0.02 * k as f32, -0.02, 0.0);
+        assert_eq!(back.update(cmd, v, DT_S), again.update(cmd, v, DT_S));
+    }
+}
