@@ -334,11 +334,6 @@ pub struct VelocityLoop {
     prediction: Prediction,
     /// Cap on the observer's bandwidth, rad/s (`f32::INFINITY`: none; [`Self::set_bandwidth_cap`]).
     bandwidth_cap_rad_s: f32,
-    /// The limits flown free of the load ([`Self::set_free`]): the tilt cone widened to
-    /// [`FREE_TILT_MAX_TAN`].
-    free_limits: ThrustLimits,
-    /// Flying free of the load (after the release): `free_limits` clamp the thrust.
-    free: bool,
     status: Status,
 }
 
@@ -360,17 +355,17 @@ impl VelocityLoop {
             history: ThrustHistory::new(hover_vector_n(&params)),
             prediction: Prediction::undelayed(Vector3::zeros()),
             bandwidth_cap_rad_s: f32::INFINITY,
-            free_limits: params.limits.with_tilt_tan_at_least(FREE_TILT_MAX_TAN),
-            free: false,
             status: Status::Ok,
         }
     }
 
-    /// Flies free of the load (`true`: the thrust clamped to a tilt cone of up to
-    /// [`FREE_TILT_MAX_TAN`]) or on it (`false`: the configured limits). Used after the release,
-    /// when the UAV lands on its own.
-    pub fn set_free(&mut self, free: bool) {
-        self.free = free;
+    /// Flies free of the load from now on (after the release, when the UAV lands on its own):
+    /// the thrust clamped to a tilt cone widened to [`FREE_TILT_MAX_TAN`] where the configured
+    /// one is narrower. Calling it again changes nothing; a new loop flies the configured limits.
+    /// It keeps no state of its own: the loop's size, and so its step's cost on the MCU, is
+    /// unchanged.
+    pub fn fly_free(&mut self) {
+        self.params.limits = self.params.limits.with_tilt_tan_at_least(FREE_TILT_MAX_TAN);
     }
 
     /// Caps the observer's bandwidth at `cap_rad_s` (rad/s) from now on, under the configured
@@ -543,8 +538,7 @@ impl VelocityLoop {
         // Finite for every demand: the clamp replaces a non-finite one by the hover, and its
         // validated limits keep every branch finite (tested: thrust.rs,
         // `clamp_output_is_finite_and_within_limits_for_any_input`), so no second test here.
-        let limits = if self.free { &self.free_limits } else { &p.limits };
-        let thrust_n = limits.clamp(demand_n, hover_n);
+        let thrust_n = p.limits.clamp(demand_n, hover_n);
         let excess_n = demand_n - thrust_n;
         let saturated = excess_n != Vector3::zeros();
 

@@ -478,7 +478,6 @@ impl Flight {
             // The observer of a free UAV (vt_cfo::UNLOADED_BANDWIDTH_RAD_S): one comparison
             // while the phase keeps its cable loaded or unloaded.
             self.low.set_bandwidth_cap(if phase.unloaded() { UNLOADED_BANDWIDTH_RAD_S } else { f32::INFINITY });
-            self.low.set_free(phase == Phase::Released);
             if phase == Phase::Released {
                 // The release (a delivery, a set-down, a refusal on the ground): land in place.
                 self.vel_cmd_mps = self.landing_command(tube, own.pos_m, view.get(..self.n).unwrap_or(&[]));

@@ -184,6 +184,10 @@ impl Flight {
     #[cold]
     #[inline(never)]
     pub(super) fn landing_command(&mut self, tube: &CompanionTube, own_m: Vec3, view: &[Option<Vec3>]) -> Vec3 {
+        // Released, the UAV flies free of its load to the end of this flight (a new mission is a
+        // new `Flight`): the tilt cone of `vt_cfo::FREE_TILT_MAX_TAN` (docs/design.md, "The
+        // landing after the release tilts to 60 deg").
+        self.low.fly_free();
         // The landing place moves away from neighbours too close horizontally (a formation may
         // stack UAVs above one another): `vt_dissipative::landing::landing_spread_mps`; and it
         // stays inside the tube (`place_inside_tube`).
