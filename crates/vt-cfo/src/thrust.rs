@@ -99,11 +99,11 @@ impl ThrustLimits {
         })
     }
 
-    /// The same limits with the tilt cone widened to `tilt_max_tan` (the tangent of the largest
-    /// tilt) where that is wider; a narrower, non-finite or non-positive tangent keeps `self`.
+    /// The same limits with the tilt cone's tangent `tilt_max_tan` (the tangent of the largest
+    /// tilt from the vertical); a non-finite or non-positive tangent keeps `self`.
     #[must_use]
-    pub fn with_tilt_tan_at_least(self, tilt_max_tan: f32) -> Self {
-        if !(vt_fpu::positive_finite(tilt_max_tan) && tilt_max_tan > self.tilt_max_tan) {
+    pub fn with_tilt_max_tan(self, tilt_max_tan: f32) -> Self {
+        if !vt_fpu::positive_finite(tilt_max_tan) {
             return self;
         }
         // cos = 1 / sqrt(1 + tan^2) on (0, pi/2).

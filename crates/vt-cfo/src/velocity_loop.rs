@@ -33,13 +33,6 @@ pub const BLIND_HOLD_TAU_S: f32 = 3.0;
 /// (0.003 m/s), 10 rad/s leaves 0.05 m/s.
 pub const UNLOADED_BANDWIDTH_RAD_S: f32 = 5.0;
 
-/// Tangent of the largest tilt of a UAV flying free of its load after the release (60 deg):
-/// landing on its own it has no cable to swing and its rotors to spare (50 N for a 2 kg
-/// airframe), and at the 45 deg of `MPC_TILTMAX_AIR` a UAV released in a 9 m/s wind with
-/// severe turbulence was carried 4.5 m/s downwind with its demand cut at the cone
-/// (docs/design.md, "The landing after the release tilts to 60 deg").
-pub const FREE_TILT_MAX_TAN: f32 = 1.732_050_8;
-
 /// Diagonal PID gains of eq:2-3, per axis (x east, y north, z up).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {
@@ -359,13 +352,11 @@ impl VelocityLoop {
         }
     }
 
-    /// Flies free of the load from now on (after the release, when the UAV lands on its own):
-    /// the thrust clamped to a tilt cone widened to [`FREE_TILT_MAX_TAN`] where the configured
-    /// one is narrower. Calling it again changes nothing; a new loop flies the configured limits.
-    /// It keeps no state of its own: the loop's size, and so its step's cost on the MCU, is
-    /// unchanged.
-    pub fn fly_free(&mut self) {
-        self.params.limits = self.params.limits.with_tilt_tan_at_least(FREE_TILT_MAX_TAN);
+    /// Sets the tilt cone's tangent from now on (the tangent of the largest tilt from the
+    /// vertical; a non-finite or non-positive one is ignored). The landing after the release
+    /// leans further than the transport (`vt_dissipative::landing::landing_tilt_max_tan`).
+    pub fn set_tilt_max_tan(&mut self, tilt_max_tan: f32) {
+        self.params.limits = self.params.limits.with_tilt_max_tan(tilt_max_tan);
     }
 
     /// Caps the observer's bandwidth at `cap_rad_s` (rad/s) from now on, under the configured

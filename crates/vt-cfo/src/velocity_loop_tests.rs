@@ -485,48 +485,49 @@ proptest! {
     }
 }
 
-/// The cone flown free of the load (after the release) is the configured one widened to
-/// `FREE_TILT_MAX_TAN` (60 deg), never narrowed: a narrower, NaN or non-positive tangent keeps
-/// the limits, and the magnitude sphere still binds.
+/// A cone set by its tangent: 60 deg (tan = sqrt 3) has cos 1/2; a non-finite or non-positive
+/// tangent keeps the limits; the rest of the limits are untouched, and the sphere still binds.
 #[test]
-fn the_free_cone_widens_the_tilt_and_nothing_else() {
+fn the_tilt_cone_is_set_by_its_tangent_and_nothing_else() {
     let l = ThrustLimits::default();
-    let w = l.with_tilt_tan_at_least(FREE_TILT_MAX_TAN);
+    let w = l.with_tilt_max_tan(3f32.sqrt());
     assert_relative_eq!(w.tilt_max_tan(), 3f32.sqrt(), epsilon = 1e-6);
     assert_relative_eq!(w.tilt_max_cos(), 0.5, epsilon = 1e-6);
     assert_eq!((w.thrust_min_n(), w.thrust_max_n(), w.vertical_max_n()), (l.thrust_min_n(), l.thrust_max_n(), l.vertical_max_n()));
-    for keep in [0.5, l.tilt_max_tan(), f32::NAN, 0.0, -1.0, f32::INFINITY] {
-        assert_eq!(l.with_tilt_tan_at_least(keep), l, "{keep}");
+    for keep in [f32::NAN, 0.0, -1.0, f32::INFINITY] {
+        assert_eq!(l.with_tilt_max_tan(keep), l, "{keep}");
     }
+    assert_eq!(w.with_tilt_max_tan(l.tilt_max_tan()).tilt_max_tan(), l.tilt_max_tan());
     // At a 19.6 N vertical part the 45 deg cone passes 19.6 N sideways, the 60 deg one 33.9 N.
     let demand = Vector3::new(-40.0, 0.0, 19.6);
     assert_relative_eq!(l.clamp(demand, 19.6).x, -19.6, epsilon = 1e-4);
     assert_relative_eq!(w.clamp(demand, 19.6).x, -19.6 * 3f32.sqrt(), epsilon = 1e-3);
     assert!(within_limits(&w.clamp(demand, 19.6), &w));
     // The sphere: 50 N at most, whatever the cone.
-    let steep = w.with_tilt_tan_at_least(100.0).clamp(Vector3::new(-100.0, 0.0, 19.6), 19.6);
+    let steep = l.with_tilt_max_tan(100.0).clamp(Vector3::new(-100.0, 0.0, 19.6), 19.6);
     assert_relative_eq!(steep.norm(), l.thrust_max_n(), epsilon = 1e-3);
 }
 
-/// A loop flying free passes the horizontal demand its configured cone cuts (a UAV landing in
-/// a wind it must lean into), flying free twice is flying free once, and until then it flies
-/// bit for bit what a loop never set free flies.
+/// A loop whose cone is widened passes the horizontal demand the configured cone cuts (a UAV
+/// landing in a wind it must lean into), the vertical part unchanged; until then it flies bit
+/// for bit what a loop never changed flies, and set back it flies the configured cone again.
 #[test]
-fn a_free_loop_leans_further_and_only_from_the_call() {
+fn a_wider_cone_leans_further_and_only_from_the_call() {
     let p = VelocityLoopParams::default();
-    let (mut free, mut plain) = (VelocityLoop::new(p), VelocityLoop::new(p));
+    let (mut wide, mut plain) = (VelocityLoop::new(p), VelocityLoop::new(p));
     // Commanded 3 m/s upwind while blown 8 m/s downwind: a demand outside either cone.
     let (cmd, v) = (Vector3::new(-3.0, 0.0, 0.0), Vector3::new(8.0, 0.0, 0.0));
     for _ in 0..20 {
-        assert_eq!(free.update(cmd, v, DT_S), plain.update(cmd, v, DT_S));
+        assert_eq!(wide.update(cmd, v, DT_S), plain.update(cmd, v, DT_S));
     }
-    free.fly_free();
-    let mut twice = free;
-    twice.fly_free();
-    assert_eq!(twice, free);
-    let (a, b) = (free.update(cmd, v, DT_S).thrust_n, plain.update(cmd, v, DT_S).thrust_n);
+    let tan60 = 3f32.sqrt();
+    wide.set_tilt_max_tan(tan60);
+    let (a, b) = (wide.update(cmd, v, DT_S).thrust_n, plain.update(cmd, v, DT_S).thrust_n);
     assert_eq!(a.z, b.z, "the vertical part first, unchanged");
     assert_relative_eq!(-b.x, b.z * p.limits.tilt_max_tan(), epsilon = 1e-3);
-    assert_relative_eq!(-a.x, a.z * FREE_TILT_MAX_TAN, epsilon = 1e-3);
-    assert_relative_eq!(free.params().limits.tilt_max_tan(), FREE_TILT_MAX_TAN);
+    assert_relative_eq!(-a.x, a.z * tan60, epsilon = 1e-3);
+    wide.set_tilt_max_tan(f32::NAN);
+    assert_relative_eq!(wide.params().limits.tilt_max_tan(), tan60);
+    wide.set_tilt_max_tan(p.limits.tilt_max_tan());
+    assert_eq!(wide.params().limits, p.limits);
 }

@@ -46,6 +46,30 @@ pub fn landing_velocity_mps(own_xy_m: [f32; 2], hold_xy_m: [f32; 2], gain_per_s:
     [vx, vy, -LAND_SPEED_MPS]
 }
 
+/// Tangent of the largest tilt of a UAV landing on its own after the release (60 deg), from
+/// [`FREE_TILT_MIN_HEIGHT_M`] up: free of its load it has no cable to swing and its rotors to
+/// spare (50 N for a 2 kg airframe: 39 N at 60 deg holding its weight), and at the transport's
+/// 45 deg (`MPC_TILTMAX_AIR`) a UAV released in a 9 m/s wind with severe turbulence was carried
+/// 4.5 m/s downwind with its demand cut at the cone (docs/design.md, "The landing after the
+/// release tilts to 60 deg").
+pub const FREE_TILT_MAX_TAN: f32 = 1.732_050_8;
+
+/// Height above the ground under which the landing keeps the configured tilt cone, m: the
+/// touchdown is not flown leaning further than the transport.
+pub const FREE_TILT_MIN_HEIGHT_M: f32 = 1.0;
+
+/// The tilt cone's tangent of the landing after the release at `height_m` above the ground:
+/// the wider of [`FREE_TILT_MAX_TAN`] and `configured_tan` from [`FREE_TILT_MIN_HEIGHT_M`] up,
+/// `configured_tan` below it and for a non-finite height.
+#[must_use]
+pub fn landing_tilt_max_tan(height_m: f32, configured_tan: f32) -> f32 {
+    if height_m >= FREE_TILT_MIN_HEIGHT_M && FREE_TILT_MAX_TAN > configured_tan {
+        FREE_TILT_MAX_TAN
+    } else {
+        configured_tan
+    }
+}
+
 /// Horizontal spacing the landing makes between UAVs before they reach the ground, m: two
 /// 0.445 m airframes (the paper's, docs/plant.md) with 0.3 m between them. In flight a
 /// formation may stack UAVs with unequal cables above one another (the 25-UAV team flew pairs
@@ -114,6 +138,20 @@ pub fn place_inside_tube(place_m: [f32; 2], midpoint_m: [f32; 2], half_width_m: 
 
 #[cfg(test)]
 mod tests {
+
+    /// The landing leans to 60 deg from 1 m up, keeps the configured cone below it (the
+    /// touchdown) and for a non-finite height, and never narrows a wider configured cone.
+    #[test]
+    fn the_landing_leans_further_above_the_touchdown_only() {
+        use super::{landing_tilt_max_tan, FREE_TILT_MAX_TAN, FREE_TILT_MIN_HEIGHT_M};
+        assert!((FREE_TILT_MAX_TAN - 3f32.sqrt()).abs() < 1e-6);
+        let tan45 = 1.0;
+        assert_eq!(landing_tilt_max_tan(5.9, tan45), FREE_TILT_MAX_TAN);
+        assert_eq!(landing_tilt_max_tan(FREE_TILT_MIN_HEIGHT_M, tan45), FREE_TILT_MAX_TAN);
+        assert_eq!(landing_tilt_max_tan(0.99, tan45), tan45);
+        assert_eq!(landing_tilt_max_tan(f32::NAN, tan45), tan45);
+        assert_eq!(landing_tilt_max_tan(5.9, 3.0), 3.0, "a wider configured cone stays");
+    }
 
     #[test]
     fn the_landing_place_stays_inside_the_tube() {

@@ -323,6 +323,8 @@ pub struct Flight {
     land_keep_m: f32,
     /// Warm start of the landing place's tube lookup.
     land_hint: usize,
+    /// The velocity loop's tilt cone as configured (`VL_TILT_MAX`), its tangent.
+    tilt_max_tan: f32,
 }
 
 impl Flight {
@@ -424,6 +426,7 @@ impl Flight {
             overload: OverloadWatch::default(),
             v_max_mps: params.get(Param::VMax),
             land_keep_m: params.r_safe_m(),
+            tilt_max_tan: vl.limits().tilt_max_tan(),
             land_hint: 0,
         })
     }

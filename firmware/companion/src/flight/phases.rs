@@ -4,7 +4,7 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_velocity_mps, place_inside_tube, STATION_DRIFT_ABORT_M};
+use vt_dissipative::landing::{hold_velocity_xy_mps, landing_spread_mps, landing_tilt_max_tan, landing_velocity_mps, place_inside_tube, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
 use vt_dissipative::wind::GustSurvey;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
@@ -184,10 +184,9 @@ impl Flight {
     #[cold]
     #[inline(never)]
     pub(super) fn landing_command(&mut self, tube: &CompanionTube, own_m: Vec3, view: &[Option<Vec3>]) -> Vec3 {
-        // Released, the UAV flies free of its load to the end of this flight (a new mission is a
-        // new `Flight`): the tilt cone of `vt_cfo::FREE_TILT_MAX_TAN` (docs/design.md, "The
+        // Free of its load, the UAV may lean further above the touchdown (docs/design.md, "The
         // landing after the release tilts to 60 deg").
-        self.low.fly_free();
+        self.low.set_tilt_max_tan(landing_tilt_max_tan(own_m.z, self.tilt_max_tan));
         // The landing place moves away from neighbours too close horizontally (a formation may
         // stack UAVs above one another): `vt_dissipative::landing::landing_spread_mps`; and it
         // stays inside the tube (`place_inside_tube`).
