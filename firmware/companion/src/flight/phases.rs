@@ -184,9 +184,6 @@ impl Flight {
     #[cold]
     #[inline(never)]
     pub(super) fn landing_command(&mut self, tube: &CompanionTube, own_m: Vec3, view: &[Option<Vec3>]) -> Vec3 {
-        // Free of its load, the UAV may lean further above the touchdown (docs/design.md, "The
-        // landing after the release tilts to 60 deg").
-        self.low.set_tilt_max_tan(landing_tilt_max_tan(own_m.z, self.tilt_max_tan));
         // The landing place moves away from neighbours too close horizontally (a formation may
         // stack UAVs above one another): `vt_dissipative::landing::landing_spread_mps`; and it
         // stays inside the tube (`place_inside_tube`).
@@ -199,6 +196,10 @@ impl Flight {
             place = Vector2::new(x, y);
         }
         self.land_xy_m = Some(place);
+        // Carried off its place, the UAV may lean further above the touchdown (docs/design.md,
+        // "The landing after the release tilts to 60 deg").
+        let drift_m = vt_fpu::norm(&(own_m.xy() - place));
+        self.low.set_tilt_max_tan(landing_tilt_max_tan(own_m.z, drift_m, self.tilt_max_tan));
         self.land.step(own_m.z, self.hl_dt_s);
         let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [place.x, place.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
         Vec3::new(x, y, z)
