@@ -179,19 +179,18 @@ fn a_member_that_lands_after_its_refusal_leaves_the_armed_law() {
     assert!(s.min_uav_uav_m >= vt_dissipative::landing::LAND_SPACING_M as f64, "UAV-UAV {:.3} m", s.min_uav_uav_m);
 }
 
-/// How many of `seeds` (of `d`'s wind) blow a team-mean wind beyond each of `limits_mps`
-/// (m/s) within `window_s` of flight: the wind the plant blows (mean, gusts and, when `d` has
+/// How many of `seeds` (of `s`'s wind) blow a team-mean wind beyond each of `limits_mps`
+/// (m/s) within `window_s` of flight: the wind the plant blows (mean, gusts and, when `s` has
 /// it, Dryden turbulence at `altitude_m`, as `World` draws them per seed), horizontal, averaged
 /// over the team's `n` UAVs and low-passed over `average_s` (the team's and the load's inertia
 /// ride out shorter gusts).
-fn seeds_beyond(s: &host_sim::scenario::Scenario, d: &host_sim::scenario::DisturbanceSpec, seeds: std::ops::Range<u64>, altitude_m: f64, window_s: f64, average_s: f64, limits_mps: &[f64]) -> Vec<usize> {
+fn seeds_beyond(s: &host_sim::scenario::Scenario, seeds: std::ops::Range<u64>, altitude_m: f64, window_s: f64, average_s: f64, limits_mps: &[f64]) -> Vec<usize> {
     let n = s.cables.lengths_m.len();
     let dt = 0.01;
-    let mean = nalgebra::Vector3::from(d.wind_mean_mps) * d.intensity;
     let mut beyond = vec![0; limits_mps.len()];
     for seed in seeds {
-        let mut wind = host_sim::disturbance::Wind::new(d, seed);
-        let mut turb = vt_sim::turbulence::Turbulence::new(d.turbulence * d.intensity, altitude_m, &mean, s.controller.v_max_mps, 2.0 * s.uavs.formation_radius_m, n, seed);
+        let mut wind = host_sim::disturbance::Wind::new(&s.disturbances, seed);
+        let mut turb = vt_sim::turbulence::Turbulence::of_scenario(s, altitude_m, n, seed);
         let mut averaged: Option<f64> = None;
         let mut peak: f64 = 0.0;
         for _ in 0..(window_s / dt) as usize {
@@ -233,9 +232,9 @@ fn the_3x_real_aircraft_wind_passes_the_paper_teams_capacity_in_most_flights() {
     let (cap, rotors) = (f64::from(cap.steady_wind_max_mps), f64::from(rotors.steady_wind_max_mps));
     assert!(s.disturbances.intensity == 3.0 && s.disturbances.turbulence == 1.0, "{:?}", s.disturbances);
     let altitude = s.load.altitude_m + s.cables.lengths_m.iter().sum::<f64>() / s.cables.lengths_m.len() as f64;
-    let severe = seeds_beyond(s, &s.disturbances, 2000..2100, altitude, 90.0, 5.0, &[cap, rotors]);
-    let calm = host_sim::scenario::DisturbanceSpec { turbulence: 0.0, ..s.disturbances.clone() };
-    let gusts = seeds_beyond(s, &calm, 2000..2100, altitude, 90.0, 5.0, &[cap, rotors]);
+    let severe = seeds_beyond(s, 2000..2100, altitude, 90.0, 5.0, &[cap, rotors]);
+    let calm = host_sim::scenario::Scenario { disturbances: host_sim::scenario::DisturbanceSpec { turbulence: 0.0, ..s.disturbances.clone() }, ..s.clone() };
+    let gusts = seeds_beyond(&calm, 2000..2100, altitude, 90.0, 5.0, &[cap, rotors]);
     println!("capacity {cap:.2} m/s, rotors {rotors:.2} m/s; of 100 seeds beyond them: with turbulence {severe:?}, without {gusts:?}");
     assert!(severe[0] >= 60 && severe[1] >= 30, "{severe:?}");
     assert!(gusts[0] <= 10 && gusts[1] <= 5, "{gusts:?}");

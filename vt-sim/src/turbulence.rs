@@ -107,6 +107,15 @@ impl Turbulence {
         Some(t)
     }
 
+    /// The turbulence scenario `s` blows at `altitude_m` over its `n` UAVs and the load (its
+    /// level times the campaign intensity, carried by the scaled mean wind past a team at its
+    /// speed limit over the take-off formation's span); `None` without turbulence.
+    pub fn of_scenario(s: &crate::scenario::Scenario, altitude_m: f64, n: usize, seed: u64) -> Option<Self> {
+        let d = &s.disturbances;
+        let mean_wind = V3::from(d.wind_mean_mps) * d.intensity;
+        Self::new(d.turbulence * d.intensity, altitude_m, &mean_wind, s.controller.v_max_mps, 2.0 * s.uavs.formation_radius_m, n, seed)
+    }
+
     fn advance(f: &mut Filters, tau: &V3, dt: f64, noise: &mut Noise) {
         let a = (-dt / tau.x).exp();
         f.u = a * f.u + (1.0 - a * a).sqrt() * (1.0 / (2.0 * tau.x)).sqrt() * noise.gauss();

@@ -201,8 +201,7 @@ impl<'a> World<'a> {
             wind: Wind::new(dist, seed),
             turbulence: {
                 let altitude = takeoff.uav_pos_m.iter().map(|p| p.z).sum::<f64>() / n.max(1) as f64;
-                let mean_wind = nalgebra::Vector3::from(dist.wind_mean_mps) * dist.intensity;
-                crate::turbulence::Turbulence::new(dist.turbulence * dist.intensity, altitude, &mean_wind, s.controller.v_max_mps, 2.0 * s.uavs.formation_radius_m, n, seed)
+                crate::turbulence::Turbulence::of_scenario(s, altitude, n, seed)
             },
             link,
             faults,

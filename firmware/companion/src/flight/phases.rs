@@ -192,8 +192,8 @@ impl Flight {
         // A start refused before the arming lands on the UAV's own station (the place it held
         // since the take-off, `Pending::hold_xy_m`), not where the wind that refused it has
         // carried it, towards a neighbour; any other landing where it was released.
-        let released_at = self.pending.as_ref().map_or(own_m.xy(), |p| p.hold_xy_m);
-        let mut place = *self.land_xy_m.get_or_insert(released_at) + Vector2::new(sx, sy) * self.hl_dt_s;
+        let pending = self.pending.as_ref();
+        let mut place = *self.land_xy_m.get_or_insert_with(|| pending.map_or(own_m.xy(), |p| p.hold_xy_m)) + Vector2::new(sx, sy) * self.hl_dt_s;
         if let Some(sec) = tube.locate(place, self.land_hint) {
             self.land_hint = sec.segment;
             let [x, y] = place_inside_tube([place.x, place.y], [sec.midpoint_m.x, sec.midpoint_m.y], sec.half_width_m, self.land_keep_m);
