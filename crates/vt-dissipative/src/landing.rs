@@ -3,6 +3,9 @@
 //! watch that sends a ground start there at once (docs/design.md, "Landing").
 
 use crate::dwell::Dwell;
+use crate::separation::SEPARATION_AUTHORITY;
+use crate::Vec2;
+use vt_tube::sat;
 
 /// Before its arming a ground-start UAV abandons the start when it has drifted this far from
 /// the place it holds, m (issue 29: a wind beyond what a UAV can hold on its own blows it away
@@ -90,18 +93,29 @@ pub const LAND_SPACING_M: f32 = 1.2;
 pub const LAND_SPREAD_GAIN_PER_S: f32 = 1.0;
 
 /// The landing's spread (m/s, horizontal ENU): away from every neighbour closer than
-/// [`LAND_SPACING_M`] horizontally, [`LAND_SPREAD_GAIN_PER_S`] per metre missing (pairwise
-/// antisymmetric, so a pair spreads symmetrically). A neighbour on the same spot (within 0.1 mm)
-/// or not finite gives no push (no direction to take).
+/// [`LAND_SPACING_M`] horizontally, [`LAND_SPREAD_GAIN_PER_S`] per metre missing
+/// ([`pairwise_pushes_mps`]).
 pub fn landing_spread_mps(own_xy_m: [f32; 2], neighbours_xy_m: impl IntoIterator<Item = [f32; 2]>) -> [f32; 2] {
-    let mut v = [0.0f32; 2];
+    let [v] = pairwise_pushes_mps(own_xy_m, neighbours_xy_m, [LAND_SPACING_M], [LAND_SPREAD_GAIN_PER_S]);
+    v
+}
+
+/// For each `k`: away from every neighbour closer than `range_m[k]` horizontally,
+/// `gain_per_s[k]` per metre missing, summed (m/s, horizontal ENU; pairwise antisymmetric, so a
+/// pair parts symmetrically). A neighbour on the same spot (within 0.1 mm) or not finite gives
+/// no push (no direction to take). Several ranges in one pass over the neighbours: the
+/// landing's spread and its guard's push (flash, on the MCU).
+pub fn pairwise_pushes_mps<const K: usize>(own_xy_m: [f32; 2], neighbours_xy_m: impl IntoIterator<Item = [f32; 2]>, range_m: [f32; K], gain_per_s: [f32; K]) -> [[f32; 2]; K] {
+    let mut v = [[0.0f32; 2]; K];
     for [x, y] in neighbours_xy_m {
         let (dx, dy) = (own_xy_m[0] - x, own_xy_m[1] - y);
         let d = vt_fpu::sqrt(dx * dx + dy * dy);
-        if d.is_finite() && d > 1e-4 && d < LAND_SPACING_M {
-            let k = LAND_SPREAD_GAIN_PER_S * (LAND_SPACING_M - d) / d;
-            v[0] += k * dx;
-            v[1] += k * dy;
+        for ((v, &r), &g) in v.iter_mut().zip(&range_m).zip(&gain_per_s) {
+            if d.is_finite() && d > 1e-4 && d < r {
+                let k = g * (r - d) / d;
+                v[0] += k * dx;
+                v[1] += k * dy;
+            }
         }
     }
     v
@@ -146,8 +160,74 @@ pub fn place_inside_tube(place_m: [f32; 2], midpoint_m: [f32; 2], half_width_m: 
     [midpoint_m[0] + dx * k, midpoint_m[1] + dy * k]
 }
 
+/// How far beyond the separation floor (`2 r_u + c`) the landing's guard starts parting two
+/// UAVs, m, and ...
+pub const LAND_SEPARATION_BAND_M: f32 = 0.7;
+
+/// ... how fast per metre inside that range, 1/s ([`pairwise_pushes_mps`]: at the floor itself
+/// 1.4 m/s, about the transport's speed limit). Linear, not the transport's barrier: a
+/// barrier's pole 0.3 m beyond the formation's spacing made the landing's commands chatter
+/// between +-`v_max` (docs/design.md, "The landing keeps the tube and its neighbours").
+pub const LAND_SEPARATION_GAIN_PER_S: f32 = 2.0;
+
+/// The landing's guard (extension; docs/design.md, "The landing keeps the tube and its
+/// neighbours"): the held place's velocity `hold_mps` plus the push from neighbours
+/// (`separation_mps`, [`pairwise_pushes_mps`] within [`LAND_SEPARATION_BAND_M`] of the
+/// separation floor) limited to `v_max_mps`, saturated at `v_max_mps`; then the paper's tube
+/// keeping at the UAV's own position (`keeping_mps`, eq:2-14/eq:2-15) added with up to
+/// [`SEPARATION_AUTHORITY`] times `v_max_mps` and saturated again. The tube has the last word,
+/// as the separation barrier has it in transport: a landing UAV the wind carries towards a
+/// neighbour or the boundary is turned back, not held by its place's 1/s alone; pushed from a
+/// neighbour towards the boundary, it keeps the tube (m/s, horizontal ENU). Non-finite terms
+/// are dropped: `hold_mps` alone (saturated) then.
+#[must_use]
+pub fn guarded_landing_velocity(hold_mps: Vec2, keeping_mps: Vec2, separation_mps: Vec2, v_max_mps: f32) -> Vec2 {
+    let finite = |v: &Vec2| v.x.is_finite() && v.y.is_finite();
+    if !(finite(&keeping_mps) && finite(&separation_mps)) {
+        return sat(hold_mps, v_max_mps);
+    }
+    let v = sat(hold_mps + sat(separation_mps, v_max_mps), v_max_mps);
+    sat(v + sat(keeping_mps, SEPARATION_AUTHORITY * v_max_mps), v_max_mps)
+}
+
 #[cfg(test)]
 mod tests {
+
+    /// The landing's guard: nothing added away from the boundary and the neighbours; a
+    /// neighbour's push turns the hold; the tube has the last word; the command stays within
+    /// `v_max`; non-finite terms are dropped.
+    #[test]
+    fn the_landing_guard_turns_from_neighbours_and_keeps_the_tube() {
+        use super::{guarded_landing_velocity, landing_spread_mps, pairwise_pushes_mps};
+        use crate::Vec2;
+        let v_max = 1.5;
+        let z = Vec2::zeros();
+        let hold = Vec2::new(0.6, -0.2);
+        assert_eq!(guarded_landing_velocity(hold, z, z, v_max), hold, "nothing near");
+        assert_eq!(guarded_landing_velocity(Vec2::new(3.0, 0.0), z, z, v_max), Vec2::new(v_max, 0.0), "the hold saturated");
+        // A neighbour on the left pushes right, harder than the hold's upwind correction.
+        let v = guarded_landing_velocity(Vec2::new(-v_max, 0.0), z, Vec2::new(0.0, -50.0), v_max);
+        assert!(v.y < -0.5 * v_max && v.x < 0.0, "turned away, still upwind: {v:?}");
+        // Pushed by a neighbour towards the boundary (+y) while deep in the tube barrier (-y).
+        let v = guarded_landing_velocity(z, Vec2::new(0.0, -1.0e4), Vec2::new(0.0, 1.0e3), v_max);
+        assert!(v.y < 0.0, "the tube keeps it: {v:?}");
+        for k in [Vec2::new(0.3, -7.0), Vec2::new(-40.0, 2.0), z] {
+            for sep in [Vec2::new(9.0, 9.0), Vec2::new(-0.1, 0.4), z] {
+                let v = guarded_landing_velocity(Vec2::new(1.1, 1.4), k, sep, v_max);
+                assert!(v.norm() <= v_max * (1.0 + 1e-6), "{k:?} {sep:?}: {v:?}");
+            }
+        }
+        for bad in [Vec2::new(f32::NAN, 0.0), Vec2::new(0.0, f32::INFINITY)] {
+            assert_eq!(guarded_landing_velocity(hold, bad, z, v_max), hold);
+            assert_eq!(guarded_landing_velocity(hold, z, bad, v_max), hold);
+        }
+        // The pairwise push: symmetric, zero beyond its range, linear inside it.
+        let (a, b) = ([0.0, 0.0], [1.0, 0.0]);
+        let ([pa, sa], [pb, _]) = (pairwise_pushes_mps(a, [b], [1.5, 1.2], [2.0, 1.0]), pairwise_pushes_mps(b, [a], [1.5, 1.2], [2.0, 1.0]));
+        assert!((pa[0] + 1.0).abs() < 1e-6 && pa[1] == 0.0 && pa[0] == -pb[0], "{pa:?} {pb:?}");
+        assert_eq!(sa, landing_spread_mps(a, [b]), "the spread is the second range");
+        assert_eq!(pairwise_pushes_mps(a, [[1.5, 0.0], [f32::NAN, 0.0], [0.0, 0.0]], [1.5], [2.0]), [[0.0, 0.0]]);
+    }
 
     /// The landing keeps the configured cone near its place, below 1 m (the touchdown) and for
     /// a non-finite input; carried off its place it widens from 0.75 m of drift to 60 deg at

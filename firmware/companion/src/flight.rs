@@ -316,8 +316,14 @@ pub struct Flight {
     overload: OverloadWatch,
     /// Horizontal speed limit of the own position holds, m/s (`VT_V_MAX`).
     v_max_mps: f32,
-    /// How far inside the tube's boundary a landing place stays, m (`Params::r_safe_m`).
+    /// How far inside the tube's boundary a landing place stays, m (`Params::r_safe_m`): the
+    /// pole of the landing's tube keeping too.
     land_keep_m: f32,
+    /// The landing's tube keeping: gain `VT_K3`, m^2/s, and activation radius `VT_R_ACT`, m.
+    land_keeping: [f32; 2],
+    /// Pole of the landing's separation barrier, m (`Params::separation_m`; 0, no body
+    /// declared: the landing's guard is off).
+    land_separation_m: f32,
     /// Warm start of the landing place's tube lookup.
     land_hint: usize,
     /// The velocity loop's tilt cone as configured (`VL_TILT_MAX`), its tangent.
@@ -423,6 +429,8 @@ impl Flight {
             overload: OverloadWatch::default(),
             v_max_mps: params.get(Param::VMax),
             land_keep_m: params.r_safe_m(),
+            land_keeping: [params.get(Param::K3), params.get(Param::RActive)],
+            land_separation_m: params.separation_m(),
             tilt_max_tan: vl.limits().tilt_max_tan(),
             land_hint: 0,
         })
