@@ -31,7 +31,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector2};
 use vt_cfo::{age_s, extrapolate_constant_velocity, thrust_to_attitude, VelocityLoop, UNLOADED_BANDWIDTH_RAD_S};
 use vt_dissipative::{
     capacity, BaselineController, BaselineParams, Command, DissipativeController, Formation, FormationScale, Measurements, ShapeSeparation,
-    landing::LandDetector, phases::{HoldWatch, OverloadWatch}, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
+    phases::{HoldWatch, OverloadWatch}, Phase, PhaseProfile, TakeoffSurvey, TeamHoldSupervisor, TeamMode,
 };
 use vt_dissipative::wind::GustSurvey;
 
@@ -40,9 +40,11 @@ use crate::params::{Param, Params};
 use crate::{CompanionTube, Vec3, MAX_UAVS};
 
 mod hold_reasons;
+mod landing;
 mod phases;
 pub use hold_reasons::HoldReasons;
 pub use phases::TRANSPORT_WATCH_S;
+use landing::Landing;
 use phases::{watch_every, Pending};
 
 /// A measurement with the time it was received (companion clock, ms).
@@ -256,6 +258,8 @@ impl HighLevel {
 /// The armed controllers and their inputs.
 #[derive(Debug, Clone)]
 pub struct Flight {
+    /// The landing after the release.
+    landing: Landing,
     id: usize,
     n: usize,
     /// The high-level law (`None` until a ground start is armed, or after it was refused).
@@ -308,24 +312,10 @@ pub struct Flight {
     watch_every: u32,
     /// High-level steps since the last look.
     watch_ticks: u32,
-    /// Where the landing after the release holds the UAV, m (set at the first released step).
-    land_xy_m: Option<Vector2<f32>>,
-    /// The landing's detector: once landed the rotors idle.
-    land: LandDetector,
     /// The lift's overload watch (the own cable's tension estimate).
     overload: OverloadWatch,
     /// Horizontal speed limit of the own position holds, m/s (`VT_V_MAX`).
     v_max_mps: f32,
-    /// How far inside the tube's boundary a landing place stays, m (`Params::r_safe_m`): the
-    /// pole of the landing's tube keeping too.
-    land_keep_m: f32,
-    /// The landing's tube keeping: gain `VT_K3`, m^2/s, and activation radius `VT_R_ACT`, m.
-    land_keeping: [f32; 2],
-    /// Pole of the landing's separation barrier, m (`Params::separation_m`; 0, no body
-    /// declared: the landing's guard is off).
-    land_separation_m: f32,
-    /// Warm start of the landing place's tube lookup.
-    land_hint: usize,
     /// The velocity loop's tilt cone as configured (`VL_TILT_MAX`), its tangent.
     tilt_max_tan: f32,
 }
@@ -424,15 +414,10 @@ impl Flight {
             on_declined_tube: false,
             watch_every: watch_every(params.high_level_dt_s()),
             watch_ticks: 0,
-            land_xy_m: None,
-            land: LandDetector::default(),
+            landing: Landing::new(params),
             overload: OverloadWatch::default(),
             v_max_mps: params.get(Param::VMax),
-            land_keep_m: params.r_safe_m(),
-            land_keeping: [params.get(Param::K3), params.get(Param::RActive)],
-            land_separation_m: params.separation_m(),
             tilt_max_tan: vl.limits().tilt_max_tan(),
-            land_hint: 0,
         })
     }
 
@@ -594,7 +579,7 @@ impl Flight {
             reasons |= HoldReasons::NONFINITE;
             sp = self.level_hover();
         }
-        if self.land.landed() {
+        if self.landing.landed() {
             sp = self.idle();
         }
         self.ll_reasons = HoldReasons(reasons);

@@ -4,10 +4,8 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::keeping::keeping_velocity;
-use vt_dissipative::landing::{guarded_landing_velocity, hold_velocity_xy_mps, pairwise_pushes_mps, LAND_SEPARATION_BAND_M, LAND_SEPARATION_GAIN_PER_S, LAND_SPACING_M, LAND_SPREAD_GAIN_PER_S, landing_tilt_max_tan, landing_velocity_mps, place_inside_tube, STATION_DRIFT_ABORT_M};
+use vt_dissipative::landing::{hold_velocity_xy_mps, landing_tilt_max_tan, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
-use vt_tube::BarrierParams;
 use vt_dissipative::wind::GustSurvey;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
 
@@ -181,58 +179,19 @@ impl Flight {
         if finite3(&v) { v } else { Vec3::zeros() }
     }
 
-    /// The landing after the release: the place where the UAV was released held, a descent at
-    /// `LAND_SPEED_MPS`; the land detector runs on the own altitude (ENU velocity, m/s).
+    /// The landing after the release ([`super::landing::Landing`]): a start refused before the
+    /// arming lands on the UAV's own station (the place it held since the take-off,
+    /// `Pending::hold_xy_m`), not where the wind that refused it has carried it, towards a
+    /// neighbour; any other landing where it was released (ENU velocity, m/s).
     #[cold]
     #[inline(never)]
     pub(super) fn landing_command(&mut self, tube: &CompanionTube, own_m: Vec3, view: &[Option<Vec3>]) -> Vec3 {
-        // The landing place moves away from neighbours too close horizontally (a formation may
-        // stack UAVs above one another): `vt_dissipative::landing::landing_spread_mps`; and it
-        // stays inside the tube (`place_inside_tube`).
-        // One pass for the spread and the guard's push (pairwise_pushes_mps).
-        let others = view.iter().enumerate().filter(|&(j, _)| j != self.id).filter_map(|(_, v)| v.map(|p| [p.x, p.y]));
-        let ranges = [LAND_SPACING_M, self.land_separation_m + LAND_SEPARATION_BAND_M];
-        let [[sx, sy], push] = pairwise_pushes_mps([own_m.x, own_m.y], others, ranges, [LAND_SPREAD_GAIN_PER_S, LAND_SEPARATION_GAIN_PER_S]);
-        // A start refused before the arming lands on the UAV's own station (the place it held
-        // since the take-off, `Pending::hold_xy_m`), not where the wind that refused it has
-        // carried it, towards a neighbour; any other landing where it was released.
-        let pending = self.pending.as_ref();
-        let mut place = *self.land_xy_m.get_or_insert_with(|| pending.map_or(own_m.xy(), |p| p.hold_xy_m)) + Vector2::new(sx, sy) * self.hl_dt_s;
-        if let Some(sec) = tube.locate(place, self.land_hint) {
-            self.land_hint = sec.segment;
-            let [x, y] = place_inside_tube([place.x, place.y], [sec.midpoint_m.x, sec.midpoint_m.y], sec.half_width_m, self.land_keep_m);
-            place = Vector2::new(x, y);
-        }
-        self.land_xy_m = Some(place);
+        let first_place = self.pending.as_ref().map_or(own_m.xy(), |p| p.hold_xy_m);
+        let (v, drift_m) = self.landing.step(tube, self.id, &own_m, view, first_place, self.hl_dt_s, self.v_max_mps);
         // Carried off its place, the UAV may lean further above the touchdown (docs/design.md,
         // "The landing after the release tilts to 60 deg").
-        let drift_m = vt_fpu::norm(&(own_m.xy() - place));
         self.low.set_tilt_max_tan(landing_tilt_max_tan(own_m.z, drift_m, self.tilt_max_tan));
-        self.land.step(own_m.z, self.hl_dt_s);
-        let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [place.x, place.y], HOLD_POSITION_GAIN_PER_S, self.v_max_mps);
-        let v = self.landing_guard(tube, &own_m, Vector2::new(push[0], push[1]), Vector2::new(x, y));
-        Vec3::new(v.x, v.y, z)
-    }
-
-    /// The landing's guard (`vt_dissipative::landing::guarded_landing_velocity`; docs/design.md,
-    /// "The landing keeps the tube and its neighbours"): the tube keeping at the own position
-    /// (eq:2-14/eq:2-15, pole at the landing place's keep) and the push from the neighbours
-    /// seen within `LAND_SEPARATION_BAND_M` of the separation floor, added to the place's hold
-    /// `hold_mps` (m/s). Only with a body declared (`VT_BODY_R`): without one the push has no
-    /// floor, and the keeping alone presses the UAVs at the formation's edge into their
-    /// neighbours (generated teams at 3x: 26 -> 29 runs in contact); the hold is flown as it is.
-    fn landing_guard(&self, tube: &CompanionTube, own_m: &Vec3, push_mps: Vector2<f32>, hold_mps: Vector2<f32>) -> Vector2<f32> {
-        if !(self.land_separation_m > 0.0) {
-            return hold_mps;
-        }
-        let [k3, r_active_m] = self.land_keeping;
-        let own_xy = own_m.xy();
-        let keeping = if r_active_m > self.land_keep_m {
-            tube.locate(own_xy, self.land_hint).map_or(Vector2::zeros(), |sec| keeping_velocity(&sec, &own_xy, &BarrierParams::tube(k3, self.land_keep_m, r_active_m)).0)
-        } else {
-            Vector2::zeros()
-        };
-        guarded_landing_velocity(hold_mps, keeping, push_mps, self.v_max_mps)
+        v
     }
 
     /// A delivery's descent and slack: the formation's horizontal speed limited
