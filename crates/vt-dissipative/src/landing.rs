@@ -205,7 +205,7 @@ mod tests {
         let hold = Vec2::new(0.6, -0.2);
         assert_eq!(guarded_landing_velocity(hold, z, z, v_max), hold, "nothing near");
         assert_eq!(guarded_landing_velocity(Vec2::new(3.0, 0.0), z, z, v_max), Vec2::new(v_max, 0.0), "the hold saturated");
-        // A neighbour on the left pushes right, harder than the hold's upwind correction.
+        // A neighbour at +y pushes towards -y, harder than the hold's upwind correction.
         let v = guarded_landing_velocity(Vec2::new(-v_max, 0.0), z, Vec2::new(0.0, -50.0), v_max);
         assert!(v.y < -0.5 * v_max && v.x < 0.0, "turned away, still upwind: {v:?}");
         // Pushed by a neighbour towards the boundary (+y) while deep in the tube barrier (-y).
