@@ -182,8 +182,7 @@ pub const LAND_SEPARATION_GAIN_PER_S: f32 = 2.0;
 /// are dropped: `hold_mps` alone (saturated) then.
 #[must_use]
 pub fn guarded_landing_velocity(hold_mps: Vec2, keeping_mps: Vec2, separation_mps: Vec2, v_max_mps: f32) -> Vec2 {
-    let finite = |v: &Vec2| v.x.is_finite() && v.y.is_finite();
-    if !(finite(&keeping_mps) && finite(&separation_mps)) {
+    if !(vt_fpu::all_finite(&keeping_mps) && vt_fpu::all_finite(&separation_mps)) {
         return sat(hold_mps, v_max_mps);
     }
     let v = sat(hold_mps + sat(separation_mps, v_max_mps), v_max_mps);

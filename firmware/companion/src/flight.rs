@@ -289,7 +289,8 @@ pub struct Flight {
     /// [`NO_ROUTE_TEAM`], the team's planner found none; bit [`NO_ROUTE_BLOCKED`], its own tube
     /// is blocked close ahead by an obstacle its map has seen and it has no tube it may take.
     no_route: u8,
-    /// The phases: a ground start's whole sequence; an air start's for a set-down (`PhaseProfile::air`).
+    /// The phases: a ground start's whole sequence; an air start's in transport from its start,
+    /// for a set-down (`PhaseProfile::air`).
     profile: Option<PhaseProfile>,
     /// Ground start: what the arming reads (`None` once armed or refused, and in an air start).
     pending: Option<Pending>,
@@ -305,8 +306,9 @@ pub struct Flight {
     rated_n: f32,
     /// The set-down's watch over the current tube (the load's furthest progress, the edge).
     hold_watch: HoldWatch,
-    /// This UAV declined the team's newer tube and flies its old one (issue 28): the set-down's
-    /// watch waits for the next switch (the old tube says nothing of the team's hold).
+    /// This UAV declined the team's newer tube and flies its old one (issue 28): where the load
+    /// lies in the old tube says nothing about the team holding the new one, so the set-down's
+    /// watch waits for the next switch.
     on_declined_tube: bool,
     /// High-level steps between two looks at the load in transport ([`TRANSPORT_WATCH_S`]).
     watch_every: u32,
