@@ -343,3 +343,61 @@ fn a_bad_surface_roughness_is_named_with_its_line() {
         expect_error(&text, "roughness.toml", &["disturbances.surface_roughness_m", &format!(":{line}:")]);
     }
 }
+
+/// The 25-UAV team's scenario with its old take-off layout: one ring of `radius_m`.
+fn heavy_on_one_ring(radius_m: f64) -> String {
+    let text = include_str!("../scenarios/heavy-25uav.toml");
+    let start = text.find("formation_offsets_m = [").expect("the shipped layout");
+    let end = start + text[start..].find("\n]\n").expect("its end") + 3;
+    format!("{}formation_radius_m = {radius_m:.1}\n{}", &text[..start], &text[end..])
+}
+
+/// Take-off layouts (docs/design.md, "Take-off layouts other than the ring"): the ring's radius
+/// or one `[x, y]` per cable, not both and not neither, no two UAVs on one node; each error
+/// names the file, the line and the field.
+#[test]
+fn a_take_off_layout_is_one_ring_or_one_node_per_cable() {
+    let radius = line_of("formation_radius_m");
+    let both = paper().replacen("formation_radius_m = 3.0", "formation_radius_m = 3.0\nformation_offsets_m = [[3.0, 0.0]]", 1);
+    expect_error(&both, "both.toml", &["both.toml", &format!(":{}:", radius + 1), "uavs.formation_offsets_m", "not both"]);
+    let neither: String = paper().lines().filter(|l| !l.starts_with("formation_radius_m")).map(|l| format!("{l}\n")).collect();
+    expect_error(&neither, "neither.toml", &["neither.toml", "uavs.formation_radius_m", "formation_offsets_m"]);
+    let ten = |offsets: &str| paper().replacen("formation_radius_m = 3.0", &format!("formation_offsets_m = [{offsets}]"), 1);
+    expect_error(&ten("[3.0, 0.0], [0.0, 3.0]"), "count.toml", &["count.toml", &format!(":{radius}:"), "uavs.formation_offsets_m", "one [x, y] per cable: 10 (got 2)"]);
+    let nodes: Vec<String> = (0..10).map(|i| if i == 7 { "[3.0, 0.0]".to_string() } else { format!("[{:.3}, {:.3}]", 3.0 * (i as f64 * 0.628).cos(), 3.0 * (i as f64 * 0.628).sin()) }).collect();
+    expect_error(&ten(&nodes.join(", ")), "same.toml", &["same.toml", "uavs.formation_offsets_m", "UAVs 0 and 7 take off from the same node"]);
+    // The ring written out node by node is a valid layout.
+    let ring: Vec<String> = (0..10).map(|i| format!("[{:.4}, {:.4}]", 3.0 * (i as f64 * std::f64::consts::TAU / 10.0).cos(), 3.0 * (i as f64 * std::f64::consts::TAU / 10.0).sin())).collect();
+    host_sim::scenario::parse(&ten(&ring.join(", ")), "ring.toml").expect("the ring as offsets");
+}
+
+/// With the clearances judged, a team whose bodies take off within the floor is refused with the
+/// ring that would keep them apart: the 25-UAV team on its old 5 m ring took off with its 0.445 m
+/// bodies 0.04 m apart and failed all 40 runs of `strong-wind-heavy` at 1x on the floor
+/// (docs/design.md, "Take-off layouts other than the ring"). Its two rings are accepted; without
+/// a judged floor the old ring still is (the clearances are then reported, not judged).
+#[test]
+fn bodies_that_take_off_within_the_clearance_floor_are_refused() {
+    // As the real-aircraft world flies it: from the ground, the floor judged.
+    let judged = |t: &str| t.replacen("[mission]\n", "[mission]\nstart = \"ground\"\nclearance_floor_m = 0.2\n", 1);
+    let ring = judged(&heavy_on_one_ring(5.0));
+    let at = ring.lines().position(|l| l.starts_with("formation_radius_m")).expect("the radius's line") + 1;
+    expect_error(&ring, "heavy-ring.toml", &["heavy-ring.toml", &format!(":{at}:"), "uavs.formation_radius_m", "UAVs 0 and 24 take off 0.93 m apart", "0.04 m apart, under the clearance floor 0.2 m", "a ring of 6.18 m keeps them apart"]);
+    host_sim::scenario::parse(&judged(&heavy_on_one_ring(6.2)), "heavy-wide-ring.toml").expect("the ring the error names");
+    host_sim::scenario::parse(&judged(include_str!("../scenarios/heavy-25uav.toml")), "heavy-rings.toml").expect("the two rings");
+    host_sim::scenario::parse(&heavy_on_one_ring(5.0), "heavy-unjudged.toml").expect("the floor not judged");
+}
+
+/// A layout that is not a ring flies as laid out only where the tube has room for it (the shaped
+/// formation puts every node on a stadium's perimeter in a passage): with `[controller.shape]`
+/// on, a tube narrowing below the two rings' reach is refused naming the place.
+#[test]
+fn a_layout_that_is_not_a_ring_needs_the_tube_s_room_for_a_shaped_formation() {
+    let shaped = format!("{}\n[controller.shape]\nenabled = true\n", include_str!("../scenarios/heavy-25uav.toml"));
+    host_sim::scenario::parse(&shaped, "heavy-shaped.toml").expect("the 20 m tube has room");
+    let narrow = shaped.replacen("[30.0, 3.0, 9.0, 9.0],", "[30.0, 3.0, 5.0, 5.0],", 1);
+    expect_error(&narrow, "heavy-narrow.toml", &["heavy-narrow.toml", "uavs.formation_offsets_m", "not a ring", "the layout needs"]);
+    // Without the shape the paper's tube keeping squeezes it as any formation: accepted.
+    let unshaped = include_str!("../scenarios/heavy-25uav.toml").replacen("[30.0, 3.0, 9.0, 9.0],", "[30.0, 3.0, 5.0, 5.0],", 1);
+    host_sim::scenario::parse(&unshaped, "heavy-narrow-unshaped.toml").expect("no shape");
+}

@@ -83,7 +83,7 @@ fn team_scenario(base: &Scenario, n: usize) -> Scenario {
     let radius_m = PAPER_RADIUS_M.max(RADIUS_PER_UAV_M * n as f64);
     let tray_m = radius_m / PAPER_LEAN_TAN;
     let cable_scale = tray_m / 10.0;
-    s.uavs.formation_radius_m = radius_m;
+    s.uavs.formation_radius_m = Some(radius_m);
     s.controller.tray_height_m = tray_m;
     s.controller.k2 = 10.0 / n as f64;
     s.cables.lengths_m = (0..n).map(|i| PAPER_CABLES_M[i % PAPER_CABLES_M.len()] * cable_scale).collect();

@@ -97,52 +97,80 @@ pub struct Takeoff {
     pub share_n: f64,
     /// Vertical capacity of the capped cables at the take-off lean / load weight.
     pub capacity_margin: f64,
-    /// Radius of the take-off node circle on the tray, m: the scenario's times the
-    /// capacity-aware formation's scale ([`takeoff_scale`]).
-    pub node_radius_m: f64,
+    /// Each UAV's take-off node on the tray, m (horizontal, world frame): the scenario's layout
+    /// about the load times the capacity-aware formation's scale ([`takeoff_scale`]).
+    pub nodes_m: Vec<[f64; 2]>,
 }
 
-/// Computes the take-off state: nodes on the formation circle around the load, cables taut
-/// and stretched for an equal share of the load (REFERENCE §6).
+/// Computes the take-off state: nodes on the take-off layout around the load (the ring, or the
+/// scenario's `formation_offsets_m`), cables taut and stretched for an equal share of the load's
+/// weight (REFERENCE §6).
 pub fn takeoff(s: &Scenario, tube: &SimTube, f_max_n: f64) -> Takeoff {
     let n = s.cables.lengths_m.len();
     takeoff_with(s, tube, f_max_n, &s.cables.lengths_m, &vec![s.cables.stiffness_n_per_m; n])
 }
 
 /// [`takeoff`] for the plant's true cable lengths and stiffnesses: every cable taut at the
-/// stretch its true stiffness gives under an equal share, so the true plant starts at rest.
+/// stretch its true stiffness gives under its share, so the true plant starts at rest.
 /// `stretch_m` and `share_n` stay the nominal values (the controllers calibrate their own at
-/// take-off, `vt_dissipative::calibrate`).
+/// take-off, `vt_dissipative::calibrate`). Each cable carries the same vertical share of the
+/// load, `W / n`: at rest for a layout whose nodes balance about the load (the ring, concentric
+/// rings); another layout starts with the load pulled sideways until the springs settle it.
 pub fn takeoff_with(s: &Scenario, tube: &SimTube, f_max_n: f64, lengths_m: &[f64], stiffness_n_per_m: &[f64]) -> Takeoff {
     let n = lengths_m.len();
     let h_tray = s.controller.tray_height_m;
-    let r = s.uavs.formation_radius_m * takeoff_scale(s, f_max_n);
+    let scale = takeoff_scale(s, f_max_n);
     let cos_lean = takeoff_cos_lean(s, f_max_n);
     let weight = s.load.mass_kg * GRAVITY_MPS2;
     let share = weight / (n as f64 * cos_lean);
     let stretch_m = share / s.cables.stiffness_n_per_m;
-    let capacity_margin = n as f64 * f_max_n * cos_lean / weight;
     let k = ((s.load.start_s_m as f32 / tube.ds_m()) as usize).min(tube.samples().len() - 1);
     let smp = tube.samples().get(k).copied().unwrap_or(tube.samples()[0]);
     let heading = f64::from(smp.tangent.y).atan2(f64::from(smp.tangent.x));
     let ground = s.mission.start == crate::scenario::MissionStart::Ground;
     let load_z = if ground { s.load.envelope_radius_m() } else { s.load.altitude_m };
     let load = V3::new(f64::from(smp.pos_m.x), f64::from(smp.pos_m.y), load_z);
+    let (sin_h, cos_h) = heading.sin_cos();
+    // Each node: its direction from the load (unit, world frame), its distance on the tray and
+    // the cos of its cable's lean `H / sqrt(H^2 + d^2)`. The ring keeps its own arithmetic (the
+    // flights before explicit layouts, bit for bit).
+    let nodes: Vec<([f64; 2], f64, f64)> = match s.uavs.ring_radius_m() {
+        Some(radius) => (0..n)
+            .map(|i| {
+                let a = heading + std::f64::consts::TAU * i as f64 / n as f64;
+                ([a.cos(), a.sin()], radius * scale, cos_lean)
+            })
+            .collect(),
+        None => s
+            .uavs
+            .formation_offsets(n)
+            .iter()
+            .map(|o| {
+                let d = o[0].hypot(o[1]) * scale;
+                let u = if d > 0.0 { [(o[0] * cos_h - o[1] * sin_h) * scale / d, (o[0] * sin_h + o[1] * cos_h) * scale / d] } else { [1.0, 0.0] };
+                (u, d, h_tray / (h_tray * h_tray + d * d).sqrt())
+            })
+            .collect(),
+    };
+    let capacity_margin = match s.uavs.ring_radius_m() {
+        Some(_) => n as f64 * f_max_n * cos_lean / weight,
+        None => f_max_n * nodes.iter().map(|nd| nd.2).sum::<f64>() / weight,
+    };
     let uav_pos_m = lengths_m
         .iter()
         .zip(stiffness_n_per_m.iter())
-        .enumerate()
-        .map(|(i, (len, k))| {
-            let a = heading + std::f64::consts::TAU * i as f64 / n as f64;
-            let taut = len + share / k;
-            let height = taut * cos_lean;
+        .zip(&nodes)
+        .map(|((len, k), &(u, r, cos))| {
+            let taut = len + weight / (n as f64 * cos) / k;
+            let height = taut * cos;
             let offset = r * height / h_tray;
             // A ground start: the same place, hovering low with a slack cable.
             let z = if ground { ground_hover_height_m(*len, offset) } else { height };
-            load + V3::new(offset * a.cos(), offset * a.sin(), z)
+            load + V3::new(offset * u[0], offset * u[1], z)
         })
         .collect();
-    Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin, node_radius_m: r }
+    let nodes_m = nodes.iter().map(|&(u, r, _)| [load.x + r * u[0], load.y + r * u[1]]).collect();
+    Takeoff { uav_pos_m, load_pos_m: load, stretch_m, share_n: share, capacity_margin, nodes_m }
 }
 
 /// Height above the resting load at which a ground start's UAVs hover before take-off, m:
@@ -174,17 +202,25 @@ pub fn takeoff_scale(s: &Scenario, rated_n: f64) -> f64 {
         return 1.0;
     }
     let lengths: Vec<f32> = s.cables.lengths_m.iter().map(|&l| l as f32).collect();
-    vt_dissipative::capacity::plan_circle(s.uavs.formation_radius_m as f32, &lengths, s.controller.tray_height_m as f32, &cap)
-        .map_or(1.0, |p| f64::from(p.scale))
+    let h = s.controller.tray_height_m as f32;
+    let plan = match s.uavs.ring_radius_m() {
+        Some(r) => vt_dissipative::capacity::plan_circle(r as f32, &lengths, h, &cap),
+        None => {
+            let offsets: Vec<vt_dissipative::Vec2> = s.uavs.formation_offsets(lengths.len()).iter().map(|d| vt_dissipative::Vec2::new(d[0] as f32, d[1] as f32)).collect();
+            vt_dissipative::capacity::plan(&offsets, &lengths, h, &cap)
+        }
+    };
+    plan.map_or(1.0, |p| f64::from(p.scale))
 }
 
-/// Cos of the take-off cable lean from vertical: every cable points from the load at its node on
-/// the formation circle of the tray `H` above, `H / sqrt(H^2 + R^2)` (REFERENCE §6), with `R` the
-/// scenario's radius times the capacity-aware formation's scale ([`takeoff_scale`]: the lean the
-/// adapted formation reaches for the declared load, `CapacityPlan::lean_cos_min` for a circle).
-/// The pre-flight check's lean.
+/// Cos of the take-off cable lean from vertical of the most leaning cable: its node on the
+/// tray `H` above the load, `R` from it, leans it `H / sqrt(H^2 + R^2)` (REFERENCE §6), with `R`
+/// the layout's reach ([`crate::scenario::UavSpec::formation_reach_m`]: the ring's radius)
+/// times the capacity-aware formation's scale ([`takeoff_scale`]: the lean the adapted
+/// formation reaches for the declared load, `CapacityPlan::lean_cos_min`). The pre-flight
+/// check's lean.
 pub fn takeoff_cos_lean(s: &Scenario, rated_n: f64) -> f64 {
-    let (h, r) = (s.controller.tray_height_m, s.uavs.formation_radius_m * takeoff_scale(s, rated_n));
+    let (h, r) = (s.controller.tray_height_m, s.uavs.formation_reach_m() * takeoff_scale(s, rated_n));
     h / (h * h + r * r).sqrt()
 }
 

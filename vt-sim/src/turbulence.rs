@@ -113,7 +113,7 @@ impl Turbulence {
     pub fn of_scenario(s: &crate::scenario::Scenario, altitude_m: f64, n: usize, seed: u64) -> Option<Self> {
         let d = &s.disturbances;
         let mean_wind = V3::from(d.wind_mean_mps) * d.intensity;
-        Self::new(d.turbulence * d.intensity, altitude_m, &mean_wind, s.controller.v_max_mps, 2.0 * s.uavs.formation_radius_m, n, seed)
+        Self::new(d.turbulence * d.intensity, altitude_m, &mean_wind, s.controller.v_max_mps, 2.0 * s.uavs.formation_reach_m(), n, seed)
     }
 
     fn advance(f: &mut Filters, tau: &V3, dt: f64, noise: &mut Noise) {

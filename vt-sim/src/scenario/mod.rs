@@ -312,8 +312,16 @@ pub struct UavSpec {
     /// Maximum tilt, degrees.
     #[serde(default = "default_tilt")]
     pub tilt_max_deg: f64,
-    /// Radius of the take-off node circle on the tray, m.
-    pub formation_radius_m: f64,
+    /// Radius of the take-off node circle on the tray, m: the paper's ring, node `i` at angle
+    /// `2 pi i / n` from the tube's direction. Give this or `formation_offsets_m`.
+    #[serde(default)]
+    pub formation_radius_m: Option<f64>,
+    /// Take-off node offsets on the tray about the load, m, one `[x, y]` per cable in the
+    /// cables' order, x along the tube's direction at the start and y to its left: any layout
+    /// (two rings for a large team, docs/design.md "Take-off layouts other than the ring").
+    /// Give this or `formation_radius_m`.
+    #[serde(default)]
+    pub formation_offsets_m: Option<Vec<[f64; 2]>>,
     /// UAV model of the plant: `rigid_body` (default) or `point_mass` (the paper's).
     #[serde(default)]
     pub model: UavModel,
@@ -749,6 +757,7 @@ pub fn parse(text: &str, source_name: &str) -> Result<LoadedScenario, ScenarioEr
 
 mod capacity;
 mod disturbances;
+mod formation;
 pub mod generate;
 mod perception;
 mod shape;
@@ -756,6 +765,7 @@ mod validate;
 
 pub use capacity::CapacitySpec;
 pub use disturbances::{DisturbanceSpec, WIND_ONSET_RAMP_S};
+pub use formation::MIN_NODE_SPACING_M;
 pub use perception::{AppearSpec, MapKnowledge, PerceptionSpec, SensorsSpec};
 pub use shape::ShapeSpec;
 

@@ -2,6 +2,7 @@
 //! against obstacles, team against tube, rates, cable stiffness against the plant step), each
 //! error naming the file, line and field.
 
+use super::formation::layout_field;
 use super::*;
 
 pub(super) fn line_of_offset(text: &str, offset: usize) -> usize {
@@ -60,7 +61,7 @@ pub(super) struct Validator<'a> {
 }
 
 impl Validator<'_> {
-    fn err(&self, table: &str, key: &str, message: String) -> ScenarioError {
+    pub(super) fn err(&self, table: &str, key: &str, message: String) -> ScenarioError {
         let field = if table.is_empty() { key.to_string() } else { format!("{table}.{key}") };
         ScenarioError {
             source_name: self.source_name.into(),
@@ -70,7 +71,7 @@ impl Validator<'_> {
         }
     }
 
-    fn positive(&self, table: &str, key: &str, x: f64) -> Result<(), ScenarioError> {
+    pub(super) fn positive(&self, table: &str, key: &str, x: f64) -> Result<(), ScenarioError> {
         if x.is_finite() && x > 0.0 {
             Ok(())
         } else {
@@ -138,7 +139,7 @@ impl Validator<'_> {
         if !(s.uavs.tilt_max_deg.is_finite() && s.uavs.tilt_max_deg > 0.0 && s.uavs.tilt_max_deg < 90.0) {
             return Err(self.err("uavs", "tilt_max_deg", format!("must be in (0, 90) degrees (got {})", s.uavs.tilt_max_deg)));
         }
-        self.positive("uavs", "formation_radius_m", s.uavs.formation_radius_m)?;
+        self.check_layout(s)?;
         if let Some(r) = s.uavs.body_radius_m {
             // The companion's VT_BODY_R range.
             if !(r.is_finite() && (0.0..=5.0).contains(&r)) {
@@ -518,10 +519,13 @@ impl Validator<'_> {
 
     fn check_formation(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
         let h = s.controller.tray_height_m;
-        let r = s.uavs.formation_radius_m;
+        let r = s.uavs.formation_reach_m();
+        let layout = layout_field(s);
+        let offsets = s.uavs.formation_offsets(s.cables.lengths_m.len());
+        let node_m = |i: usize| offsets.get(i).map_or(r, |d| d[0].hypot(d[1]));
         for (i, &len) in s.cables.lengths_m.iter().enumerate() {
-            // Taut cable with its node on the take-off circle: height above the load.
-            let height = len / (1.0 + (r / h).powi(2)).sqrt();
+            // Taut cable with its node on the take-off layout: height above the load.
+            let height = len / (1.0 + (node_m(i) / h).powi(2)).sqrt();
             if height < 1.0 {
                 return Err(self.err("cables", "lengths_m", format!(
                     "cable {i} ({len} m) is too short for the formation: the UAV would be {height:.2} m above the load")));
@@ -539,21 +543,24 @@ impl Validator<'_> {
         let smp = tube.samples().get(k).copied().ok_or_else(|| self.err("load", "start_s_m", "out of range".into()))?;
         let half = 0.5 * (smp.w_left_m + smp.w_right_m);
         if f64::from(half) <= r + s.controller.r_safe_m {
-            return Err(self.err("uavs", "formation_radius_m", format!(
-                "take-off formation (radius {r} m + r_safe {} m) does not fit the tube at the start (half-width {half:.2} m)",
+            return Err(self.err("uavs", layout, format!(
+                "take-off formation (reach {r} m + r_safe {} m) does not fit the tube at the start (half-width {half:.2} m)",
                 s.controller.r_safe_m)));
         }
         // A UAV on a cable longer than the tray's slant `sqrt(r^2 + h^2)` sits beyond its node,
         // at `L r / sqrt(r^2 + h^2)` from the load (capacity.rs, `uav_rel`): it must fit too.
         for (i, &len) in s.cables.lengths_m.iter().enumerate() {
-            let out = len * r / (r * r + h * h).sqrt();
+            let d = node_m(i);
+            let out = len * d / (d * d + h * h).sqrt();
             if f64::from(half) <= out + s.controller.r_safe_m {
                 return Err(self.err("cables", "lengths_m", format!(
                     "UAV {i} on its {len} m cable takes off {out:.2} m from the load, beyond the tube at the start with r_safe {} m (half-width {half:.2} m)",
                     s.controller.r_safe_m)));
             }
         }
-        self.check_takeoff_places(s, tube)
+        self.check_takeoff_places(s, tube)?;
+        self.check_takeoff_bodies(s, tube)?;
+        self.check_layout_room(s, tube)
     }
 
     /// Every UAV of the take-off formation, and its node, at its *own* section of the tube keeps
@@ -566,19 +573,15 @@ impl Validator<'_> {
     fn check_takeoff_places(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
         let r_safe = s.uavs.flown_r_safe_m(s.controller.r_safe_m, s.mission.clearance_floor());
         let t = crate::sim::takeoff(s, tube, s.cables.rated_n);
-        let r_node = t.node_radius_m as f32;
-        let load = vt_tube::Vec2::new(t.load_pos_m.x as f32, t.load_pos_m.y as f32);
-        for (i, p) in t.uav_pos_m.iter().enumerate() {
+        for (i, (p, q)) in t.uav_pos_m.iter().zip(&t.nodes_m).enumerate() {
             let uav = vt_tube::Vec2::new(p.x as f32, p.y as f32);
-            let off = uav - load;
-            let len = off.norm();
-            let node = if len > 0.0 { load + off * (r_node / len) } else { uav };
+            let node = vt_tube::Vec2::new(q[0] as f32, q[1] as f32);
             let clear = |q: vt_tube::Vec2| tube.locate(q, 0).map_or(f32::NEG_INFINITY, |sec| sec.boundary_distance_m(q));
             let (d_uav, d_node) = (clear(uav), clear(node));
             let d = f64::from(d_uav.min(d_node));
             // A NaN distance is refused too.
             if d.is_nan() || d < r_safe {
-                return Err(self.err("uavs", "formation_radius_m", format!(
+                return Err(self.err("uavs", layout_field(s), format!(
                     "UAV {i} takes off {d_uav:.2} m from the tube's boundary (its node {d_node:.2} m), within r_safe {r_safe:.2} m: the tube narrows within the take-off formation's reach of the start")));
             }
         }
