@@ -10,7 +10,8 @@
 //!   matched to it (`[velocity_loop.rigid_body] actuator_lag_s = 0.08`, docs/design.md);
 //! - `[uavs] body_radius_m`: the sized airframe's envelope, declared to the companions, and
 //!   `[controller.shape] enabled = true` (the formation shaped to the tube); a generated
-//!   campaign draws its airframe per run, so there the bodies are measured but not declared;
+//!   campaign draws its airframe per run, and its generator declares the drawn airframe's body
+//!   (`vt_sim::scenario::generate`, since session 52);
 //! - `[controller]` load sharing on (`share_gain_mps_per_n`, `load_altitude_gain_per_s`,
 //!   `share_offset_max_m`: [`SHARE_GAIN_MPS_PER_N`] and the two below it), which evens out the
 //!   tensions that the take-off's RTK-measured cable lengths leave uneven (docs/design.md,
@@ -73,8 +74,8 @@ impl World {
 
     /// The table this world merges over the base scenario, for `base`: the base with the
     /// campaign's own tables merged over it. Empty for [`World::Scenario`] and for a
-    /// `point_mass` team. `generated` leaves the bodies
-    /// undeclared (module doc).
+    /// `point_mass` team. `generated` leaves the bodies to the generator,
+    /// which declares the drawn airframe's (module doc).
     ///
     /// # Errors
     /// A `[uavs]` table that does not parse (the scenario's own validation names it).

@@ -16,7 +16,9 @@ use std::f64::consts::PI;
 /// Draws per seed before the generator gives up (every one failing validation).
 pub const MAX_DRAWS: u32 = 64;
 /// Smallest UAV-UAV chord of the take-off ring, m (above the capacity-aware formation's 0.9 m
-/// separation floor, `VT_SEP_MIN`, with room for the springs).
+/// separation floor, `VT_SEP_MIN`, with room for the springs); in a world that judges the
+/// clearances between surfaces, at least the drawn airframe's formation floor
+/// `2 r_b + c + FORMATION_GUARD_M` (docs/robustness.md, "Generated scenarios").
 pub const TAKEOFF_CHORD_M: f64 = 1.2;
 /// Cable lengths, m.
 pub const CABLE_RANGE_M: (f64, f64) = (3.0, 10.0);
@@ -186,7 +188,15 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     // the take-off chord on the ring.
     let lean = between(rng, 15.0, 35.0).to_radians();
     let ring = (PI / n as f64).sin();
-    let l_min = CABLE_RANGE_M.0.max(0.5 * TAKEOFF_CHORD_M / (lean.sin() * ring));
+    // A world that judges the clearances between surfaces (`[mission] clearance_floor_m`, the
+    // real-aircraft world's) declares the drawn airframe's body, and the ring keeps the
+    // capacity-aware formation's floor between bodies where the UAVs fly.
+    let body = base.get("mission").and_then(|m| m.get("clearance_floor_m")).and_then(toml::Value::as_float).map(|c| {
+        let b = crate::quadrotor::QuadParams::sized(airframe.mass_kg, airframe.thrust_max_n).envelope_radius_m();
+        (b + c, 2.0 * b + c + f64::from(vt_dissipative::separation::FORMATION_GUARD_M), b)
+    });
+    let chord = body.map_or(TAKEOFF_CHORD_M, |(_, sep, _)| TAKEOFF_CHORD_M.max(sep));
+    let l_min = CABLE_RANGE_M.0.max(0.5 * chord / (lean.sin() * ring));
     if l_min > CABLE_RANGE_M.1 {
         return None;
     }
@@ -211,7 +221,10 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     // Widths: wide sections hold the take-off ring; a passage holds the team packed at the
     // separation floor (`sqrt(n)` across, docs/robustness.md).
     let wide = reach + r_safe + between(rng, 1.0, 3.0);
-    let need = r_safe + floor + 0.5 * (r_safe + floor) * ((n as f64).sqrt() - 1.0);
+    let need = match body {
+        Some((keep, sep, _)) => r_safe.max(keep) + floor + 0.5 * sep * ((n as f64).sqrt() - 1.0),
+        None => r_safe + floor + 0.5 * (r_safe + floor) * ((n as f64).sqrt() - 1.0),
+    };
     let narrow = (need + between(rng, 0.0, 1.5)).min(wide);
     let length = between(rng, 35.0, 60.0);
     let start = reach + r_safe + 1.0;
@@ -253,6 +266,9 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     set(&mut t, "uavs", "thrust_max_n", toml::Value::Float(airframe.thrust_max_n));
     set(&mut t, "uavs", "tilt_max_deg", toml::Value::Float(airframe.tilt_max_deg));
     set(&mut t, "uavs", "formation_radius_m", toml::Value::Float(round3(radius)));
+    if let Some((_, _, b)) = body {
+        set(&mut t, "uavs", "body_radius_m", toml::Value::Float(round3(b)));
+    }
     set(&mut t, "cables", "lengths_m", floats(lengths));
     set(&mut t, "cables", "rated_n", toml::Value::Float(airframe.rated_n));
     set(&mut t, "controller", "tray_height_m", toml::Value::Float(round3(tray_h)));
