@@ -19,6 +19,7 @@ pub mod map;
 pub mod metrics;
 pub mod mission;
 pub mod models;
+pub mod observer_lag;
 pub mod obstacles;
 pub mod phases;
 pub mod plan;

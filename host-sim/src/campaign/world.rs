@@ -7,7 +7,8 @@
 //! - `[mission] start = "ground"` (lift-off, transport, set-down) and
 //!   `clearance_floor_m = 0.2` (success needs every surface-to-surface clearance);
 //! - `[uavs] autopilot = "px4_default"` (PX4's stock rate gains), with the observer's lag
-//!   matched to it (`[velocity_loop.rigid_body] actuator_lag_s = 0.08`, docs/design.md);
+//!   matched to it and to the airframe (`[velocity_loop.rigid_body] actuator_lag_s`: 0.08 s on
+//!   the paper's 2 kg airframe, `vt_sim::observer_lag`);
 //! - `[uavs] body_radius_m`: the sized airframe's envelope, declared to the companions, and
 //!   `[controller.shape] enabled = true` (the formation shaped to the tube); a generated
 //!   campaign draws its airframe per run, and its generator declares the drawn airframe's body
@@ -26,9 +27,10 @@
 use crate::scenario::{ScenarioError, UavSpec};
 use toml::{Table, Value};
 
-/// Observer lag matched to PX4's stock rate gains, s (docs/design.md, "Velocity loop behind an
-/// attitude autopilot"; docs/robustness.md, "Stock PX4 rate gains").
-pub const STOCK_AUTOPILOT_LAG_S: f64 = 0.08;
+/// Observer lag matched to PX4's stock rate gains on the paper's airframe, s (docs/design.md,
+/// "Velocity loop behind an attitude autopilot"); other airframes get theirs by
+/// `vt_sim::observer_lag::stock_observer_lag_s`.
+pub const STOCK_AUTOPILOT_LAG_S: f64 = vt_sim::observer_lag::STOCK_AUTOPILOT_LAG_S;
 
 /// The success floor between surfaces in the real-aircraft world, m (issue 27 §1).
 pub const CLEARANCE_FLOOR_M: f64 = 0.2;
@@ -111,7 +113,11 @@ impl World {
         }
         over.insert("controller".into(), table(&controller));
         if base.contains_key("velocity_loop") {
-            over.insert("velocity_loop".into(), table(&[("rigid_body", table(&[("actuator_lag_s", STOCK_AUTOPILOT_LAG_S.into())]))]));
+            // The observer's lag matched to the airframe behind the stock gains (docs/design.md,
+            // "The observer's lag matched to each airframe"); a generated team's, drawn per
+            // run, is matched by the generator.
+            let lag = vt_sim::observer_lag::stock_observer_lag_s(spec.mass_kg, spec.thrust_max_n);
+            over.insert("velocity_loop".into(), table(&[("rigid_body", table(&[("actuator_lag_s", lag.into())]))]));
         }
         over.insert("sensing".into(), table(&[("position", "rtk".into()), ("attitude", "px4".into())]));
         over.insert(

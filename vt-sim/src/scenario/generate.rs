@@ -269,6 +269,17 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     if let Some((_, _, b)) = body {
         set(&mut t, "uavs", "body_radius_m", toml::Value::Float(round3(b)));
     }
+    // Behind PX4's stock gains the observer's lag is matched to the drawn airframe, as the
+    // real-aircraft world matches a hand-written scenario's (`crate::observer_lag`).
+    let stock = t.get("uavs").and_then(|u| u.get("autopilot")).and_then(toml::Value::as_str) == Some("px4_default");
+    if stock && t.get("velocity_loop").and_then(|v| v.get("rigid_body")).is_some() {
+        let lag = crate::observer_lag::stock_observer_lag_s(airframe.mass_kg, airframe.thrust_max_n);
+        if let Some(toml::Value::Table(vl)) = t.get_mut("velocity_loop") {
+            if let Some(toml::Value::Table(rb)) = vl.get_mut("rigid_body") {
+                rb.insert("actuator_lag_s".into(), toml::Value::Float(lag));
+            }
+        }
+    }
     set(&mut t, "cables", "lengths_m", floats(lengths));
     set(&mut t, "cables", "rated_n", toml::Value::Float(airframe.rated_n));
     set(&mut t, "controller", "tray_height_m", toml::Value::Float(round3(tray_h)));

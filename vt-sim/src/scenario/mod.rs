@@ -14,6 +14,10 @@ pub const SIM_MAX_UAVS: usize = 128;
 
 /// The paper's simulation scenario, compiled in (also at `scenarios/paper-10uav.toml`).
 pub const PAPER_10UAV: &str = include_str!("../../../scenarios/paper-10uav.toml");
+
+/// The paper experiment's scenario (three 1.47 kg UAVs), as shipped.
+pub const EXPERIMENT_3UAV: &str = include_str!("../../../scenarios/experiment-3uav.toml");
+
 /// Name shown for the compiled-in default.
 pub const DEFAULT_SCENARIO_NAME: &str = "scenarios/paper-10uav.toml (built in)";
 
