@@ -114,7 +114,7 @@ impl Validator<'_> {
                 if let Some((i, j)) = coincident_pair(offsets) {
                     return Err(self.err("uavs", "formation_offsets_m", format!("UAVs {i} and {j} take off from the same node (closer than {MIN_NODE_SPACING_M} m)")));
                 }
-                if !(s.uavs.formation_reach_m() > 0.0) {
+                if s.uavs.formation_reach_m() <= 0.0 {
                     return Err(self.err("uavs", "formation_offsets_m", "every node is on the load: the layout has no extent".into()));
                 }
                 Ok(())
@@ -131,7 +131,7 @@ impl Validator<'_> {
     pub(super) fn check_takeoff_bodies(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
         let Some(floor) = s.mission.clearance_floor_m else { return Ok(()) };
         let body = s.uavs.envelope_radius_m(s.uavs.model);
-        if !(body > 0.0) {
+        if body <= 0.0 {
             return Ok(());
         }
         let need = 2.0 * body + floor;
