@@ -22,6 +22,12 @@ pub const MAX_DRAWS: u32 = 64;
 pub const TAKEOFF_CHORD_M: f64 = 1.2;
 /// Cable lengths, m.
 pub const CABLE_RANGE_M: (f64, f64) = (3.0, 10.0);
+/// Where the bodies are declared, teams of this size and larger take off on two rings, as
+/// `heavy-25uav.toml` (docs/design.md, "Take-off layouts other than the ring"): one ring that
+/// keeps their bodies apart needs cables longer than [`CABLE_RANGE_M`].
+pub const TWO_RINGS_FROM_UAVS: usize = 16;
+/// Share of a two-ring team on its inner ring, the shortest cables (`heavy-25uav.toml`: 9 of 25).
+pub const INNER_RING_SHARE: f64 = 0.36;
 /// Load as a fraction of the team's vertical capacity at take-off.
 pub const LOAD_FRACTION_RANGE: (f64, f64) = (0.30, 0.95);
 /// Team sizes.
@@ -196,10 +202,27 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
         (b + c, 2.0 * b + c + f64::from(vt_dissipative::separation::FORMATION_GUARD_M), b)
     });
     let chord = body.map_or(TAKEOFF_CHORD_M, |(_, sep, _)| TAKEOFF_CHORD_M.max(sep));
-    let l_min = CABLE_RANGE_M.0.max(0.5 * chord / (lean.sin() * ring));
+    // A large team with bodies: two rings, each at least the chord around and apart (UAV
+    // plane, m): inner count, inner radius, outer radius.
+    let rings = (body.is_some() && n >= TWO_RINGS_FROM_UAVS).then(|| {
+        let n_in = ((n as f64 * INNER_RING_SHARE).round() as usize).clamp(3, n - 3);
+        let r_in = 0.5 * chord / (PI / n_in as f64).sin();
+        let r_out = (0.5 * chord / (PI / (n - n_in) as f64).sin()).max(r_in + chord);
+        (n_in, r_in, r_out)
+    });
+    let l_min = match rings {
+        None => CABLE_RANGE_M.0.max(0.5 * chord / (lean.sin() * ring)),
+        Some((_, _, r_out)) => CABLE_RANGE_M.0.max(r_out / lean.sin()),
+    };
     if l_min > CABLE_RANGE_M.1 {
         return None;
     }
+    // Two rings fly as laid out only where the tube has room for them (the shaped formation puts
+    // every node on a stadium's perimeter in a passage): a tube of one width.
+    let tube = match (rings, tube) {
+        (Some(_), TubeKind::Narrowing | TubeKind::Passages) => if rng.uniform() < 0.5 { TubeKind::Straight } else { TubeKind::SBend },
+        (_, kind) => kind,
+    };
     let lengths: Vec<f64> = if equal_cables {
         vec![between(rng, l_min, CABLE_RANGE_M.1); n]
     } else {
@@ -228,8 +251,15 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     let narrow = (need + between(rng, 0.0, 1.5)).min(wide);
     let length = between(rng, 35.0, 60.0);
     let start = reach + r_safe + 1.0;
-    // A tube of one width holds the take-off ring wherever it starts.
-    let ring_width = (reach + r_safe + 0.3).min(wide);
+    // A tube of one width holds the take-off ring wherever it starts; two rings, with the shaped
+    // formation's margin besides.
+    let ring_width = match (rings, body) {
+        (Some(_), Some((keep, _, _))) => {
+            let margin = t.get("controller").and_then(|c| c.get("shape")).and_then(|s| s.get("margin_m")).and_then(toml::Value::as_float).unwrap_or(0.5);
+            (reach + r_safe.max(keep) + margin + 0.3).min(wide)
+        }
+        _ => (reach + r_safe + 0.3).min(wide),
+    };
     let wps = waypoints(tube, length, wide, narrow, ring_width, rng);
     let min_hw = wps.iter().map(|w| 0.5 * (w[2] + w[3])).fold(f64::INFINITY, f64::min);
 
@@ -265,7 +295,26 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     set(&mut t, "uavs", "mass_kg", toml::Value::Float(airframe.mass_kg));
     set(&mut t, "uavs", "thrust_max_n", toml::Value::Float(airframe.thrust_max_n));
     set(&mut t, "uavs", "tilt_max_deg", toml::Value::Float(airframe.tilt_max_deg));
-    set(&mut t, "uavs", "formation_radius_m", toml::Value::Float(round3(radius)));
+    match rings {
+        None => set(&mut t, "uavs", "formation_radius_m", toml::Value::Float(round3(radius))),
+        Some((n_in, r_in, r_out)) => {
+            // Nodes on the tray: the outer ring at the ring's radius, the inner one scaled with
+            // it, the shortest cables inside, the inner ring turned half an outer step.
+            let mut order: Vec<usize> = (0..n).collect();
+            order.sort_by(|&a, &b| lengths[a].total_cmp(&lengths[b]).then(a.cmp(&b)));
+            let n_out = n - n_in;
+            let mut offsets = vec![[0.0; 2]; n];
+            for (k, &i) in order.iter().enumerate() {
+                let (j, count, r, turn) = if k < n_in { (k, n_in, r_in * radius / r_out, PI / n_out as f64) } else { (k - n_in, n_out, radius, 0.0) };
+                let a = 2.0 * PI * j as f64 / count as f64 + turn;
+                offsets[i] = [round3(r * a.cos()), round3(r * a.sin())];
+            }
+            if let Some(toml::Value::Table(u)) = t.get_mut("uavs") {
+                u.remove("formation_radius_m");
+            }
+            set(&mut t, "uavs", "formation_offsets_m", toml::Value::Array(offsets.iter().map(|d| floats(d.iter().copied())).collect()));
+        }
+    }
     if let Some((_, _, b)) = body {
         set(&mut t, "uavs", "body_radius_m", toml::Value::Float(round3(b)));
     }
@@ -375,5 +424,46 @@ mod tests {
         assert_eq!(frames.len(), 3, "{frames:?}");
         assert!(sizes.iter().any(|&n| n >= 25) && sizes.iter().any(|&n| n <= 5), "{sizes:?}");
         println!("200 generated scenarios, {redraws} redraws");
+    }
+
+    /// Where the clearances are judged (the real-aircraft world's `clearance_floor_m`), a drawn
+    /// team declares its airframe's body and a team of [`TWO_RINGS_FROM_UAVS`] or more takes off
+    /// on two rings, its shortest cables inside, in a tube of one width; the validation (bodies
+    /// apart at take-off, room for a layout that is not a ring) accepts it. Smaller teams keep
+    /// the ring, and without the floor every team keeps it (the scenario world's draws).
+    #[test]
+    fn large_teams_with_bodies_take_off_on_two_rings() {
+        let mut judged = base();
+        if let Some(toml::Value::Table(m)) = judged.get_mut("mission") {
+            m.insert("clearance_floor_m".into(), toml::Value::Float(0.2));
+        }
+        let (mut two, mut one) = (0, 0);
+        for seed in 0..60 {
+            let g = generate(&judged, seed).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let (d, u) = (&g.drawn, &g.loaded.scenario.uavs);
+            assert!(u.body_radius_m.is_some_and(|b| b > 0.4), "seed {seed}: the drawn body declared");
+            if d.n_uavs >= TWO_RINGS_FROM_UAVS {
+                two += 1;
+                assert!(u.ring_radius_m().is_none(), "seed {seed}: {} UAVs on one ring", d.n_uavs);
+                assert!(matches!(d.tube, TubeKind::Straight | TubeKind::SBend), "seed {seed}: {:?}", d.tube);
+                let lengths = &g.loaded.scenario.cables.lengths_m;
+                let offsets = u.formation_offsets(d.n_uavs);
+                let reach = u.formation_reach_m();
+                let (inner, outer): (Vec<usize>, Vec<usize>) = (0..d.n_uavs).partition(|&i| offsets[i][0].hypot(offsets[i][1]) < reach - 0.1);
+                let n_in = ((d.n_uavs as f64 * INNER_RING_SHARE).round() as usize).clamp(3, d.n_uavs - 3);
+                assert_eq!(inner.len(), n_in, "seed {seed}");
+                let longest_inside = inner.iter().map(|&i| lengths[i]).fold(0.0, f64::max);
+                let shortest_outside = outer.iter().map(|&i| lengths[i]).fold(f64::INFINITY, f64::min);
+                assert!(longest_inside <= shortest_outside, "seed {seed}: the shortest cables inside");
+            } else {
+                one += 1;
+                assert!(u.ring_radius_m().is_some(), "seed {seed}");
+            }
+        }
+        assert!(two > 10 && one > 10, "{two} two-ring teams, {one} rings");
+        for seed in 0..20 {
+            let g = generate(&base(), seed).expect("scenario world");
+            assert!(g.loaded.scenario.uavs.ring_radius_m().is_some() && g.loaded.scenario.uavs.body_radius_m.is_none());
+        }
     }
 }
