@@ -51,28 +51,34 @@ const HOVER_S: (f64, f64) = (2.0, 9.0);
 
 /// The observer lag (s) an airframe of `mass_kg` and `thrust_max_n` (N, the sized airframe,
 /// `QuadParams::sized`) flies behind PX4's stock rate gains (module doc): 0.08 s for the
-/// paper's airframe; the calibration of each other airframe is flown once per process and kept
-/// (about 0.5 s of wall time). `STOCK_AUTOPILOT_LAG_S` when the calibration cannot fly (an
-/// airframe the scenario's validation refuses).
+/// paper's airframe; the calibration of each other airframe, and the paper airframe's `tau*`
+/// it is scaled by, is flown once per process and kept (about 0.2-0.5 s of wall time each).
+/// `STOCK_AUTOPILOT_LAG_S` when the calibration cannot fly (an airframe the scenario's
+/// validation refuses).
 pub fn stock_observer_lag_s(mass_kg: f64, thrust_max_n: f64) -> f64 {
     if (mass_kg, thrust_max_n) == REFERENCE_AIRFRAME {
         return STOCK_AUTOPILOT_LAG_S;
     }
-    static KEPT: OnceLock<Mutex<HashMap<[u64; 2], f64>>> = OnceLock::new();
-    let key = [mass_kg.to_bits(), thrust_max_n.to_bits()];
-    let kept = KEPT.get_or_init(|| Mutex::new(HashMap::new()));
-    if let Some(&lag) = kept.lock().ok().and_then(|m| m.get(&key).copied()).as_ref() {
-        return lag;
-    }
     let (m, t) = REFERENCE_AIRFRAME;
-    let lag = match (limit_lag_s(mass_kg, thrust_max_n), limit_lag_s(m, t)) {
+    match (kept_limit_lag_s(mass_kg, thrust_max_n), kept_limit_lag_s(m, t)) {
         (Some(own), Some(reference)) if reference > 0.0 => STOCK_AUTOPILOT_LAG_S * own / reference,
         _ => STOCK_AUTOPILOT_LAG_S,
-    };
-    if let Ok(mut map) = kept.lock() {
-        map.insert(key, lag);
     }
-    lag
+}
+
+/// [`limit_lag_s`], flown once per airframe and process.
+fn kept_limit_lag_s(mass_kg: f64, thrust_max_n: f64) -> Option<f64> {
+    static KEPT: OnceLock<Mutex<HashMap<[u64; 2], Option<f64>>>> = OnceLock::new();
+    let key = [mass_kg.to_bits(), thrust_max_n.to_bits()];
+    let kept = KEPT.get_or_init(|| Mutex::new(HashMap::new()));
+    if let Some(limit) = kept.lock().ok().and_then(|m| m.get(&key).copied()) {
+        return limit;
+    }
+    let limit = limit_lag_s(mass_kg, thrust_max_n);
+    if let Ok(mut map) = kept.lock() {
+        map.insert(key, limit);
+    }
+    limit
 }
 
 /// `tau*`: the shortest lag whose calibration hover moves at most [`RMS_TOLERANCE`] times the

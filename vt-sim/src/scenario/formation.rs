@@ -150,6 +150,7 @@ impl Validator<'_> {
             "UAVs {i} and {j} take off {d:.2} m apart (centres): their {body:.3} m bodies would be {:.2} m apart, under the clearance floor {floor} m{hint}",
             d - 2.0 * body)))
     }
+
     /// A layout that is not a ring, in the formation shaped to the tube (`[controller.shape]`),
     /// needs room for itself along the whole tube: the shaped formation flies the take-off
     /// layout where the tube has room for it (`vt_dissipative::shape`, quantum `QUANTA`) and puts

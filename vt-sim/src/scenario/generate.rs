@@ -255,7 +255,12 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     // formation's margin besides.
     let ring_width = match (rings, body) {
         (Some(_), Some((keep, _, _))) => {
-            let margin = t.get("controller").and_then(|c| c.get("shape")).and_then(|s| s.get("margin_m")).and_then(toml::Value::as_float).unwrap_or(0.5);
+            let margin = t
+                .get("controller")
+                .and_then(|c| c.get("shape"))
+                .and_then(|s| s.get("margin_m"))
+                .and_then(toml::Value::as_float)
+                .unwrap_or_else(|| f64::from(vt_dissipative::ShapeParams::default().margin_m));
             (reach + r_safe.max(keep) + margin + 0.3).min(wide)
         }
         _ => (reach + r_safe + 0.3).min(wide),
