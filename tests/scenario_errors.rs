@@ -387,17 +387,3 @@ fn bodies_that_take_off_within_the_clearance_floor_are_refused() {
     host_sim::scenario::parse(&judged(include_str!("../scenarios/heavy-25uav.toml")), "heavy-rings.toml").expect("the two rings");
     host_sim::scenario::parse(&heavy_on_one_ring(5.0), "heavy-unjudged.toml").expect("the floor not judged");
 }
-
-/// A layout that is not a ring flies as laid out only where the tube has room for it (the shaped
-/// formation puts every node on a stadium's perimeter in a passage): with `[controller.shape]`
-/// on, a tube narrowing below the two rings' reach is refused naming the place.
-#[test]
-fn a_layout_that_is_not_a_ring_needs_the_tube_s_room_for_a_shaped_formation() {
-    let shaped = format!("{}\n[controller.shape]\nenabled = true\n", include_str!("../scenarios/heavy-25uav.toml"));
-    host_sim::scenario::parse(&shaped, "heavy-shaped.toml").expect("the 20 m tube has room");
-    let narrow = shaped.replacen("[30.0, 3.0, 9.0, 9.0],", "[30.0, 3.0, 5.0, 5.0],", 1);
-    expect_error(&narrow, "heavy-narrow.toml", &["heavy-narrow.toml", "uavs.formation_offsets_m", "not a ring", "the layout needs"]);
-    // Without the shape the paper's tube keeping squeezes it as any formation: accepted.
-    let unshaped = include_str!("../scenarios/heavy-25uav.toml").replacen("[30.0, 3.0, 9.0, 9.0],", "[30.0, 3.0, 5.0, 5.0],", 1);
-    host_sim::scenario::parse(&unshaped, "heavy-narrow-unshaped.toml").expect("no shape");
-}

@@ -41,7 +41,7 @@ fn a_separated_stadium_keeps_the_floor_where_the_uavs_fly() {
         vt_fpu::atan2(o.dot(&normal), o.dot(&frame))
     }).collect();
     let o = shape.load_node_m - shape.centre_m;
-    let st = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: Vec2::new(o.dot(&frame), o.dot(&normal)), tray_height_m: params().tray.height_above_load_m };
+    let st = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: Vec2::new(o.dot(&frame), o.dot(&normal)), tray_height_m: params().tray.height_above_load_m, layout: crate::shape::Layout::Ring };
     assert!(st.min_distance_m(r, b, 1.0) < 1.3, "the short stadium breaks the floor: {}", st.min_distance_m(r, b, 1.0));
     assert!(st.min_distance_m(a, b, 1.0) >= 1.3, "{}", st.min_distance_m(a, b, 1.0));
     // Longer front to back than the short stadium; the springs agree at both ends.
@@ -220,7 +220,7 @@ fn the_stadium_flown_keeps_a_wider_floor_than_the_planner_asks_for() {
         let o = p - shape.centre_m;
         vt_fpu::atan2(o.y, o.x)
     }).collect();
-    let st = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: shape.load_node_m - shape.centre_m, tray_height_m: h };
+    let st = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: shape.load_node_m - shape.centre_m, tray_height_m: h, layout: crate::shape::Layout::Ring };
     let limits = StadiumLimits { separation_m: 1.3, separation_scale: c.scale.scale_min(), min_cos_sum: 0.0, capacity_scale: c.scale.scale_target() };
     let mut wider = 0;
     for q in min_quantum(n)..QUANTA {
@@ -404,4 +404,56 @@ fn a_separated_stadium_flies_its_passage_slower() {
     back.shape_to_tube(&t, &wide);
     assert_eq!(back.shape_fraction(), 1.0);
     assert_eq!(back.update(&t, &m, DT_S).vel_mps, fresh.update(&t, &m, DT_S).vel_mps);
+}
+
+/// A take-off that is not a ring (two rings here) is shaped as a packed team (shape.rs,
+/// `Layout::Packed`): in a passage each inner node stays well inside the place the stadium's
+/// perimeter would give it, and the springs still agree at both ends. A ring measured with a
+/// few centimetres of error stays a ring (`RING_SPREAD`).
+#[test]
+fn a_packed_team_keeps_its_inner_nodes_inside_in_a_passage() {
+    use crate::shape::{stadium_point, Layout};
+    let t = tube();
+    let h = params().tray.height_above_load_m;
+    let load = Vec3::new(4.0, 0.0, LOAD_Z_M);
+    // Each UAV on its 8 m cable through its node `d` on the tray (eq:2-4).
+    let on_cable = |d: Vec2| load + Vec3::new(d.x, d.y, h) * (8.0 / (d.norm_squared() + h * h).sqrt());
+    let node = |r: f32, a: f32| Vec2::new(r * a.cos(), r * a.sin());
+    let tau = core::f32::consts::TAU;
+    let nodes: Vec<Vec2> = (0..4).map(|k| node(1.2, tau * k as f32 / 4.0 + 0.4)).chain((0..8).map(|k| node(3.0, tau * k as f32 / 8.0))).collect();
+    let uavs: Vec<Vec3> = nodes.iter().map(|d| on_cable(*d)).collect();
+    let n = uavs.len();
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let mut ctl = team(n, &uavs, &load);
+    let narrow = t.locate(Vec2::new(27.0, 0.5), 0).unwrap();
+    for c in ctl.iter_mut() {
+        c.set_shape(ShapeParams::default(), &f, None).unwrap();
+        c.shape_to_tube(&t, &narrow);
+        assert!(c.shape_fraction() < 0.6, "a passage narrows the shape: {}", c.shape_fraction());
+    }
+    let shape = ctl[0].shape.as_ref().unwrap();
+    let frame = shape.frame.unwrap();
+    assert!(matches!(shape.layout(frame, n), Layout::Packed { .. }));
+    let (r, b) = (shape.radius_m, shape.radius_m * shape.quantum as f32 / QUANTA as f32);
+    for (k, p) in shape.nodes_m.iter().take(4).enumerate() {
+        let o = p - shape.centre_m;
+        let angle = vt_fpu::atan2(o.dot(&Vec2::new(-frame.y, frame.x)), o.dot(&frame));
+        let on_perimeter = stadium_point(angle, shape.half_length_m, b).norm();
+        let placed = ctl[k].rest.own_center_m;
+        assert!(placed < 0.6 * on_perimeter, "inner node {k}: {placed} m from the centre, {on_perimeter} m on the stadium");
+        assert!(placed <= (p - shape.centre_m).norm() * shape.half_length_m / r + 1e-4, "never farther than stretched: {placed}");
+    }
+    for i in 0..n {
+        for j in 0..n {
+            assert_eq!(ctl[i].rest.own_m[j], ctl[j].rest.own_m[i], "spring {i}-{j}");
+        }
+    }
+    // The paper's ring, each node off its radius by up to 2 %: a ring.
+    let ring: Vec<Vec3> = (0..10).map(|k| on_cable(node(3.0 * (1.0 + 0.02 * ((k as f32) * 2.1).sin()), tau * k as f32 / 10.0))).collect();
+    let fr = Formation::<N>::from_takeoff(&ring, &load, &params().tray).unwrap();
+    let mut c = team(10, &ring, &load).remove(0);
+    c.set_shape(ShapeParams::default(), &fr, None).unwrap();
+    c.shape_to_tube(&t, &narrow);
+    let s = c.shape.as_ref().unwrap();
+    assert!(matches!(s.layout(s.frame.unwrap(), 10), Layout::Ring));
 }

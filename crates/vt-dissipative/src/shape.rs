@@ -102,6 +102,77 @@ pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
     on_cap(c, -FRAC_PI_2, u)
 }
 
+/// A take-off whose nodes all lie at least this fraction of the outermost node's distance from
+/// the tray centre is a ring (the paper's take-off, measured with its errors): its nodes go on
+/// the stadium's perimeter. Any other layout (two rings, a packed patch) is [`Layout::Packed`]:
+/// squeezed across the tube and stretched along it, its inner nodes kept inside
+/// (docs/design.md, "The shaped formation of a packed team").
+pub const RING_SPREAD: f32 = 0.9;
+
+/// How the take-off nodes are placed on the shape of half-width `b` and half-length `a` (both m,
+/// node space, about the tray centre, in the stadium's frame).
+#[derive(Debug, Clone, Copy)]
+pub enum Layout<'a> {
+    /// Every node on the stadium's perimeter at its take-off angle ([`stadium_point`]).
+    Ring,
+    /// Every node at its take-off offset, along the tube times `a / r`, across it times
+    /// `min(1, b / across)` ([`packed_point`]).
+    Packed {
+        /// The take-off nodes, world, m.
+        nodes_m: &'a [Vec2],
+        /// The tray centre at take-off, world, m.
+        centre_m: Vec2,
+        /// The stadium's frame: the tube's direction at the first look (unit).
+        frame: Vec2,
+        /// The layout's outer radius `r`, m.
+        radius_m: f32,
+        /// The layout's largest offset across the frame, m.
+        across_m: f32,
+    },
+}
+
+impl Layout<'_> {
+    /// Whether the shape of half-width `b_m` is narrower than the layout of outer radius `r_m`
+    /// (both m): the ring's radius, or the packed layout's own extent across the tube.
+    pub fn narrower(&self, r_m: f32, b_m: f32) -> bool {
+        match *self {
+            Self::Ring => b_m < r_m,
+            Self::Packed { across_m, .. } => b_m < across_m,
+        }
+    }
+
+    /// Take-off node `p` (world, m) on the shape of half-length `a_m` and half-width `b_m`:
+    /// about the tray centre in the stadium's frame, m. `angle_rad` is the node's take-off angle
+    /// in that frame (the ring's place on the perimeter). Out of line (flash).
+    #[inline(never)]
+    pub fn place(&self, p: &Vec2, angle_rad: f32, a_m: f32, b_m: f32) -> Vec2 {
+        match *self {
+            Self::Ring => stadium_point(angle_rad, a_m, b_m),
+            Self::Packed { centre_m, frame, radius_m, across_m, .. } => {
+                let o = p - centre_m;
+                packed_point(Vec2::new(o.dot(&frame), o.x * frame.y - o.y * frame.x), radius_m, across_m, a_m, b_m)
+            }
+        }
+    }
+}
+
+/// A packed layout's node `o` (about the tray centre in the stadium's frame, m) on the shape of
+/// half-length `a_m` and half-width `b_m`: `(o_x a / r, o_y min(1, b / across))` (`r_m` the
+/// layout's outer radius, `across_m` its largest offset across the frame): squeezed across the
+/// tube to the shape's half-width, stretched along it as the stadium lengthens, so an inner node
+/// stays inner and the layout's order is kept. With `b >= across` and `a = r` it is `o` itself.
+/// Non-finite or non-positive sizes give the origin, as [`stadium_point`]'s.
+pub fn packed_point(o: Vec2, r_m: f32, across_m: f32, a_m: f32, b_m: f32) -> Vec2 {
+    let squeeze = if across_m > b_m { b_m / across_m } else { 1.0 };
+    let p = Vec2::new(o.x * (a_m / r_m), o.y * squeeze);
+    // A non-finite size makes the sum non-finite (a zero radius too); a non-positive one fails the rest.
+    if vt_fpu::is_finite(p.x + p.y + r_m) && r_m > 0.0 && a_m > 0.0 && b_m > 0.0 {
+        p
+    } else {
+        Vec2::zeros()
+    }
+}
+
 /// Steps of the stadium's half-length between the ring's radius and its longest, `2 r - b`
 /// ([`separated_half_length_m`]).
 pub const LENGTH_STEPS: i32 = 8;
@@ -128,6 +199,8 @@ pub struct StadiumTeam<'a> {
     pub load_m: Vec2,
     /// Tray height above the load `H`, m.
     pub tray_height_m: f32,
+    /// How the nodes go on the shape (the ring's perimeter, or a packed layout's squeeze).
+    pub layout: Layout<'a>,
 }
 
 /// What bounds the stadium's length (capacity-aware formation, capacity.rs): the distance every
@@ -151,10 +224,12 @@ impl<'a> StadiumTeam<'a> {
     /// Node `k`'s offset from the load node on the stadium of half-length `a_m` and half-width
     /// `b_m` (node space, m).
     fn offset(&self, k: usize, a_m: f32, b_m: f32, squeeze: f32) -> Option<Vec2> {
-        self.angles_rad.get(k).map(|&th| {
-            let p = stadium_point(th, a_m, b_m);
-            Vec2::new(p.x, p.y * squeeze) - self.load_m
-        })
+        let th = *self.angles_rad.get(k)?;
+        let p = match self.layout {
+            Layout::Ring => stadium_point(th, a_m, b_m),
+            Layout::Packed { nodes_m, .. } => self.layout.place(nodes_m.get(k)?, th, a_m, b_m),
+        };
+        Some(Vec2::new(p.x, p.y * squeeze) - self.load_m)
     }
 
     /// The smallest distance between two UAVs (m, 3-D) where they fly at scale `lambda`: UAV
@@ -199,7 +274,7 @@ impl<'a> StadiumTeam<'a> {
 }
 
 /// The stadium's half-length for half-width `b_m` (both m, node space): the ring's radius
-/// `r_m` when every pair of UAVs keeps the separation floor where they fly
+/// `r_m` when the shape is not narrower than the layout ([`Layout::narrower`]) or every pair of UAVs keeps the separation floor where they fly
 /// ([`StadiumTeam::min_distance_m`] at `limits.separation_scale`), else the shortest of
 /// [`LENGTH_STEPS`] equal steps up to `2 r - b` (it lengthens by at most what it narrows) that
 /// keeps it. A node farther from the centre than on the ring leans its cable more, so no step
@@ -208,7 +283,7 @@ impl<'a> StadiumTeam<'a> {
 /// the longest, when the floor is not reached (docs/design.md, "A formation shaped to the
 /// tube").
 pub fn separated_half_length_m(team: &StadiumTeam<'_>, limits: &StadiumLimits, r_m: f32, b_m: f32) -> f32 {
-    if !(limits.separation_m > 0.0 && b_m < r_m && b_m > 0.0) {
+    if !(limits.separation_m > 0.0 && team.layout.narrower(r_m, b_m) && b_m > 0.0) {
         return r_m;
     }
     let step = (r_m - b_m) * (1.0 / LENGTH_STEPS as f32);
@@ -411,7 +486,7 @@ mod tests {
         let n = 10;
         let angles: Vec<f32> = (0..n).map(|k| TAU * k as f32 / n as f32 + 0.3).collect();
         let lengths = [8300u16, 7000, 8600, 8800, 8300, 8500, 8400, 7700, 8300, 7300]; // the paper's cables
-        let team = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: Vec2::new(0.1, -0.05), tray_height_m: 10.0 };
+        let team = StadiumTeam { angles_rad: &angles, lengths_mm: &lengths, load_m: Vec2::new(0.1, -0.05), tray_height_m: 10.0, layout: Layout::Ring };
         let (r, b) = (3.0f32, 3.0 * 17.0 / 32.0);
         let lim = |sep: f32, cos: f32| StadiumLimits { separation_m: sep, separation_scale: 0.77, min_cos_sum: cos, capacity_scale: 0.8 };
         assert_eq!(separated_half_length_m(&team, &lim(0.0, 0.0), r, b), r, "no floor");
@@ -437,6 +512,33 @@ mod tests {
         assert!(team.min_distance_m(r, b, 0.77).is_finite());
         let one = StadiumTeam { angles_rad: &angles[..1], ..team };
         assert_eq!(one.min_distance_m(r, b, 1.0), f32::INFINITY);
+    }
+
+    /// A packed layout's node on the shape: itself while the shape is as wide and as long as the
+    /// layout; squeezed across it within the half-width, stretched along it, every node's order
+    /// along each axis kept (an inner node stays inner); degenerate sizes give the origin.
+    #[test]
+    fn a_packed_layout_is_squeezed_across_and_stretched_along() {
+        let (r, across) = (2.9f32, 1.8f32);
+        let nodes = [Vec2::new(2.9, 0.0), Vec2::new(1.1, 0.0), Vec2::new(-1.9, 1.8), Vec2::new(0.0, -1.7), Vec2::new(-2.0, -1.7)];
+        for o in nodes {
+            assert_eq!(packed_point(o, r, across, r, across), o, "the layout itself");
+            assert_eq!(packed_point(o, r, across, r, 5.0), o, "room beyond its width");
+        }
+        let (a, b) = (3.6f32, 1.2f32);
+        let placed: Vec<Vec2> = nodes.iter().map(|o| packed_point(*o, r, across, a, b)).collect();
+        for (i, (o, p)) in nodes.iter().zip(&placed).enumerate() {
+            assert!(p.y.abs() <= b + 1e-6 && p.x.abs() <= a + 1e-6, "{i}: {p:?} within the shape");
+            for (q, s) in nodes.iter().zip(&placed) {
+                assert_eq!(o.x < q.x, p.x < s.x, "order along");
+                assert_eq!(o.y < q.y, p.y < s.y, "order across");
+            }
+        }
+        assert!(placed[1].norm() < placed[0].norm(), "the inner node stays inner");
+        for (r, a, b) in [(0.0, a, b), (r, f32::NAN, b), (r, a, -1.0), (f32::INFINITY, a, b), (r, f32::INFINITY, b)] {
+            assert_eq!(packed_point(nodes[2], r, across, a, b), Vec2::zeros(), "{r} {a} {b}");
+        }
+        assert_eq!(packed_point(Vec2::new(f32::NAN, 0.0), 2.9, across, a, b), Vec2::zeros());
     }
 
     #[test]

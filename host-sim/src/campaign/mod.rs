@@ -170,6 +170,16 @@ pub fn load_in(path: Option<&Path>, world: Option<World>) -> Result<Campaign, Sc
             bt.remove("plan");
         }
     }
+    // Likewise the take-off layout: a ring's radius or one node per cable (a packed team, issue
+    // 27's heaviest loads).
+    if let (Some(toml::Value::Table(bu)), Some(toml::Value::Table(ou))) = (merged.get_mut("uavs"), over.get("uavs")) {
+        if ou.contains_key("formation_offsets_m") {
+            bu.remove("formation_radius_m");
+        }
+        if ou.contains_key("formation_radius_m") {
+            bu.remove("formation_offsets_m");
+        }
+    }
     let world = match (world, table.get("world")) {
         (Some(w), _) => w,
         (None, None) => World::default(),

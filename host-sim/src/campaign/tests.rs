@@ -81,6 +81,26 @@ fn a_campaign_overrides_one_field_of_a_table_its_base_lacks() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A campaign gives the take-off layout one way (a ring's radius or one node per cable) and
+/// replaces the base's other way, as it does for the tube (plan or waypoints): both at once
+/// would be refused.
+#[test]
+fn a_campaign_s_take_off_layout_replaces_the_base_s() {
+    let scenarios = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios");
+    let dir = std::env::temp_dir().join(format!("vt-campaign-layout-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let packed = load(Some(&scenarios.join("campaigns/payload-packed.toml"))).unwrap_or_else(|e| panic!("{e}"));
+    let u = &packed.levels[0].1.scenario.uavs;
+    assert!(u.formation_radius_m.is_none() && u.formation_offsets_m.as_ref().is_some_and(|o| o.len() == 10), "the paper's ring replaced");
+    let file = dir.join("ring.toml");
+    let base = scenarios.join("heavy-25uav.toml").display().to_string();
+    std::fs::write(&file, format!("base = {base:?}\nworld = \"scenario\"\n[uavs]\nformation_radius_m = 6.2\n")).unwrap();
+    let ring = load(Some(&file)).unwrap_or_else(|e| panic!("{e}"));
+    let u = &ring.levels[0].1.scenario.uavs;
+    assert!(u.formation_offsets_m.is_none() && u.formation_radius_m == Some(6.2), "the two rings replaced");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Issue 29: `generate = true` flies each run on the scenario generated from its seed over
 /// the level's table: rows carry the class, the same seeds give the same rows, a refly is
 /// the same flight, shards merge to the whole, and per-class tables cover every row.

@@ -150,31 +150,6 @@ impl Validator<'_> {
             "UAVs {i} and {j} take off {d:.2} m apart (centres): their {body:.3} m bodies would be {:.2} m apart, under the clearance floor {floor} m{hint}",
             d - 2.0 * body)))
     }
-
-    /// A layout that is not a ring, in the formation shaped to the tube (`[controller.shape]`),
-    /// needs room for itself along the whole tube: the shaped formation flies the take-off
-    /// layout where the tube has room for it (`vt_dissipative::shape`, quantum `QUANTA`) and puts
-    /// every node on a stadium's perimeter where it narrows, which is no formation for nodes
-    /// inside the ring.
-    pub(super) fn check_layout_room(&self, s: &Scenario, tube: &SimTube) -> Result<(), ScenarioError> {
-        let Some(offsets) = &s.uavs.formation_offsets_m else { return Ok(()) };
-        let reach = s.uavs.formation_reach_m();
-        let ring = offsets.iter().all(|d| (d[0].hypot(d[1]) - reach).abs() < MIN_NODE_SPACING_M);
-        if ring || !s.controller.shape.enabled {
-            return Ok(());
-        }
-        let need = reach * crate::sim::takeoff_scale(s, s.cables.rated_n) + s.uavs.flown_r_safe_m(s.controller.r_safe_m, s.mission.clearance_floor()) + s.controller.shape.margin_m;
-        let ds = f64::from(tube.ds_m());
-        for (k, smp) in tube.samples().iter().enumerate() {
-            let half = 0.5 * f64::from(smp.w_left_m + smp.w_right_m);
-            if half < need {
-                return Err(self.err("uavs", "formation_offsets_m", format!(
-                    "a layout that is not a ring is flown only where the tube has room for it: the tube is {half:.2} m wide each side at {:.1} m along it, the layout needs {need:.2} m (its reach + r_safe + [controller.shape] margin_m); widen the tube, turn [controller.shape] off or lay the team on a ring",
-                    k as f64 * ds)));
-            }
-        }
-        Ok(())
-    }
 }
 
 #[cfg(test)]

@@ -217,8 +217,8 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     if l_min > CABLE_RANGE_M.1 {
         return None;
     }
-    // Two rings fly as laid out only where the tube has room for them (the shaped formation puts
-    // every node on a stadium's perimeter in a passage): a tube of one width.
+    // Two rings are drawn in a tube of one width. Until session 53 a layout that is not a ring
+    // could not be shaped in a passage; the rule is kept so that the draws stay as they were.
     let tube = match (rings, tube) {
         (Some(_), TubeKind::Narrowing | TubeKind::Passages) => if rng.uniform() < 0.5 { TubeKind::Straight } else { TubeKind::SBend },
         (_, kind) => kind,
@@ -252,7 +252,7 @@ fn draw(base: &toml::Table, seed: u64, rng: &mut Noise) -> Option<(toml::Table, 
     let length = between(rng, 35.0, 60.0);
     let start = reach + r_safe + 1.0;
     // A tube of one width holds the take-off ring wherever it starts; two rings, with the shaped
-    // formation's margin besides.
+    // formation's margin besides (the draws as in session 52).
     let ring_width = match (rings, body) {
         (Some(_), Some((keep, _, _))) => {
             let margin = t
@@ -434,7 +434,7 @@ mod tests {
     /// Where the clearances are judged (the real-aircraft world's `clearance_floor_m`), a drawn
     /// team declares its airframe's body and a team of [`TWO_RINGS_FROM_UAVS`] or more takes off
     /// on two rings, its shortest cables inside, in a tube of one width; the validation (bodies
-    /// apart at take-off, room for a layout that is not a ring) accepts it. Smaller teams keep
+    /// apart at take-off) accepts it. Smaller teams keep
     /// the ring, and without the floor every team keeps it (the scenario world's draws).
     #[test]
     fn large_teams_with_bodies_take_off_on_two_rings() {

@@ -559,8 +559,7 @@ impl Validator<'_> {
             }
         }
         self.check_takeoff_places(s, tube)?;
-        self.check_takeoff_bodies(s, tube)?;
-        self.check_layout_room(s, tube)
+        self.check_takeoff_bodies(s, tube)
     }
 
     /// Every UAV of the take-off formation, and its node, at its *own* section of the tube keeps

@@ -5,7 +5,7 @@
 use super::RestLengths;
 use crate::capacity::FormationScale;
 use crate::separation::STADIUM_GUARD_M;
-use crate::shape::{separated_half_length_m, stadium_point, ShapeParams, StadiumLimits, StadiumTeam, PASSAGE_SPEED_FRACTION, QUANTA};
+use crate::shape::{separated_half_length_m, Layout, ShapeParams, StadiumLimits, StadiumTeam, PASSAGE_SPEED_FRACTION, QUANTA, RING_SPREAD};
 use crate::Vec2;
 
 /// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
@@ -58,18 +58,40 @@ impl<const N: usize> TubeShape<N> {
         }
     }
 
+    /// How the take-off nodes go on the shape in `frame` (shape.rs, [`Layout`]): on the
+    /// stadium's perimeter when every node lies at least [`RING_SPREAD`] of the outer radius
+    /// from the centre (the ring), else packed (two rings, a patch: squeezed across, inner nodes
+    /// kept inside). Out of line (flash).
+    #[inline(never)]
+    pub(super) fn layout(&self, frame: Vec2, n: usize) -> Layout<'_> {
+        let nodes = self.nodes_m.get(..n).unwrap_or(&[]);
+        let (mut inner_m, mut across_m) = (f32::INFINITY, 0.0f32);
+        for p in nodes {
+            let o = p - self.centre_m;
+            inner_m = vt_fpu::min(inner_m, vt_fpu::norm(&o));
+            across_m = vt_fpu::max(across_m, (o.x * frame.y - o.y * frame.x).abs());
+        }
+        if inner_m >= RING_SPREAD * self.radius_m {
+            Layout::Ring
+        } else {
+            Layout::Packed { nodes_m: nodes, centre_m: self.centre_m, frame, radius_m: self.radius_m, across_m }
+        }
+    }
+
     /// UAV `id`'s rest lengths (and the tray centre's) written into `rest`, times `scale` (the
     /// capacity-aware formation's): at quantum [`QUANTA`] the take-off ones (eq:2-7, computed
-    /// as `Formation::rest_length_m` does, so bit for bit), else the nodes at their take-off
-    /// angles from `frame` on the stadium of the ring's half-length and half-width
-    /// `r q / QUANTA` (shape.rs).
+    /// as `Formation::rest_length_m` does, so bit for bit), else the nodes placed from `frame`
+    /// on the shape of half-width `r q / QUANTA` and the half-length flown: a ring's at their
+    /// take-off angles on the stadium, a packed layout's squeezed across and stretched along
+    /// (shape.rs, [`Layout`]).
     #[inline(never)]
     pub(super) fn write_rest_lengths(&self, id: usize, q: i32, frame: Vec2, n: usize, scale: f32, rest: &mut RestLengths<N>) {
         let b = self.radius_m * q as f32 / QUANTA as f32;
         let a = self.half_length_m;
         let ring = q >= QUANTA;
-        // A node's place: the take-off node itself (the ring), or its stadium point about the centre.
-        let place = |p: &Vec2| if ring { *p } else { stadium_point(self.angle_rad(p, frame), a, b) };
+        let layout = self.layout(frame, n);
+        // A node's place: the take-off node itself (the ring), or its point on the shape about the centre.
+        let place = |p: &Vec2| if ring { *p } else { layout.place(p, self.angle_rad(p, frame), a, b) };
         let (centre, load) = if ring { (self.centre_m, self.load_node_m) } else { (Vec2::zeros(), self.in_frame(&self.load_node_m, frame)) };
         let own = self.nodes_m.get(id).map_or(centre, place);
         for ((o, c), node) in rest.own_m.iter_mut().zip(rest.center_m.iter_mut()).zip(self.nodes_m.iter()).take(n) {
@@ -218,6 +240,7 @@ impl<const N: usize> TubeShape<N> {
             lengths_mm: self.lengths_mm.get(..n).unwrap_or(&[]),
             load_m: self.in_frame(&self.load_node_m, frame),
             tray_height_m,
+            layout: self.layout(frame, n),
         };
         // The floor at the smallest scale the capacity-aware formation may fly, the capacity at
         // the scale it aims for (capacity.rs).
