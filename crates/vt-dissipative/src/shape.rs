@@ -109,6 +109,14 @@ pub fn stadium_point(theta_rad: f32, r_m: f32, b_m: f32) -> Vec2 {
 /// (docs/design.md, "The shaped formation of a packed team").
 pub const RING_SPREAD: f32 = 0.9;
 
+/// The lift a packed layout's stretch keeps beyond the load's own need, a fraction of it: the
+/// length search stops before `sum cos theta` falls under `(1 + this) W / f` (a ring's keeps
+/// none, as before). The stretch leans every node's cable along the tube, inner ones too, and on
+/// the 20 N clamp a patch stretched to the load's bare need sank in the passages (19.6 kg:
+/// 0 of 20 seeds flown, 17 of 20 with this reserve; 2 % let its pairs close, 0 of 5;
+/// docs/design.md, "The shaped formation of a packed team").
+pub const PACKED_LIFT_RESERVE: f32 = 0.005;
+
 /// How the take-off nodes are placed on the shape of half-width `b` and half-length `a` (both m,
 /// node space, about the tray centre, in the stadium's frame).
 #[derive(Debug, Clone, Copy)]

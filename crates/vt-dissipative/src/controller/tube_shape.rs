@@ -5,7 +5,7 @@
 use super::RestLengths;
 use crate::capacity::FormationScale;
 use crate::separation::STADIUM_GUARD_M;
-use crate::shape::{separated_half_length_m, Layout, ShapeParams, StadiumLimits, StadiumTeam, PASSAGE_SPEED_FRACTION, QUANTA, RING_SPREAD};
+use crate::shape::{separated_half_length_m, Layout, ShapeParams, StadiumLimits, StadiumTeam, PACKED_LIFT_RESERVE, PASSAGE_SPEED_FRACTION, QUANTA, RING_SPREAD};
 use crate::Vec2;
 
 /// The take-off formation as the tube-shaped formation needs it (shape.rs). Kept small: it
@@ -244,7 +244,9 @@ impl<const N: usize> TubeShape<N> {
         };
         // The floor at the smallest scale the capacity-aware formation may fly, the capacity at
         // the scale it aims for (capacity.rs).
-        let limits = StadiumLimits { separation_m: self.separation_m, separation_scale: scale.scale_min(), min_cos_sum: self.min_cos_sum, capacity_scale: scale.scale_target() };
+        // A packed layout's stretch keeps a reserve of lift (shape.rs, [`PACKED_LIFT_RESERVE`]).
+        let reserve = if matches!(team.layout, Layout::Packed { .. }) { 1.0 + PACKED_LIFT_RESERVE } else { 1.0 };
+        let limits = StadiumLimits { separation_m: self.separation_m, separation_scale: scale.scale_min(), min_cos_sum: self.min_cos_sum * reserve, capacity_scale: scale.scale_target() };
         (team, limits)
     }
 }
