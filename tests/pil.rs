@@ -331,6 +331,25 @@ fn pil_shaped_formation_bit_exact() {
     assert_ne!(comparable(&r.summary), comparable(&plain.summary), "the shape changed nothing in 20 s");
 }
 
+/// A take-off that is not a ring, shaped to the tube aboard (`vt_dissipative::shape::Layout::Packed`,
+/// docs/design.md, "The shaped formation of a packed team"): the narrowing's three UAVs with one
+/// node near the load and two across the tube, squeezed across it as the narrowing comes into
+/// view, the first 20 s bit for bit in QEMU, the twin and the crates; and the shape acted.
+#[test]
+fn pil_packed_team_shaped_bit_exact() {
+    let Some(elf) = firmware() else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/narrowing-3uav.toml");
+    let mut ls = scenario::load(Some(&path)).expect("narrowing scenario");
+    ls.scenario.controller.shape.enabled = true;
+    ls.scenario.uavs.formation_radius_m = None;
+    ls.scenario.uavs.formation_offsets_m = Some(vec![[0.0, 1.5], [0.5, 0.0], [0.0, -1.5]]);
+    let r = pil_same_as_sil(&ls, elf, "packed", Some(20.0));
+    let mut plain = ls.clone();
+    plain.scenario.controller.shape.enabled = false;
+    let unshaped = host_sim::sim::run(&plain, &host_sim::sim::RunOptions { duration_s: Some(20.0), ..Default::default() }).unwrap();
+    assert_ne!(comparable(&r.summary), comparable(&unshaped.summary), "the shape changed nothing in 20 s");
+}
+
 /// The paper's team with 0.445 m bodies and the formation shaped to the tube: in the first
 /// passage's approach the stadium lengthens to keep the separation floor where the UAVs fly
 /// (`vt_dissipative::shape`, its search over lengths and the team's geometry aboard), bit for
