@@ -11,7 +11,10 @@
 //! the squeezed ring puts side by side at its front and back lie along the sides instead. No node
 //! lies farther from the centre than on the ring, so no cable leans more than the capacity-aware
 //! formation chose for it (a longer stadium, of the ring's perimeter, sank heavy loads: measured,
-//! docs/design.md). With room for the ring the shape *is* the ring.
+//! docs/design.md). With room for the ring the shape *is* the ring. A take-off that is not a
+//! ring (two rings, a packed patch: [`Layout::Packed`]) is squeezed across the tube to the same
+//! half-width and stretched along it instead, so its inner nodes stay inside ([`packed_point`]).
+//! The stretch keeps [`PACKED_LIFT_RESERVE`] of lift.
 //!
 //! The rest lengths change only at discrete steps of `b` ([`QUANTA`]), each a bounded jump of the
 //! spring energy (eq:2-8) as the capacity-aware formation's scale steps are; between steps
