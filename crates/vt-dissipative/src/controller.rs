@@ -235,7 +235,7 @@ pub struct DissipativeController<const N: usize> {
 pub const SQUEEZE_GUARD_M: f32 = 0.25;
 
 /// What the tube-shaped formation needs to keep the capacity-aware formation's separation
-/// floor (shape.rs, [`separated_half_length_m`]).
+/// floor (shape.rs, [`crate::shape::separated_half_length_m`]).
 #[derive(Debug, Clone, Copy)]
 pub struct ShapeSeparation<'a> {
     /// Every UAV's position at take-off, its cable taut, m.
@@ -390,7 +390,7 @@ impl<const N: usize> DissipativeController<N> {
     /// formation shaped to the tube") for the take-off `formation` this controller was built
     /// from. Until [`Self::shape_to_tube`] narrows it, the formation is the ring. With
     /// `separation` (bodies declared), the stadium lengthens to keep its floor where the UAVs
-    /// fly ([`separated_half_length_m`]); `None`: as long as the ring.
+    /// fly ([`crate::shape::separated_half_length_m`]); `None`: as long as the ring.
     ///
     /// # Errors
     /// Invalid `params`; a `separation` with fewer take-off positions than UAVs, a floor that is

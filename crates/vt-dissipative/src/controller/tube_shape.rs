@@ -42,7 +42,7 @@ pub(super) struct TubeShape<const N: usize> {
     pub(super) speed_quantum: i32,
 }
 
-/// Averaging time of the formation's drift before the first look, s ([`TubeShape`]): long
+/// Averaging time of the formation's drift before the first look, s (`TubeShape`): long
 /// enough that every UAV's estimate from its own view of the nodes agrees (noise averaged
 /// over 50 high-level steps at 50 Hz), short against the climb's turn (several degrees in 10 s).
 pub const DRIFT_AVERAGE_S: f32 = 1.0;
