@@ -133,6 +133,17 @@ fn overload_beyond_the_hard_cap_keeps_both_floors() {
     assert_floors(&rows);
 }
 
+/// The campaign `scenarios/campaigns/{file}` in the real-aircraft world at each of `loads` (kg,
+/// levels it has), one run each at its own seed: the summaries in the order of `loads`.
+fn fly_loads(file: &str, loads: &[f64]) -> Vec<Summary> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns").join(file);
+    let mut c = campaign::load_in(Some(&p), Some(campaign::World::RealAircraft)).expect("campaign is valid");
+    c.levels.retain(|(l, _)| l.is_some_and(|v| loads.contains(&v)));
+    assert_eq!(c.levels.len(), loads.len(), "{file} flies every load asked");
+    let rows = campaign::fly(&c, 1, c.seed, jobs(), false).expect("runs start");
+    loads.iter().map(|&kg| rows.iter().find(|r| r.level == Some(kg)).map(|r| r.summary.clone()).expect("level flown")).collect()
+}
+
 /// Issue 27 §5 in the real-aircraft world (ground start, stock PX4 gains on an attitude
 /// estimate, RTK, light turbulence, thrust errors, 0.445 m bodies, 0.2 m floor), the `payload`
 /// campaign's seed: 19.4 kg at the 20 N clamp is lifted, carried and set down with every pair of
@@ -143,13 +154,8 @@ fn overload_beyond_the_hard_cap_keeps_both_floors() {
 /// -0.06 m of clearance); 19.0-19.8 kg all did before (to -0.21 m).
 #[test]
 fn the_real_aircraft_world_carries_19_4_kg_at_the_clamp_with_its_pairs_apart() {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/payload.toml");
-    let mut c = campaign::load_in(Some(&p), Some(campaign::World::RealAircraft)).expect("campaign is valid");
-    c.levels.retain(|(l, _)| l.is_some_and(|v| v == 19.4 || v == 19.8));
-    assert_eq!(c.levels.len(), 2);
-    let rows = campaign::fly(&c, 1, c.seed, jobs(), false).expect("runs start");
-    let at = |kg: f64| rows.iter().find(|r| r.level == Some(kg)).map(|r| &r.summary).expect("level flown");
-    let (carried, heavy) = (at(19.4), at(19.8));
+    let flown = fly_loads("payload.toml", &[19.4, 19.8]);
+    let (carried, heavy) = (&flown[0], &flown[1]);
     for s in [carried, heavy] {
         println!("{} kg: outcome {}, UAV-UAV clearance {:.3} m, {}", s.true_load_mass_kg, s.outcome, s.min_uav_uav_clearance_m, describe(s));
         assert_eq!(s.cable_model, "paper_clamp");
@@ -170,13 +176,7 @@ fn the_real_aircraft_world_carries_19_4_kg_at_the_clamp_with_its_pairs_apart() {
 /// the passages (0 of 20 seeds).
 #[test]
 fn a_packed_team_carries_19_6_kg_through_the_passages_with_its_pairs_apart() {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/payload-packed.toml");
-    let mut c = campaign::load_in(Some(&p), Some(campaign::World::RealAircraft)).expect("campaign is valid");
-    c.levels.retain(|(l, _)| l.is_some_and(|v| v == 19.4 || v == 19.6));
-    assert_eq!(c.levels.len(), 2);
-    let rows = campaign::fly(&c, 1, c.seed, jobs(), false).expect("runs start");
-    assert_eq!(rows.len(), 2);
-    for s in rows.iter().map(|r| &r.summary) {
+    for s in &fly_loads("payload-packed.toml", &[19.4, 19.6]) {
         println!("{} kg packed: outcome {}, UAV-UAV clearance {:.3} m, {}", s.true_load_mass_kg, s.outcome, s.min_uav_uav_clearance_m, describe(s));
         assert!(s.success && s.outcome == "flown", "{}", describe(s));
         assert!(s.min_uav_uav_clearance_m >= 0.2 && s.min_uav_boundary_clearance_m >= 0.2, "{}", describe(s));

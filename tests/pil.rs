@@ -321,14 +321,22 @@ fn fly_unknown_map(file: &str, elf: &Path, out: PathBuf) -> pil::PilReport {
 #[test]
 fn pil_shaped_formation_bit_exact() {
     let Some(elf) = firmware() else { return };
+    shaped_narrowing_bit_exact(elf, "shaped", |_| {});
+}
+
+/// The narrowing's three UAVs (scenarios/narrowing-3uav.toml, laid out by `layout`) with the
+/// formation shaped to the tube, the first 20 s in PIL bit for bit the SIL twin and crates
+/// ([`pil_same_as_sil`]); the shape acted: the same flight without it differs.
+fn shaped_narrowing_bit_exact(elf: PathBuf, name: &str, layout: fn(&mut host_sim::scenario::UavSpec)) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/narrowing-3uav.toml");
     let mut ls = scenario::load(Some(&path)).expect("narrowing scenario");
     ls.scenario.controller.shape.enabled = true;
-    let r = pil_same_as_sil(&ls, elf, "shaped", Some(20.0));
-    let mut ring = ls.clone();
-    ring.scenario.controller.shape.enabled = false;
-    let plain = host_sim::sim::run(&ring, &host_sim::sim::RunOptions { duration_s: Some(20.0), ..Default::default() }).unwrap();
-    assert_ne!(comparable(&r.summary), comparable(&plain.summary), "the shape changed nothing in 20 s");
+    layout(&mut ls.scenario.uavs);
+    let r = pil_same_as_sil(&ls, elf, name, Some(20.0));
+    let mut plain = ls.clone();
+    plain.scenario.controller.shape.enabled = false;
+    let unshaped = host_sim::sim::run(&plain, &host_sim::sim::RunOptions { duration_s: Some(20.0), ..Default::default() }).unwrap();
+    assert_ne!(comparable(&r.summary), comparable(&unshaped.summary), "{name}: the shape changed nothing in 20 s");
 }
 
 /// A take-off that is not a ring, shaped to the tube aboard (`vt_dissipative::shape::Layout::Packed`,
@@ -338,16 +346,10 @@ fn pil_shaped_formation_bit_exact() {
 #[test]
 fn pil_packed_team_shaped_bit_exact() {
     let Some(elf) = firmware() else { return };
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/narrowing-3uav.toml");
-    let mut ls = scenario::load(Some(&path)).expect("narrowing scenario");
-    ls.scenario.controller.shape.enabled = true;
-    ls.scenario.uavs.formation_radius_m = None;
-    ls.scenario.uavs.formation_offsets_m = Some(vec![[0.0, 1.5], [0.5, 0.0], [0.0, -1.5]]);
-    let r = pil_same_as_sil(&ls, elf, "packed", Some(20.0));
-    let mut plain = ls.clone();
-    plain.scenario.controller.shape.enabled = false;
-    let unshaped = host_sim::sim::run(&plain, &host_sim::sim::RunOptions { duration_s: Some(20.0), ..Default::default() }).unwrap();
-    assert_ne!(comparable(&r.summary), comparable(&unshaped.summary), "the shape changed nothing in 20 s");
+    shaped_narrowing_bit_exact(elf, "packed", |u| {
+        u.formation_radius_m = None;
+        u.formation_offsets_m = Some(vec![[0.0, 1.5], [0.5, 0.0], [0.0, -1.5]]);
+    });
 }
 
 /// The paper's team with 0.445 m bodies and the formation shaped to the tube: in the first
