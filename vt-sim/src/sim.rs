@@ -213,15 +213,25 @@ pub fn takeoff_scale(s: &Scenario, rated_n: f64) -> f64 {
     plan.map_or(1.0, |p| f64::from(p.scale))
 }
 
-/// Cos of the take-off cable lean from vertical of the most leaning cable: its node on the
-/// tray `H` above the load, `R` from it, leans it `H / sqrt(H^2 + R^2)` (REFERENCE §6), with `R`
-/// the layout's reach ([`crate::scenario::UavSpec::formation_reach_m`]: the ring's radius)
-/// times the capacity-aware formation's scale ([`takeoff_scale`]: the lean the adapted
-/// formation reaches for the declared load, `CapacityPlan::lean_cos_min`). The pre-flight
-/// check's lean.
+/// Cos of the take-off cables' lean from vertical, as every companion measures it at its
+/// arming: the mean over the cables (`vt_dissipative::calibrate`'s `cos_lean`, the lean its
+/// pre-flight and wind checks use). A node on the tray `H` above the load and `R` from it leans
+/// its cable `H / sqrt(H^2 + R^2)` (REFERENCE §6), with `R` the node's offset
+/// ([`crate::scenario::UavSpec::formation_offsets`]) times the capacity-aware formation's scale
+/// ([`takeoff_scale`]: the lean the adapted formation reaches for the declared load). On the
+/// ring every cable leans alike, and the ring keeps its own arithmetic (its flights bit for
+/// bit). Test `the_host_s_take_off_lean_is_the_companions_calibration_s`.
 pub fn takeoff_cos_lean(s: &Scenario, rated_n: f64) -> f64 {
-    let (h, r) = (s.controller.tray_height_m, s.uavs.formation_reach_m() * takeoff_scale(s, rated_n));
-    h / (h * h + r * r).sqrt()
+    let (h, scale) = (s.controller.tray_height_m, takeoff_scale(s, rated_n));
+    let cos = |r: f64| h / (h * h + r * r).sqrt();
+    if s.uavs.ring_radius_m().is_some() {
+        return cos(s.uavs.formation_reach_m() * scale);
+    }
+    let offsets = s.uavs.formation_offsets(s.cables.lengths_m.len());
+    if offsets.is_empty() {
+        return cos(0.0);
+    }
+    offsets.iter().map(|o| cos(o[0].hypot(o[1]) * scale)).sum::<f64>() / offsets.len() as f64
 }
 
 /// The companion parameters of UAV 0 for the host's own uses of the laws before any companion

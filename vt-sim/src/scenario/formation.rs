@@ -199,4 +199,43 @@ mod tests {
         assert!(inner < outer, "inner {inner} rad, outer {outer} rad");
         assert!((t.capacity_margin - 1.0).abs() < 1.0);
     }
+
+    /// The host's take-off lean (`sim::takeoff_cos_lean`, the lean of its pre-flight and wind
+    /// checks and of the generator's load sizing) is the one every companion measures when it
+    /// calibrates on that take-off (`vt_dissipative::calibrate`, the mean over the cables), for
+    /// the ring, two rings and a packed patch. On the packed patch the most leaning cable, the
+    /// host's lean before session 54, is not it.
+    #[test]
+    fn the_host_s_take_off_lean_is_the_companions_calibration_s() {
+        let packed = PAPER_10UAV.replacen(
+            "formation_radius_m = 3.0",
+            "formation_offsets_m = [[0.0, 1.912], [-1.296, 0.0], [-3.307, 0.0], [3.224, 0.0], [-2.264, -1.961], [2.206, 1.91], [-2.235, 1.935], [0.0, -2.067], [2.264, -1.961], [1.242, 0.0]]",
+            1,
+        );
+        let cases = [
+            (PAPER_10UAV.to_string(), "ring"),
+            (include_str!("../../../scenarios/heavy-25uav.toml").to_string(), "two rings"),
+            (packed, "packed"),
+        ];
+        for (text, name) in &cases {
+            let ls = parse(text, name).expect("a shipped layout");
+            let mut s = ls.scenario.clone();
+            // The calibration measures the taut take-off (a ground start's, once the cables are taut).
+            s.mission.start = crate::scenario::MissionStart::Air;
+            let rated = s.cables.rated_n;
+            let t = takeoff(&s, &ls.tube, rated);
+            let f32v = |p: &nalgebra::Vector3<f64>| vt_companion::Vec3::new(p.x as f32, p.y as f32, p.z as f32);
+            let uavs: Vec<vt_companion::Vec3> = t.uav_pos_m.iter().map(f32v).collect();
+            let params = crate::companion::params_for(&s, 0, crate::sim::ControllerKind::Dissipative, rated, false).expect("mapped");
+            let cal = vt_dissipative::calibrate(0, &uavs, &f32v(&t.load_pos_m), &params.calibration()).expect("calibrates");
+            let host = crate::sim::takeoff_cos_lean(&s, rated);
+            assert!((host - f64::from(cal.cos_lean)).abs() < 2e-6, "{name}: host {host}, companion {}", cal.cos_lean);
+            let reach = s.uavs.formation_reach_m() * crate::sim::takeoff_scale(&s, rated);
+            let h = s.controller.tray_height_m;
+            let most_leaning = h / (h * h + reach * reach).sqrt();
+            if *name == "packed" {
+                assert!(host - most_leaning > 1e-3, "{name}: the mean {host} is the most leaning cable's {most_leaning}");
+            }
+        }
+    }
 }
