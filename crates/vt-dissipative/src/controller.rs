@@ -13,7 +13,7 @@
 //! slightly, which the springs tolerate (the centre only sets a weak shape reference).
 
 use crate::capacity::FormationScale;
-use crate::passing::passing_velocity;
+use crate::passing::{formation_faded, passing_velocity};
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
 use crate::keeping::{keeping_velocity, team_keeping_velocity, team_mean_keeping, TEAM_KEEPING_EVERY};
@@ -604,8 +604,10 @@ impl<const N: usize> DissipativeController<N> {
         // missing during the hold, the UAV holds its own horizontal position where it was then
         // (the anchor; see below): the missing springs no longer fix its place in the formation.
         let mut vbar = Vec2::zeros();
+        // The tray-centre replica's section: its own step below, and the passing term's fade.
+        let center_sec = if self.team_hold { None } else { tube.locate(self.center_m, self.center_hint) };
         if !self.team_hold {
-            vbar = passing_velocity(&sec, &q_i, p.k1, v_max) * so.progress;
+            vbar = passing_velocity(&formation_faded(&sec, center_sec.as_ref()), &q_i, p.k1, v_max) * so.progress;
         } else {
             // Entering team hold: the tray-centre replica moves to the nodes' centroid, so the
             // team rests around where it is, not around where the replica had led it
@@ -647,7 +649,7 @@ impl<const N: usize> DissipativeController<N> {
         // Tray-centre replica: same law over its springs to the UAV nodes, explicit Euler; in
         // team hold it stands still (zero tray velocity: the anchor of the held formation).
         if vt_fpu::positive_finite(dt_s) && !self.team_hold {
-            self.step_center(tube, &nodes, so.progress, v_max, dt_s, &mut status);
+            self.step_center(center_sec, &nodes, so.progress, v_max, dt_s, &mut status);
         }
 
         // Map back to the UAV (eq:2-20) and saturate (eq:2-21).
@@ -712,10 +714,12 @@ impl<const N: usize> DissipativeController<N> {
         joined(sec, self.join_m)
     }
 
-    fn step_center<const S: usize>(&mut self, tube: &Tube<S>, nodes: &[Option<Vec2>; N], progress: f32, v_max: f32, dt_s: f32, status: &mut Status) {
+    /// One explicit-Euler step of the tray-centre replica in its section `center_sec` (located
+    /// at `self.center_m`; `None`: it stands still).
+    fn step_center(&mut self, center_sec: Option<vt_tube::Section>, nodes: &[Option<Vec2>; N], progress: f32, v_max: f32, dt_s: f32, status: &mut Status) {
         let p = &self.params;
         let q_u = self.center_m;
-        let Some(sec) = tube.locate(q_u, self.center_hint) else {
+        let Some(sec) = center_sec else {
             return;
         };
         self.center_hint = sec.segment;

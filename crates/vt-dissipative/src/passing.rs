@@ -26,6 +26,21 @@ pub fn passing_velocity(section: &Section, q_m: &Vec2, k1: f32, v_max_mps: f32) 
     sat(section.tangent * gain, v_max_mps)
 }
 
+/// `sec`, a node's section, with the arc length left to the end terminal taken from the
+/// tray-centre replica's section `center` when there is one: the passing term fades with the
+/// formation's `l`, not each node's own (extension; docs/design.md, "The formation stops as one
+/// at the end terminal"). With each node's own `l` the front of the formation slows before its
+/// rear, whose passing term is up to `k1` times their spacing faster, and the rear closes on it
+/// along the tube.
+#[inline]
+#[must_use]
+pub fn formation_faded(sec: &Section, center: Option<&Section>) -> Section {
+    match center {
+        Some(c) => Section { remaining_m: c.remaining_m, ..*sec },
+        None => *sec,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -78,5 +93,21 @@ mod tests {
         let si = tube.locate(inside, 0).unwrap();
         assert_relative_eq!(curvature_factor(&so, &outside), 1.1, epsilon = 2e-3);
         assert_relative_eq!(curvature_factor(&si, &inside), 0.9, epsilon = 2e-3);
+    }
+
+    #[test]
+    fn the_formation_s_fade_takes_only_the_replica_s_arc_length_left() {
+        let tube = arc_tube();
+        let (front, rear) = (Vec2::new(8.0, 0.5), Vec2::new(4.0, -0.5));
+        let (sf, sr) = (tube.locate(front, 0).unwrap(), tube.locate(rear, 0).unwrap());
+        let faded = formation_faded(&sf, Some(&sr));
+        assert_eq!(faded.remaining_m, sr.remaining_m);
+        assert_eq!(Section { remaining_m: sf.remaining_m, ..faded }, sf, "every other field is the node's own");
+        assert_eq!(formation_faded(&sf, None), sf);
+        // Near the end: the front node's own l would slow it below the rear's speed; faded, both
+        // advance at the replica's rate.
+        let k1 = 1.0;
+        let v = passing_velocity(&formation_faded(&sf, Some(&sr)), &front, k1, 1e3);
+        assert_relative_eq!(v.norm(), k1 * sr.remaining_m * curvature_factor(&sf, &front), max_relative = 1e-6);
     }
 }
