@@ -75,6 +75,27 @@ fn the_paper_mission_lifts_off_transports_and_sets_down() {
     assert_eq!(marks, PHASES.len());
 }
 
+/// The time limit judges the arrival (docs/design.md, "The time limit judges the arrival"): the
+/// paper mission from the ground with its limit 3 s after its arrival flies on for its set-down
+/// and succeeds, where the flight used to end in the descent with "the load was not set down";
+/// with its limit 3 s before the arrival it fails on the arrival alone.
+#[test]
+fn a_load_that_arrives_in_time_is_set_down_after_the_time_limit() {
+    let text = ground(PAPER_10UAV);
+    let (full, _) = fly(&text);
+    let arrival = full.completion_time_s.expect("the paper mission arrives");
+    let limited = |limit: f64| fly(&text.replacen("time_limit_s = 150.0", &format!("time_limit_s = {limit:.2}"), 1)).0;
+    let late = limited(arrival + 3.0);
+    println!("arrival {arrival:.2} s; limit + 3 s: {} {:?}, flown {:.1} s, phases {:?}", late.success, late.failures, late.sim_time_s, names(&late));
+    assert!(late.success, "{:?}", late.failures);
+    assert_eq!(names(&late), PHASES, "set down and released after the limit");
+    assert!(late.sim_time_s > arrival + 3.0 + 10.0, "flown on past the limit: {:.1} s", late.sim_time_s);
+    assert_eq!(late.completion_time_s, Some(arrival), "the same flight up to the limit");
+    let early = limited(arrival - 3.0);
+    assert!(!early.success && early.failures.iter().any(|f| f.contains("did not reach the end")), "{:?}", early.failures);
+    assert!(early.sim_time_s <= arrival - 3.0 + 0.01, "no allowance without an arrival: {:.2} s", early.sim_time_s);
+}
+
 /// A load heavier than declared (26 kg against 18 kg: the pre-flight check passes on the
 /// declaration) does not leave the ground: the team abandons the lift when a cable passes
 /// 1.25 x rated, slackens its cables and releases. Refused, no cable broken, the load never up.
