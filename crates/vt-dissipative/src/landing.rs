@@ -13,13 +13,6 @@ use vt_tube::sat;
 /// hover drifts 0.30-0.36 m, at twice them up to 0.62 m: docs/design.md, "Landing").
 pub const STATION_DRIFT_ABORT_M: f32 = 1.0;
 
-/// How much farther inside the tube than the barrier's safety radius a ground-start UAV holds
-/// its place before the arming, m (extension; docs/design.md, "The hover keeps off the wall"):
-/// the unarmed hold has no tube keeping, and a 4 kg airframe's hold wandered 0.14-0.16 m towards
-/// the wall in light turbulence from a place 0.09 m beyond the safety radius (generated seeds
-/// 5055, 5108); at the nominal disturbances the hover drifts up to 0.36 m in any direction.
-pub const HOVER_GUARD_M: f32 = 0.3;
-
 /// Descent speed of the landing after the release, m/s (PX4 `MPC_LAND_SPEED`'s default).
 pub const LAND_SPEED_MPS: f32 = 0.7;
 

@@ -367,8 +367,7 @@ impl Flight {
             // Ground start (docs/design.md, "Lift-off and set-down"): the arming waits for taut
             // cables, at the end of the tension build-up.
             let profile = PhaseProfile::ground(params.phases(load_pos_m.z).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
-            let hold_xy_m = phases::hover_place(tube, own_pos_m.xy(), params.r_safe_m());
-            let pending = Pending { params: params.clone(), hold_xy_m, vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX), gusts: GustSurvey::default() };
+            let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX), gusts: GustSurvey::default() };
             (None, Some(profile), Some(pending))
         } else {
             let high = arm(params, id, n, takeoff, &load_pos_m, None)?;

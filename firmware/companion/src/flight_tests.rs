@@ -758,22 +758,3 @@ fn an_air_start_sets_the_load_down_when_it_is_carried_back() {
     assert_eq!(fl.phase(), Phase::Slack);
     assert!((last - 0.3).abs() < 1e-6, "down to VT_LOAD_GZ: {last}");
 }
-
-/// The hover keeps off the wall (docs/design.md, "The hover keeps off the wall"): a ground
-/// start's take-off place closer to the boundary than `r_safe + HOVER_GUARD_M` is held that far
-/// inside, moved straight towards the section's midpoint; a place further in, or no tube, is
-/// held where it is.
-#[test]
-fn a_ground_start_holds_its_place_off_the_wall() {
-    let t = tube();
-    let guard = vt_dissipative::landing::HOVER_GUARD_M;
-    let r_safe = 0.75;
-    let near = phases::hover_place(Some(&t), Vector2::new(5.0, 3.0), r_safe);
-    assert!((near.x - 5.0).abs() < 1e-5 && (near.y - (3.5 - r_safe - guard)).abs() < 1e-5, "{near:?}");
-    let below = phases::hover_place(Some(&t), Vector2::new(8.0, -3.2), r_safe);
-    assert!((below.y + (3.5 - r_safe - guard)).abs() < 1e-5, "{below:?}");
-    for p in [Vector2::new(5.0, 1.0), Vector2::new(12.0, -2.4)] {
-        assert_eq!(phases::hover_place(Some(&t), p, r_safe), p, "inside: unchanged");
-        assert_eq!(phases::hover_place(None, p, r_safe), p, "no tube: unchanged");
-    }
-}

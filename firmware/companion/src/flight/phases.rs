@@ -4,7 +4,7 @@
 
 use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
-use vt_dissipative::landing::{hold_velocity_xy_mps, landing_tilt_max_tan, place_inside_tube, HOVER_GUARD_M, STATION_DRIFT_ABORT_M};
+use vt_dissipative::landing::{hold_velocity_xy_mps, landing_tilt_max_tan, STATION_DRIFT_ABORT_M};
 use vt_dissipative::phases::{horizontal_speed_limit_mps, tension_climb_mps};
 use vt_dissipative::wind::GustSurvey;
 use vt_dissipative::{Abort, Phase, PhaseProfile, TakeoffSurvey, VerticalParams};
@@ -18,20 +18,6 @@ use crate::{CompanionTube, Vec3, MAX_UAVS};
 /// `vt_dissipative::phases::HoldWatch`) this often, s: the wind moves a team over seconds, and
 /// a look costs a tube lookup (about 370 Cortex-M4 instructions) that every step would pay.
 pub const TRANSPORT_WATCH_S: f32 = 0.2;
-
-/// The place a ground-start UAV holds before its arming, m: its take-off place `place_m`, moved
-/// straight towards its section's midpoint until it is `r_safe_m +`
-/// [`HOVER_GUARD_M`] inside the tube (`vt_dissipative::landing::place_inside_tube`); unchanged
-/// where it already is, off the tube or without one.
-#[cold]
-#[inline(never)]
-pub(super) fn hover_place(tube: Option<&CompanionTube>, place_m: Vector2<f32>, r_safe_m: f32) -> Vector2<f32> {
-    let Some(sec) = tube.and_then(|t| t.locate(place_m, 0)) else {
-        return place_m;
-    };
-    let [x, y] = place_inside_tube([place_m.x, place_m.y], [sec.midpoint_m.x, sec.midpoint_m.y], sec.half_width_m, r_safe_m + HOVER_GUARD_M);
-    Vector2::new(x, y)
-}
 
 /// High-level steps between two looks at the load in transport (at least 1).
 pub(super) fn watch_every(hl_dt_s: f32) -> u32 {
