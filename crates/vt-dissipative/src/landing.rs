@@ -170,6 +170,35 @@ pub const LAND_SEPARATION_BAND_M: f32 = 0.7;
 /// between +-`v_max` (docs/design.md, "The landing keeps the tube and its neighbours").
 pub const LAND_SEPARATION_GAIN_PER_S: f32 = 2.0;
 
+/// The widest band beyond `r_safe` in which the ground start's hover keeps the tube, m
+/// (docs/design.md, "The hover keeps the tube"): the barrier of eq:2-14/15 with its pole at
+/// `r_safe` and its activation radius `r_safe` + [`hover_keeping_band_m`], at most this. The
+/// transport's `r_active` (1.5 m on the paper's tube) carried UAVs near a wall up to a metre off
+/// the places the take-off gave them, and the station watch then refused the start.
+pub const HOVER_KEEPING_BAND_M: f32 = 0.3;
+
+/// The hover's keeping band for a UAV at `own_xy_m`, m: [`HOVER_KEEPING_BAND_M`], narrowed to
+/// half the room its closest neighbour (horizontally; non-finite ones ignored) has above the
+/// separation floor `separation_m`, and 0 at or below it. The barrier's stiffness holds a UAV
+/// within its band of where the wall's pole pushes it from, so two UAVs that move towards each
+/// other by their bands close by at most the room the pair had: the keeping alone never brings
+/// a pair under the floor (two UAVs at the poles of a narrow tube settle at half the room each).
+#[must_use]
+pub fn hover_keeping_band_m(own_xy_m: [f32; 2], neighbours_xy_m: impl IntoIterator<Item = [f32; 2]>, separation_m: f32) -> f32 {
+    let mut nearest_sq = f32::INFINITY;
+    for [x, y] in neighbours_xy_m {
+        let (dx, dy) = (own_xy_m[0] - x, own_xy_m[1] - y);
+        let d_sq = dx * dx + dy * dy;
+        // `d_sq < nearest_sq` is false for a NaN: a non-finite neighbour is ignored.
+        if d_sq < nearest_sq {
+            nearest_sq = d_sq;
+        }
+    }
+    let room = 0.5 * (vt_fpu::sqrt(nearest_sq) - separation_m);
+    // NaN (a NaN floor) gives no band: `!(room > 0)`.
+    if room > 0.0 { vt_fpu::min(room, HOVER_KEEPING_BAND_M) } else { 0.0 }
+}
+
 /// The landing's guard (extension; docs/design.md, "The landing keeps the tube and its
 /// neighbours"): the held place's velocity `hold_mps` plus the push from neighbours
 /// (`separation_mps`, [`pairwise_pushes_mps`] within [`LAND_SEPARATION_BAND_M`] of the
@@ -308,5 +337,70 @@ mod tests {
         let far = landing_velocity_mps([0.0, 0.0], [30.0, 40.0], 1.0, 1.5);
         assert!(((far[0] * far[0] + far[1] * far[1]).sqrt() - 1.5).abs() < 1e-5 && far[2] == -LAND_SPEED_MPS);
         assert_eq!(landing_velocity_mps([f32::NAN, 0.0], [0.0, 0.0], 1.0, 1.5), [0.0, 0.0, -LAND_SPEED_MPS]);
+    }
+
+    #[test]
+    fn the_hover_s_keeping_band_leaves_each_uav_half_the_pair_s_room() {
+        use super::{hover_keeping_band_m, HOVER_KEEPING_BAND_M};
+        let own = [0.0f32, 0.0];
+        assert_eq!(hover_keeping_band_m(own, [], 1.09), HOVER_KEEPING_BAND_M, "alone: the widest band");
+        assert_eq!(hover_keeping_band_m(own, [[3.0, 0.0]], 1.09), HOVER_KEEPING_BAND_M, "room to spare");
+        assert!((hover_keeping_band_m(own, [[0.0, 1.29], [3.0, 0.0]], 1.09) - 0.1).abs() < 1e-6, "half the closest pair's room");
+        assert_eq!(hover_keeping_band_m(own, [[1.0, 0.0]], 1.09), 0.0, "at or under the floor: no band");
+        assert_eq!(hover_keeping_band_m(own, [[f32::NAN, 0.0], [3.0, 0.0]], 1.09), HOVER_KEEPING_BAND_M, "a NaN neighbour ignored");
+        assert_eq!(hover_keeping_band_m(own, [[3.0, 0.0]], f32::NAN), 0.0, "no floor, no band");
+    }
+
+    /// The hover's guard flown kinematically (50 Hz, the commands integrated as velocities) in a
+    /// straight tube: a UAV carried towards the wall at 0.2 m/s (the hover's wander, docs/design.md
+    /// "The hover keeps the tube") stops short of the pole, where its hold alone crosses it; and
+    /// two UAVs taking off at the poles across a narrow tube (1.5 m apart, floor 1.09 m) move
+    /// inwards without closing under the floor, where a fixed 0.3 m band brought them to 0.9 m.
+    #[test]
+    fn the_hover_keeps_the_tube_without_pressing_a_pair_under_the_floor() {
+        use super::{guarded_landing_velocity, hold_velocity_xy_mps, hover_keeping_band_m};
+        use crate::keeping::keeping_velocity;
+        use vt_tube::{BarrierParams, Tube, Waypoint};
+        let tube = Tube::<256>::from_waypoints(&[Waypoint::new(0.0, 0.0, 1.5, 1.5), Waypoint::new(20.0, 0.0, 1.5, 1.5)]).unwrap();
+        let (r_safe, separation, v_max, dt) = (0.75f32, 1.09f32, 3.0f32, 0.02f32);
+        let command = |p: Vec2, place: Vec2, others: &[Vec2], band_on: bool| {
+            let [hx, hy] = hold_velocity_xy_mps([p.x, p.y], [place.x, place.y], 1.0, v_max);
+            let band = if band_on { hover_keeping_band_m([p.x, p.y], others.iter().map(|o| [o.x, o.y]), separation) } else { 0.0 };
+            let keeping = if band > 0.0 {
+                let sec = tube.locate(p, 0).unwrap();
+                keeping_velocity(&sec, &p, &BarrierParams::tube(1.0, r_safe, r_safe + band)).0
+            } else {
+                Vec2::zeros()
+            };
+            guarded_landing_velocity(Vec2::new(hx, hy), keeping, Vec2::zeros(), v_max)
+        };
+        // One UAV 0.1 m beyond the pole, carried towards the wall.
+        for guarded in [false, true] {
+            let place = Vec2::new(10.0, 1.5 - r_safe - 0.1);
+            let mut p = place;
+            let mut closest = f32::INFINITY;
+            for _ in 0..1000 {
+                p += (command(p, place, &[], guarded) + Vec2::new(0.0, 0.2)) * dt;
+                closest = closest.min(1.5 - p.y);
+            }
+            if guarded {
+                assert!(closest > r_safe, "kept beyond the pole: {closest} m from the wall");
+            } else {
+                assert!(closest < r_safe - 0.05, "the hold alone crosses the pole: {closest} m");
+            }
+        }
+        // Two UAVs at the poles across the tube.
+        let places = [Vec2::new(10.0, 1.5 - r_safe), Vec2::new(10.0, r_safe - 1.5)];
+        let mut p = places;
+        let mut closest_pair = f32::INFINITY;
+        for _ in 0..1000 {
+            let v = [command(p[0], places[0], &[p[1]], true), command(p[1], places[1], &[p[0]], true)];
+            p[0] += v[0] * dt;
+            p[1] += v[1] * dt;
+            closest_pair = closest_pair.min((p[0] - p[1]).norm());
+            assert!(p.iter().all(|q| q.y.abs() <= 1.5 - r_safe + 1e-4), "both moved inwards: {p:?}");
+        }
+        assert!(closest_pair >= separation, "the pair kept its floor: {closest_pair} m");
+        assert!(closest_pair < 1.5 - 0.1, "and both moved off the poles: {closest_pair} m");
     }
 }

@@ -7,6 +7,7 @@ use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::keeping::keeping_velocity;
 use vt_dissipative::landing::{
+    hover_keeping_band_m,
     guarded_landing_velocity, landing_velocity_mps, pairwise_pushes_mps, place_inside_tube, LandDetector, LAND_SEPARATION_BAND_M,
     LAND_SEPARATION_GAIN_PER_S, LAND_SPACING_M, LAND_SPREAD_GAIN_PER_S,
 };
@@ -75,8 +76,22 @@ impl Landing {
         let drift_m = vt_fpu::norm(&(own_m.xy() - place));
         self.detector.step(own_m.z, dt_s);
         let [x, y, z] = landing_velocity_mps([own_m.x, own_m.y], [place.x, place.y], HOLD_POSITION_GAIN_PER_S, v_max_mps);
-        let v = self.guard(tube, own_m, Vector2::new(push[0], push[1]), Vector2::new(x, y), v_max_mps);
+        let v = self.guard(tube, own_m, Vector2::new(push[0], push[1]), Vector2::new(x, y), v_max_mps, self.keeping[1]);
         (Vec3::new(v.x, v.y, z), drift_m)
+    }
+
+    /// The hover's guard (docs/design.md, "The hover keeps the tube"): `hold_mps` (m/s,
+    /// horizontal ENU) of UAV `id` at `own_m` with the tube kept as the landing keeps it, pole at
+    /// `r_safe`, within `vt_dissipative::landing::hover_keeping_band_m` of it (narrowed by the
+    /// closest neighbour in `view`). Only with a body declared, as the landing's guard.
+    pub(super) fn guard_hover(&self, tube: &CompanionTube, id: usize, own_m: &Vec3, view: &[Option<Vec3>], hold_mps: Vector2<f32>, v_max_mps: f32) -> Vector2<f32> {
+        if !(self.separation_m > 0.0) {
+            return hold_mps;
+        }
+        let others = view.iter().enumerate().filter(|&(j, _)| j != id).filter_map(|(_, v)| v.map(|p| [p.x, p.y]));
+        let band_m = hover_keeping_band_m([own_m.x, own_m.y], others, self.separation_m);
+        let r_active_m = vt_fpu::min(self.keeping[1], self.keep_m + band_m);
+        self.guard(tube, own_m, Vector2::zeros(), hold_mps, v_max_mps, r_active_m)
     }
 
     /// The guard (`vt_dissipative::landing::guarded_landing_velocity`): the tube keeping at the
@@ -85,11 +100,11 @@ impl Landing {
     /// hold `hold_mps` (m/s). Only with a body declared (`VT_BODY_R`): without one the push has
     /// no floor, and the keeping alone presses the UAVs at the formation's edge into their
     /// neighbours (generated teams at 3x: 26 -> 29 runs in contact); the hold is flown as it is.
-    fn guard(&self, tube: &CompanionTube, own_m: &Vec3, push_mps: Vector2<f32>, hold_mps: Vector2<f32>, v_max_mps: f32) -> Vector2<f32> {
+    fn guard(&self, tube: &CompanionTube, own_m: &Vec3, push_mps: Vector2<f32>, hold_mps: Vector2<f32>, v_max_mps: f32, r_active_m: f32) -> Vector2<f32> {
         if !(self.separation_m > 0.0) {
             return hold_mps;
         }
-        let [k3, r_active_m] = self.keeping;
+        let k3 = self.keeping[0];
         let own_xy = own_m.xy();
         let keeping = if r_active_m > self.keep_m {
             tube.locate(own_xy, self.hint).map_or(Vector2::zeros(), |sec| keeping_velocity(&sec, &own_xy, &BarrierParams::tube(k3, self.keep_m, r_active_m)).0)

@@ -154,16 +154,18 @@ impl Flight {
         }
     }
 
-    /// The command of a ground start without its armed law (own and load data only): the own
-    /// horizontal position held; vertically the nominal cable's altitude law on the ramp
-    /// (take-off, slack), or the tension build-up on the observer's tension estimate.
-    pub(super) fn unarmed_command(&self, own_m: &Vec3, load_m: &Vec3) -> Vec3 {
+    /// The command of a ground start without its armed law (own, load and neighbour data): the
+    /// own horizontal position held with the tube kept (docs/design.md, "The hover keeps the
+    /// tube"); vertically the nominal cable's altitude law on the ramp (take-off, slack),
+    /// or the tension build-up on the observer's tension estimate.
+    pub(super) fn unarmed_command(&self, tube: &CompanionTube, own_m: &Vec3, load_m: &Vec3, view: &[Option<Vec3>]) -> Vec3 {
         let (Some(profile), Some(pending)) = (self.profile.as_ref(), self.pending.as_ref()) else {
             return Vec3::zeros();
         };
         let vp = VerticalParams { load_altitude_ref_m: profile.load_altitude_ref_m(), ..pending.vertical };
         let v_max = pending.params.get(Param::VMax);
         let [vx, vy] = hold_velocity_xy_mps([own_m.x, own_m.y], [pending.hold_xy_m.x, pending.hold_xy_m.y], HOLD_POSITION_GAIN_PER_S, v_max);
+        let guarded = self.landing.guard_hover(tube, self.id, own_m, view, Vector2::new(vx, vy), v_max);
         let d = own_m - load_m;
         let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
         let v_z = if profile.phase() == Phase::Tension {
@@ -175,7 +177,7 @@ impl Flight {
         } else {
             vp.vertical_velocity_mps(own_m.z, offset)
         };
-        let v = Vec3::new(vx, vy, v_z);
+        let v = Vec3::new(guarded.x, guarded.y, v_z);
         if finite3(&v) { v } else { Vec3::zeros() }
     }
 
