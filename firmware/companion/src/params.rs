@@ -129,7 +129,7 @@ params! {
     FsNbrAct => int("FS_NBR_ACT", 1.0, 0.0, 1.0), "Stale neighbour: 1 the team holds (failsafe), 0 drop its springs and fly on.";
     FsResume => real("FS_RESUME", 1.0, 0.0, 10.0), "Team hold: resume after this long without any alarm, s (rounded to high-level steps).";
     K1 => real("VT_K1", 0.3, 0.0, GAIN_MAX), "Passing gain `k1`, 1/s (eq:2-13).";
-    K2 => real("VT_K2", 0.1, 0.0, GAIN_MAX), "Spring gain `k2`, 1/s (eq:2-5); a team above ten flies `k2 * 10 / n` (`team_spring_gain`).";
+    K2 => real("VT_K2", 0.1, 0.0, GAIN_MAX), "Spring gain `k2`, 1/s (eq:2-5); a team above ten flies `k2 * 10 / n` (`team_spring_gain`), an airframe slower than `VL_ACT_LAG` 0.08 s `k2 * 0.08 / lag` (`lag_spring_scale`).";
     K3 => real("VT_K3", 1.0, 0.0, GAIN_MAX), "Tube barrier gain `k3`, m^2/s (eq:2-15-1).";
     VMax => real("VT_V_MAX", 1.0, 0.0, 50.0), "Velocity limit `v_m`, m/s (eq:2-21).";
     RSafe => real("VT_R_SAFE", 0.5, 0.0, LENGTH_MAX_M), "Tube barrier safety radius `r_s`, m.";
@@ -376,7 +376,8 @@ impl Params {
         let g = |p| self.get(p);
         let params = DissipativeParams {
             k1: g(Param::K1),
-            k2: g(Param::K2),
+            // An airframe slower than the paper's flies a softer formation (`lag_spring_scale`).
+            k2: g(Param::K2) * vt_dissipative::springs::lag_spring_scale(g(Param::ActLag)),
             k3: g(Param::K3),
             v_max_mps: g(Param::VMax),
             r_safe_m: self.r_safe_m(),
