@@ -67,11 +67,11 @@ pub const PAPER_ACTUATION_LAG_S: f32 = 0.08;
 /// The share of the spring gain an airframe whose thrust follows its command with the lag
 /// `lag_s` (s, the velocity loop's `VL_ACT_LAG`) flies: 1 up to [`PAPER_ACTUATION_LAG_S`],
 /// `PAPER_ACTUATION_LAG_S / lag_s` beyond (extension; docs/design.md, "The spring gain of large
-/// teams and slow airframes"). The formation's stiffest mode behind a delay is stable while
-/// its rate times the delay stays small; this holds that product at the paper team's, as
+/// teams", "... and of slow airframes"). The formation's stiffest mode behind a delay is stable
+/// while its rate times the delay stays small; this holds that product at the paper team's, as
 /// [`team_spring_gain`] holds the rate for large teams. Behind the stock gains the 1.47 kg
 /// airframe (0.101 s) flies 0.79 of it, the 4 kg one (0.142 s) 0.56: at the full gain sixteen
-/// 4 kg UAVs breathed radially at 1.3 Hz, +-0.12 m, in calm air. A lag that is not finite and
+/// 4 kg UAVs breathed radially at 1.3 Hz, +-0.1 m, in calm air. A lag that is not finite and
 /// positive gives 1.
 #[inline]
 pub fn lag_spring_scale(lag_s: f32) -> f32 {
