@@ -481,7 +481,7 @@ impl Flight {
             }
             let z_ref = self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m);
             let Some(high) = self.high.as_mut() else {
-                // A ground start before its arming (or refused): own and load data only.
+                // A ground start before its arming (or refused): the hold, with the tube kept.
                 self.vel_cmd_mps = self.unarmed_command(tube, &own.pos_m, &load.pos_m, view.get(..self.n).unwrap_or(&[]));
                 self.hl_reasons = HoldReasons(reasons);
                 return self.vel_cmd_mps;

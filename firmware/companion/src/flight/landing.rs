@@ -7,8 +7,7 @@ use nalgebra::Vector2;
 use vt_dissipative::controller::HOLD_POSITION_GAIN_PER_S;
 use vt_dissipative::keeping::keeping_velocity;
 use vt_dissipative::landing::{
-    hover_keeping_band_m,
-    guarded_landing_velocity, landing_velocity_mps, pairwise_pushes_mps, place_inside_tube, LandDetector, LAND_SEPARATION_BAND_M,
+    guarded_landing_velocity, hover_keeping_band_m, landing_velocity_mps, pairwise_pushes_mps, place_inside_tube, LandDetector, LAND_SEPARATION_BAND_M,
     LAND_SEPARATION_GAIN_PER_S, LAND_SPACING_M, LAND_SPREAD_GAIN_PER_S,
 };
 use vt_tube::BarrierParams;
