@@ -62,9 +62,8 @@ impl Landing {
         // UAVs above one another): `vt_dissipative::landing::landing_spread_mps`, in one pass
         // with the guard's push (`pairwise_pushes_mps`); and it stays inside the tube
         // (`place_inside_tube`).
-        let others = view.iter().enumerate().filter(|&(j, _)| j != id).filter_map(|(_, v)| v.map(|p| [p.x, p.y]));
         let ranges = [LAND_SPACING_M, self.separation_m + LAND_SEPARATION_BAND_M];
-        let [[sx, sy], push] = pairwise_pushes_mps([own_m.x, own_m.y], others, ranges, [LAND_SPREAD_GAIN_PER_S, LAND_SEPARATION_GAIN_PER_S]);
+        let [[sx, sy], push] = pairwise_pushes_mps([own_m.x, own_m.y], others_xy(view, id), ranges, [LAND_SPREAD_GAIN_PER_S, LAND_SEPARATION_GAIN_PER_S]);
         let mut place = *self.place_m.get_or_insert(first_place_m) + Vector2::new(sx, sy) * dt_s;
         if let Some(sec) = tube.locate(place, self.hint) {
             self.hint = sec.segment;
@@ -84,11 +83,7 @@ impl Landing {
     /// `r_safe`, within `vt_dissipative::landing::hover_keeping_band_m` of it (narrowed by the
     /// closest neighbour in `view`). Only with a body declared, as the landing's guard.
     pub(super) fn guard_hover(&self, tube: &CompanionTube, id: usize, own_m: &Vec3, view: &[Option<Vec3>], hold_mps: Vector2<f32>, v_max_mps: f32) -> Vector2<f32> {
-        if !(self.separation_m > 0.0) {
-            return hold_mps;
-        }
-        let others = view.iter().enumerate().filter(|&(j, _)| j != id).filter_map(|(_, v)| v.map(|p| [p.x, p.y]));
-        let band_m = hover_keeping_band_m([own_m.x, own_m.y], others, self.separation_m);
+        let band_m = hover_keeping_band_m([own_m.x, own_m.y], others_xy(view, id), self.separation_m);
         let r_active_m = vt_fpu::min(self.keeping[1], self.keep_m + band_m);
         self.guard(tube, own_m, Vector2::zeros(), hold_mps, v_max_mps, r_active_m)
     }
@@ -96,7 +91,8 @@ impl Landing {
     /// The guard (`vt_dissipative::landing::guarded_landing_velocity`): the tube keeping at the
     /// own position (eq:2-14/eq:2-15, pole at the place's keep) and the push from the
     /// neighbours within `LAND_SEPARATION_BAND_M` of the separation floor, added to the place's
-    /// hold `hold_mps` (m/s). Only with a body declared (`VT_BODY_R`): without one the push has
+    /// hold `hold_mps` (m/s); the barrier acts within `r_active_m` of the boundary (the
+    /// landing's `VT_R_ACT`, the hover's band). Only with a body declared (`VT_BODY_R`): without one the push has
     /// no floor, and the keeping alone presses the UAVs at the formation's edge into their
     /// neighbours (generated teams at 3x: 26 -> 29 runs in contact); the hold is flown as it is.
     fn guard(&self, tube: &CompanionTube, own_m: &Vec3, push_mps: Vector2<f32>, hold_mps: Vector2<f32>, v_max_mps: f32, r_active_m: f32) -> Vector2<f32> {
@@ -112,4 +108,9 @@ impl Landing {
         };
         guarded_landing_velocity(hold_mps, keeping, push_mps, v_max_mps)
     }
+}
+
+/// The horizontal positions of UAV `id`'s neighbours in `view` (the slots that hold one).
+fn others_xy(view: &[Option<Vec3>], id: usize) -> impl Iterator<Item = [f32; 2]> + '_ {
+    view.iter().enumerate().filter(move |&(j, _)| j != id).filter_map(|(_, v)| v.map(|p| [p.x, p.y]))
 }
