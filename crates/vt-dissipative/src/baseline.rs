@@ -92,7 +92,7 @@ impl BaselineController {
 
     /// The load altitude reference of the altitude law, m, and its load sharing on or off (as
     /// [`crate::DissipativeController::set_load_altitude_ref`]).
-    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: crate::vertical::Sharing) {
         if z_m.is_finite() {
             self.params.vertical.load_altitude_ref_m = z_m;
         }

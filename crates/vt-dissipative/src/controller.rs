@@ -365,7 +365,7 @@ impl<const N: usize> DissipativeController<N> {
 
     /// The load altitude reference of the altitude law, m, and its load sharing on or off (the
     /// ground sequence's ramp, [`crate::phases`]; a non-finite `z_m` is ignored).
-    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: crate::vertical::Sharing) {
         if z_m.is_finite() {
             self.params.vertical.load_altitude_ref_m = z_m;
         }

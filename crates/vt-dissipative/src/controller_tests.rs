@@ -553,7 +553,7 @@ fn the_climb_s_lag_is_no_overload() {
         for k in 0..200 {
             // The load 0.6 m below the reference: past `sag_start`, towards `sag_full`.
             let z_ref = if rising { LOAD_Z_M + 0.01 * k as f32 } else { LOAD_Z_M };
-            c.set_load_altitude_ref(z_ref, true);
+            c.set_load_altitude_ref(z_ref, crate::vertical::Sharing::Full);
             let m = Measurements { own_pos_m: uavs[0], load_pos_m: Vec3::new(load.x, load.y, z_ref - 0.6), load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
             c.update(&t, &m, DT_S);
         }

@@ -15,7 +15,7 @@
 //! | lift | `z_g + v_lift t` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when the ramp passes `lift_clear_m + lift_extra_m` first |
 //! | climb | `+ v_climb t` up to `z_t` | as lift |
 //! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`HoldWatch`]) descends at once |
-//! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off |
+//! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off, load sharing on the tensions alone ([`crate::vertical::Sharing::Tension`]) |
 //! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
 //! | released | `z_g - slack` | land in place at [`crate::landing::LAND_SPEED_MPS`], motors idle once down ([`crate::landing::LandDetector`]); a start refused before the lift comes here at once: a UAV that cannot hold its place before the arming ([`PhaseProfile::land_now`]), the start checks' refusal at the arming and a start held too long before it ([`PhaseProfile::refuse`]) |
 
@@ -208,9 +208,14 @@ impl Phase {
         self != Self::Transport
     }
 
-    /// True while the load-sharing integrator runs (climb and transport: the load hangs).
-    pub fn sharing(self) -> bool {
-        matches!(self, Self::Climb | Self::Transport)
+    /// What the load-sharing integrator integrates: the tensions and the load's altitude in
+    /// climb and transport, the tensions alone in the descent (the load hangs in all three).
+    pub fn sharing(self) -> crate::vertical::Sharing {
+        match self {
+            Self::Climb | Self::Transport => crate::vertical::Sharing::Full,
+            Self::Descent => crate::vertical::Sharing::Tension,
+            _ => crate::vertical::Sharing::Off,
+        }
     }
 
     /// True while the cable carries none of the load's weight (it rests on the ground): the

@@ -108,28 +108,41 @@ impl VerticalParams {
     }
 }
 
+/// What the load-sharing integrator integrates ([`VerticalLoop::set_load_altitude_ref`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sharing {
+    /// Nothing: the offset is held (a load on the ground, slack cables).
+    Off,
+    /// The own tension's error alone: the offsets even the cables out, their common mode is
+    /// held (a descent: the load lags a falling reference, and the load-altitude term would
+    /// wind the offsets down into the touchdown; docs/design.md, "The descent shares the load").
+    Tension,
+    /// The tension's error and the load's altitude error (the law above; climb and transport).
+    Full,
+}
+
 /// The altitude law with its load-sharing integrator (one per UAV).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VerticalLoop {
     params: VerticalParams,
     offset_m: f32,
-    sharing_on: bool,
+    sharing: Sharing,
 }
 
 impl VerticalLoop {
     /// A loop with zero sharing offset.
     pub fn new(params: VerticalParams) -> Self {
-        Self { params, offset_m: 0.0, sharing_on: true }
+        Self { params, offset_m: 0.0, sharing: Sharing::Full }
     }
 
     /// Moves the load altitude reference to `z_m` (the ground sequence's ramp,
-    /// [`crate::phases`]) and switches the sharing integrator on or off (off: the offset is
+    /// [`crate::phases`]) and sets what the sharing integrator integrates (off: the offset is
     /// held; a load resting on the ground or slack cables must not wind it up).
-    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+    pub fn set_load_altitude_ref(&mut self, z_m: f32, sharing: Sharing) {
         if z_m.is_finite() {
             self.params.load_altitude_ref_m = z_m;
         }
-        self.sharing_on = sharing;
+        self.sharing = sharing;
     }
 
     /// The parameters.
@@ -151,13 +164,13 @@ impl VerticalLoop {
         let p = &self.params;
         let d = uav_m - load_m;
         let offset = vt_fpu::sqrt(d.x * d.x + d.y * d.y);
-        let sharing = self.sharing_on && p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
+        let sharing = self.sharing != Sharing::Off && p.tension_share_n > 0.0 && p.share_gain_mps_per_n > 0.0;
         if let (true, Some(f), true) = (sharing, force_n, vt_fpu::positive_finite(dt_s)) {
             let len = vt_fpu::sqrt(d.norm_squared());
             if vt_fpu::all_finite(&f) && len > 0.0 {
                 let tension = f.dot(&d) / len;
-                let rate = -p.share_gain_mps_per_n * (tension - p.tension_share_n)
-                    + p.load_altitude_gain_per_s * (p.load_altitude_ref_m - load_m.z);
+                let even = -p.share_gain_mps_per_n * (tension - p.tension_share_n);
+                let rate = if self.sharing == Sharing::Full { even + p.load_altitude_gain_per_s * (p.load_altitude_ref_m - load_m.z) } else { even };
                 let next = vt_tube::limit(self.offset_m + rate * dt_s, -p.share_offset_max_m, p.share_offset_max_m);
                 if next.is_finite() {
                     self.offset_m = next;
@@ -209,6 +222,31 @@ mod tests {
         }
         assert_relative_eq!(v.offset_m(), -0.05, epsilon = 1e-5);
         assert!(v.update(&uav, &load, Some(f), 0.1) < 0.0);
+    }
+
+    /// The descent's sharing (`Sharing::Tension`) evens the cables out as the full law does,
+    /// but a load lagging above a falling reference winds nothing down; `Off` holds.
+    #[test]
+    fn the_descent_s_sharing_evens_the_tensions_and_leaves_the_common_mode() {
+        let load = crate::Vec3::new(0.0, 0.0, 2.5); // 0.5 m above its reference (lagging the ramp)
+        let uav = crate::Vec3::new(3.0, 0.0, 6.5);
+        let u = (uav - load).normalize();
+        let offset = |mode: Sharing, tension_n: f32| {
+            let mut v = VerticalLoop::new(sharing());
+            v.set_load_altitude_ref(2.0, mode);
+            for _ in 0..10 {
+                v.update(&uav, &load, Some(u * tension_n), 0.1);
+            }
+            v.offset_m()
+        };
+        // At its share: the full law winds the offset down with the load's error, the
+        // descent's holds it.
+        assert_relative_eq!(offset(Sharing::Full, 10.0), -0.25, epsilon = 1e-5);
+        assert_eq!(offset(Sharing::Tension, 10.0), 0.0);
+        // A slack cable (0 N of a 10 N share) climbs to take its share; an overloaded one sinks.
+        assert_relative_eq!(offset(Sharing::Tension, 0.0), 0.1, epsilon = 1e-5);
+        assert_relative_eq!(offset(Sharing::Tension, 15.0), -0.05, epsilon = 1e-5);
+        assert_eq!(offset(Sharing::Off, 0.0), 0.0);
     }
 
     #[test]

@@ -240,7 +240,7 @@ impl HighLevel {
         }
     }
 
-    fn set_load_altitude_ref(&mut self, z_m: f32, sharing: bool) {
+    fn set_load_altitude_ref(&mut self, z_m: f32, sharing: vt_dissipative::vertical::Sharing) {
         match self {
             Self::Dissipative(c) => c.set_load_altitude_ref(z_m, sharing),
             Self::Baseline(c) => c.set_load_altitude_ref(z_m, sharing),
