@@ -54,6 +54,10 @@ pub struct DissipativeParams {
     /// Horizontal centre distance the separation barrier keeps between UAVs, m (0: off, the
     /// paper's controller; extension, [`crate::separation`]).
     pub separation_m: f32,
+    /// Share of `k2` the springs fly while the load's altitude is being changed (lift, climb,
+    /// descent: [`DissipativeController::set_heaving`]), in (0, 1] (1: the paper's springs;
+    /// extension, [`crate::springs::heave_spring_share`]).
+    pub heave_spring_share: f32,
     /// Virtual tray geometry.
     pub tray: TrayParams,
     /// Altitude law.
@@ -72,6 +76,7 @@ impl Default for DissipativeParams {
             r_safe_m: 0.5,
             r_active_m: 1.5,
             separation_m: 0.0,
+            heave_spring_share: 1.0,
             tray: TrayParams::default(),
             vertical: VerticalParams::default(),
         }
@@ -92,6 +97,9 @@ impl DissipativeParams {
         validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
         if !(self.separation_m.is_finite() && self.separation_m >= 0.0) {
             return Err(ControlError::InvalidParameter("separation_m"));
+        }
+        if !(self.heave_spring_share > 0.0 && self.heave_spring_share <= 1.0) {
+            return Err(ControlError::InvalidParameter("heave_spring_share"));
         }
         self.tray.validate()?;
         self.vertical.validate()
@@ -225,6 +233,9 @@ pub struct DissipativeController<const N: usize> {
     team_keeping: bool,
     team_mean: Vec2,
     team_age: u8,
+    /// The load's altitude is being changed (lift, climb, descent): the springs fly
+    /// `heave_spring_share` of `k2`.
+    heaving: bool,
 }
 
 /// How far above the separation floor a formation squeezed narrower than its narrowest stadium
@@ -297,6 +308,7 @@ impl<const N: usize> DissipativeController<N> {
             anchor_wanted: false,
             join_m: 0.0,
             scale: FormationScale::NEUTRAL,
+            heaving: false,
             shape: None,
             team_keeping: false,
             team_mean: Vec2::zeros(),
@@ -323,6 +335,12 @@ impl<const N: usize> DissipativeController<N> {
             self.anchor_m = None;
             self.anchor_wanted = false;
         }
+    }
+
+    /// The load's altitude is being changed (a ground start's lift, climb and descent,
+    /// [`crate::phases::Phase::heaving`]): the springs fly `heave_spring_share` of `k2`.
+    pub fn set_heaving(&mut self, heaving: bool) {
+        self.heaving = heaving;
     }
 
     /// Anchors the team hold in force (nothing outside one): from the next step the UAV holds
@@ -622,15 +640,17 @@ impl<const N: usize> DissipativeController<N> {
                 self.anchor_m = Some(m.own_pos_m.xy());
             }
         }
+        // The springs' gain: softer while the load heaves (springs.rs, heave_spring_share).
+        let k2 = if self.heaving { p.k2 * p.heave_spring_share } else { p.k2 };
         for (j, (q_j, rest)) in nodes.iter().zip(self.rest.own_m.iter()).enumerate().take(self.n) {
             if let (Some(q_j), true) = (q_j, j != self.id) {
-                let (v, c) = spring_velocity(&q_i, q_j, *rest, p.k2, self.id < j);
+                let (v, c) = spring_velocity(&q_i, q_j, *rest, k2, self.id < j);
                 vbar += v;
                 status.coincident_nodes |= c;
             }
         }
-        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest.own_load_m, p.k2, true);
-        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest.own_center_m, p.k2, true);
+        let (v_l, c_l) = spring_velocity(&q_i, &load_xy, self.rest.own_load_m, k2, true);
+        let (v_u, c_u) = spring_velocity(&q_i, &self.center_m, self.rest.own_center_m, k2, true);
         status.coincident_nodes |= c_l | c_u;
         let (v_t, d_t) = self.keeping(tube, &sec, &q_i, m);
         let v_t = if self.team_keeping {

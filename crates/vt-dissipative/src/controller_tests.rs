@@ -240,6 +240,33 @@ fn fly_team(n: usize, steps: usize, hold: core::ops::Range<usize>, shaped: bool)
 }
 
 #[test]
+fn a_heaving_load_scales_exactly_the_springs() {
+    // In team hold, away from the walls, the command is the springs alone (mapped by eq:2-20):
+    // heaving at a share of 0.5 halves it; the altitude law is untouched.
+    let (mut uavs, load) = takeoff(4, 8.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let mut plain = DissipativeController::new(0, DissipativeParams { heave_spring_share: 0.5, ..params() }, &f).unwrap();
+    uavs[0].y += 0.7;
+    let nb = neighbours(&uavs);
+    let t = tube();
+    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    plain.set_team_hold(true);
+    plain.update(&t, &m, DT_S);
+    let mut heaving = plain.clone();
+    heaving.set_heaving(true);
+    let (a, b) = (plain.update(&t, &m, DT_S), heaving.update(&t, &m, DT_S));
+    assert!(a.vel_mps.xy().norm() > 0.1 && a.vel_mps.xy().norm() < params().v_max_mps, "{:?}", a.vel_mps);
+    assert_relative_eq!(b.vel_mps.xy(), a.vel_mps.xy() * 0.5, epsilon = 1e-6);
+    assert_eq!(a.vel_mps.z, b.vel_mps.z);
+    heaving.set_heaving(false);
+    assert_eq!(heaving.update(&t, &m, DT_S).vel_mps, plain.update(&t, &m, DT_S).vel_mps);
+    for bad in [0.0, -0.5, 1.5, f32::NAN] {
+        let p = DissipativeParams { heave_spring_share: bad, ..params() };
+        assert!(DissipativeController::<N>::new(0, p, &f).is_err(), "{bad}");
+    }
+}
+
+#[test]
 fn team_hold_removes_exactly_the_passing_term() {
     // Same controller twice, one in team hold: the commands differ by the passing term
     // eq:2-13 of the own node mapped by eq:2-20 (load at rest: factor (z_i - z_l)/H).

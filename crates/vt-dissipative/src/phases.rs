@@ -218,6 +218,12 @@ impl Phase {
         }
     }
 
+    /// True while the load's altitude is being changed with the load hanging (lift, climb,
+    /// descent): the springs fly softer then (`DissipativeController::set_heaving`).
+    pub fn heaving(self) -> bool {
+        matches!(self, Self::Lift | Self::Climb | Self::Descent)
+    }
+
     /// True while the cable carries none of the load's weight (it rests on the ground): the
     /// velocity loop's observer then runs at `vt_cfo::UNLOADED_BANDWIDTH_RAD_S` (docs/design.md,
     /// "The observer of a free UAV").

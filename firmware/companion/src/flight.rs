@@ -240,6 +240,12 @@ impl HighLevel {
         }
     }
 
+    fn set_heaving(&mut self, heaving: bool) {
+        if let Self::Dissipative(c) = self {
+            c.set_heaving(heaving);
+        }
+    }
+
     fn set_load_altitude_ref(&mut self, z_m: f32, sharing: vt_dissipative::vertical::Sharing) {
         match self {
             Self::Dissipative(c) => c.set_load_altitude_ref(z_m, sharing),
@@ -497,6 +503,7 @@ impl Flight {
             if let Some(z) = z_ref {
                 high.set_load_altitude_ref(z, phase.sharing());
             }
+            high.set_heaving(phase.heaving());
             // A released neighbour lands: its springs and clearance leave the armed law, which
             // would otherwise pull the UAVs still flying over its spot on the ground
             // (docs/design.md, "A refused start lands at once"). No neighbour is released in

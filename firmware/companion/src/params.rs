@@ -378,6 +378,7 @@ impl Params {
             k1: g(Param::K1),
             // An airframe slower than the paper's flies a softer formation (`lag_spring_scale`).
             k2: g(Param::K2) * vt_dissipative::springs::lag_spring_scale(g(Param::ActLag)),
+            heave_spring_share: vt_dissipative::springs::heave_spring_share(g(Param::ActLag)),
             k3: g(Param::K3),
             v_max_mps: g(Param::VMax),
             r_safe_m: self.r_safe_m(),
