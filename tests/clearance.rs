@@ -127,8 +127,10 @@ fn bad_envelopes_exit_2_naming_file_line_and_field() {
 
 /// Issue 27, docs/design.md "The tube keeps the team, not one node": in the real-aircraft
 /// world's nominal campaign, the tube barrier pressed one UAV into its neighbour at the second
-/// passage (seed 1030: the front pair entering it; seed 1164: the rear pair leaving it; the
-/// paper's tube barrier on one node of the pair alone). With the team keeping (the default with
+/// passage (seed 1017: the front pair 1-9 entering it, 0.13 m; seed 1164: the rear pair leaving
+/// it, 0.14 m; the paper's tube barrier on one node of the pair alone). Seed 1030 was the first
+/// example until session 56's softer springs while the load heaves changed its flight: it now
+/// keeps 0.29 m without the team keeping. With the team keeping (the default with
 /// the shape) both keep the 0.2 m floor; with each node keeping the tube on its own, as the
 /// paper, both lose it.
 #[test]
@@ -146,7 +148,7 @@ fn the_team_keeping_keeps_apart_the_pair_the_tube_pressed_together() {
         println!("seed {seed}, team keeping {}: UAV-UAV clearance {:.3} m, {:?}", c.levels[0].1.scenario.controller.shape.team_keeping, s.min_uav_uav_clearance_m, s.failures);
         (s.success, s.min_uav_uav_clearance_m)
     };
-    for seed in [1030, 1164] {
+    for seed in [1017, 1164] {
         let (ok, kept) = clearance(&on, seed);
         assert!(ok && kept >= 0.2, "seed {seed}: {kept:.3} m with the team keeping");
         let (_, lost) = clearance(&off, seed);
