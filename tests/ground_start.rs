@@ -24,6 +24,16 @@ fn fly(text: &str) -> (Summary, host_sim::record::RunRecord) {
     (out.summary, out.record)
 }
 
+/// The generated campaign's 1x mission of `seed`, checked to be the draw (team size, airframe)
+/// the test was written on.
+fn generated(seed: u64, n_uavs: usize, airframe: &str) -> String {
+    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
+    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
+    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), seed).expect("the seed draws");
+    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (n_uavs, airframe), "the draw this test was written on");
+    g.text
+}
+
 fn names(s: &Summary) -> Vec<&str> {
     s.phases.iter().map(|m| m.name.as_str()).collect()
 }
@@ -339,11 +349,8 @@ fn a_lull_at_the_end_of_the_hover_does_not_arm_the_team() {
 /// the nominal world); at the lag-scaled gain +-0.004 m.
 #[test]
 fn a_team_of_slow_airframes_does_not_breathe_in_calm_air() {
-    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
-    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
-    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), 5044).expect("seed 5044 draws");
-    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (16, "heavy-4kg-100N"), "the draw this test was written on");
-    let mut t: toml::Table = g.text.parse().expect("the generated TOML");
+    let text = generated(5044, 16, "heavy-4kg-100N");
+    let mut t: toml::Table = text.parse().expect("the generated TOML");
     let d = t.get_mut("disturbances").and_then(toml::Value::as_table_mut).expect("[disturbances]");
     d.insert("intensity".into(), toml::Value::Float(0.0));
     let (s, rec) = fly(&t.to_string());
@@ -374,11 +381,8 @@ fn a_team_of_slow_airframes_does_not_breathe_in_calm_air() {
 /// term left out), 0.39 m (0.33 m with the softer springs of the heaving load).
 #[test]
 fn a_descending_team_keeps_its_cables_shared_and_its_pairs_apart() {
-    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
-    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
-    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), 5084).expect("seed 5084 draws");
-    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (23, "paper-2kg-50N"), "the draw this test was written on");
-    let (s, _) = fly(&g.text);
+    let text = generated(5084, 23, "paper-2kg-50N");
+    let (s, _) = fly(&text);
     assert_eq!(names(&s), PHASES);
     println!("descent: closest surfaces {:.3} m, touchdown {:.2} m/s", s.min_uav_uav_clearance_m, s.touchdown_speed_mps.unwrap_or(f64::NAN));
     assert!(s.success, "{:?}", s.failures);
@@ -394,11 +398,8 @@ fn a_descending_team_keeps_its_cables_shared_and_its_pairs_apart() {
 /// of the gain through lift, climb and descent, 0.16 m/s and 15.6 N.
 #[test]
 fn a_lifting_team_does_not_bounce_its_load_into_a_snatch() {
-    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
-    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
-    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), 5114).expect("seed 5114 draws");
-    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (9, "paper-2kg-50N"), "the draw this test was written on");
-    let (s, rec) = fly(&g.text);
+    let text = generated(5114, 9, "paper-2kg-50N");
+    let (s, rec) = fly(&text);
     assert_eq!(names(&s), PHASES);
     let at = |name: &str| s.phases.iter().find(|p| p.name == name).expect("the phase").start_s;
     let (climb, transport) = (at("climb"), at("transport"));
