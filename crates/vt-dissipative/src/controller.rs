@@ -18,12 +18,14 @@ use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTH
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
 use crate::keeping::{keeping_velocity, team_keeping_velocity, team_mean_keeping, TEAM_KEEPING_EVERY};
 use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
-use crate::tray::TrayParams;
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
 
+mod params;
 mod tube_shape;
+pub use params::DissipativeParams;
+pub(crate) use params::validate_gains;
 pub use tube_shape::DRIFT_AVERAGE_S;
 use tube_shape::TubeShape;
 
@@ -35,99 +37,6 @@ pub const JOIN_SHRINK_MPS: f32 = 0.3;
 /// Gain of the anchored team hold's position hold, 1/s: PX4's horizontal position gain
 /// (`MPC_XY_P`, default 0.95 1/s), rounded; docs/design.md, "Team failsafe".
 pub const HOLD_POSITION_GAIN_PER_S: f32 = 1.0;
-
-/// Gains and limits of the dissipative controller.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DissipativeParams {
-    /// Passing gain `k1`, 1/s.
-    pub k1: f32,
-    /// Spring gain `k2`, 1/s.
-    pub k2: f32,
-    /// Tube-barrier gain `k3`, m^2/s.
-    pub k3: f32,
-    /// Velocity limit `v_m` (eq:2-13, eq:2-21), m/s.
-    pub v_max_mps: f32,
-    /// Tube barrier safety radius `r_s`, m.
-    pub r_safe_m: f32,
-    /// Tube barrier activation radius `r_a`, m.
-    pub r_active_m: f32,
-    /// Horizontal centre distance the separation barrier keeps between UAVs, m (0: off, the
-    /// paper's controller; extension, [`crate::separation`]).
-    pub separation_m: f32,
-    /// Share of `k2` the springs fly while the load's altitude is being changed (lift, climb,
-    /// descent: [`DissipativeController::set_heaving`]), in (0, 1] (1: the paper's springs;
-    /// extension, [`crate::springs::heave_spring_share`]).
-    pub heave_spring_share: f32,
-    /// Virtual tray geometry.
-    pub tray: TrayParams,
-    /// Altitude law.
-    pub vertical: VerticalParams,
-}
-
-impl Default for DissipativeParams {
-    /// The paper's simulation gains (REFERENCE §5): `k1 = k2 = k3 = 1`, `v_m = 1.5 m/s`;
-    /// barrier radii `r_s = 0.5 m`, `r_a = 1.5 m` (REFERENCE §6).
-    fn default() -> Self {
-        Self {
-            k1: 1.0,
-            k2: 1.0,
-            k3: 1.0,
-            v_max_mps: 1.5,
-            r_safe_m: 0.5,
-            r_active_m: 1.5,
-            separation_m: 0.0,
-            heave_spring_share: 1.0,
-            tray: TrayParams::default(),
-            vertical: VerticalParams::default(),
-        }
-    }
-}
-
-impl DissipativeParams {
-    /// The paper's outdoor-experiment gains: `k1 = 0.3`, `k2 = 0.1`, `k3 = 1`, `v_m = 1 m/s`.
-    pub fn paper_experiment() -> Self {
-        Self { k1: 0.3, k2: 0.1, k3: 1.0, v_max_mps: 1.0, ..Self::default() }
-    }
-
-    /// Checks every field.
-    ///
-    /// # Errors
-    /// [`ControlError::InvalidParameter`] naming the bad field.
-    pub fn validate(&self) -> Result<(), ControlError> {
-        validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
-        if !(self.separation_m.is_finite() && self.separation_m >= 0.0) {
-            return Err(ControlError::InvalidParameter("separation_m"));
-        }
-        if !(self.heave_spring_share > 0.0 && self.heave_spring_share <= 1.0) {
-            return Err(ControlError::InvalidParameter("heave_spring_share"));
-        }
-        self.tray.validate()?;
-        self.vertical.validate()
-    }
-
-    /// The tube barrier eq:2-15-1 these parameters define.
-    pub fn tube_barrier(&self) -> BarrierParams {
-        BarrierParams::tube(self.k3, self.r_safe_m, self.r_active_m)
-    }
-}
-
-/// Checks the gains `k1..k3`, the speed limit and the barrier radii shared by both
-/// controllers' parameter sets, naming the first bad one.
-pub(crate) fn validate_gains(k: [f32; 3], v_max_mps: f32, r_safe_m: f32, r_active_m: f32) -> Result<(), ControlError> {
-    let pos = |x: f32| x.is_finite() && x > 0.0;
-    let checks: [(bool, &'static str); 6] = [
-        (pos(k[0]), "k1"),
-        (pos(k[1]), "k2"),
-        (pos(k[2]), "k3"),
-        (pos(v_max_mps), "v_max_mps"),
-        (pos(r_safe_m), "r_safe_m"),
-        (r_active_m.is_finite() && r_active_m > r_safe_m, "r_active_m"),
-    ];
-    match checks.iter().find(|(ok, _)| !ok) {
-        Some((_, name)) => Err(ControlError::InvalidParameter(name)),
-        None => Ok(()),
-    }
-}
 
 /// What one UAV knows at a high-level step (Remark 2). World ENU, m and m/s.
 #[derive(Debug, Clone, Copy)]

@@ -2,7 +2,7 @@
 //! failsafe"), on the paper experiment's defaults (`Params::new`): three UAVs, 50 Hz high level.
 
 use super::*;
-use vt_dissipative::{CalibrationError, FeasibilityError, Phase};
+use vt_dissipative::{CalibrationError, DissipativeController, FeasibilityError, Formation, FormationScale, Phase};
 use crate::params::Params;
 use vt_tube::Waypoint;
 
