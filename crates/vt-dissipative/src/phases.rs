@@ -13,7 +13,7 @@
 //! | take-off | `z_g - slack` | own horizontal position held; climb to `slack` below taut |
 //! | tension | (not used) | climb at `v_t` until the own cable carries [`PhaseParams::pretension_n`] (tension loop on the observer's estimate); the survey in its last `settle_s` |
 //! | lift | `z_g + v_lift t` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when the ramp passes `lift_clear_m + lift_extra_m` first |
-//! | climb | `+ v_climb t` up to `z_t` | as lift |
+//! | climb | `+ v_climb t` up to `z_t` | as lift; ends when the load is within [`CLIMB_ARRIVE_M`] of `z_t`, set down when it is not [`CLIMB_ARRIVE_TIMEOUT_S`] after the ramp |
 //! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`HoldWatch`]) descends at once |
 //! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off, load sharing on the tensions alone ([`crate::vertical::Sharing::Tension`]) |
 //! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
@@ -39,6 +39,13 @@ pub const SET_DOWN_LOAD_EDGE_HARD_M: f32 = 0.25;
 /// barrier pushes a node back only near the end disk's rim; a load this far past has been carried
 /// by a wind the stop does not hold.
 pub const SET_DOWN_PAST_END_M: f32 = 1.0;
+
+/// The climb ends once its ramp is at the transport altitude and the load within this of it, m
+/// (issue 27: at 19.8 kg on the 20 N clamp the load climbs at the team's last newtons and was
+/// 2.4 m below when the ramp ended; the transport is judged on the load's altitude).
+pub const CLIMB_ARRIVE_M: f32 = 0.5;
+/// ... and a load that has not come within it this long after the ramp is set down, s.
+pub const CLIMB_ARRIVE_TIMEOUT_S: f32 = 10.0;
 
 /// Horizontal speed limit of the formation while a delivered load descends and the cables
 /// slacken, m/s (phases `Descent` and `Slack` after arrival; not a set-down, which must keep the
@@ -509,8 +516,23 @@ impl PhaseProfile {
             }
             Phase::Climb => {
                 self.z_ref_m = (self.z_ref_m + p.climb_vz_mps * dt).min(p.transport_z_m);
+                // The transport starts with the load at its altitude, not the ramp: a load
+                // the team lifts with little to spare climbs behind its reference
+                // (docs/design.md, "The climb ends with the load up").
+                // A load still short of it [`CLIMB_ARRIVE_TIMEOUT_S`] after the ramp is set
+                // down, as a team that cannot hold the tube.
                 if self.z_ref_m >= p.transport_z_m {
-                    self.phase = Phase::Transport;
+                    if load_z.map_or(false, |z| z >= p.transport_z_m - CLIMB_ARRIVE_M) {
+                        self.phase = Phase::Transport;
+                        self.timer_s = 0.0;
+                    } else {
+                        self.timer_s += dt;
+                        if self.timer_s >= CLIMB_ARRIVE_TIMEOUT_S {
+                            self.phase = Phase::Descent;
+                            self.timer_s = 0.0;
+                            self.set_down_early = true;
+                        }
+                    }
                 }
             }
             Phase::Transport => {

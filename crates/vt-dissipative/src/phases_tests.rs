@@ -184,6 +184,64 @@ fn a_load_that_stays_on_the_ground_abandons_the_lift() {
     assert_eq!(pr.phase(), Phase::Released);
 }
 
+/// A profile in climb, the load just off the ground.
+fn climbing(p: PhaseParams) -> PhaseProfile {
+    let mut pr = PhaseProfile::ground(p).unwrap();
+    run(&mut pr, |_| 0.3, false, 10_000);
+    while !pr.ready_to_arm() {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    pr.armed(0.3);
+    run(&mut pr, |z| z, false, 10_000);
+    assert_eq!(pr.phase(), Phase::Climb);
+    pr
+}
+
+#[test]
+fn the_climb_ends_with_the_load_up_not_the_ramp() {
+    let p = params();
+    // A load that climbs behind its ramp: the transport waits for it, the ramp at `z_t`.
+    let mut pr = climbing(p);
+    let mut lagging = p.ground_z_m;
+    let mut steps = 0;
+    while pr.phase() == Phase::Climb && steps < 100_000 {
+        lagging = (lagging + 0.3 * 0.02).min(p.transport_z_m);
+        let z = pr.step(0.02, Some(lagging), false, false);
+        assert!(z <= p.transport_z_m);
+        steps += 1;
+    }
+    assert_eq!(pr.phase(), Phase::Transport);
+    assert!((lagging - (p.transport_z_m - CLIMB_ARRIVE_M)).abs() < 0.01, "left the climb with the load at {lagging}");
+    assert_eq!(pr.load_altitude_ref_m(), p.transport_z_m);
+    // The transport's settle timer starts from zero, whatever the climb waited.
+    let k = run(&mut pr, |_| p.transport_z_m, true, 10_000);
+    assert_eq!(pr.phase(), Phase::Descent);
+    assert!((k as f32 * 0.02 - p.settle_s).abs() < 0.03, "settled for {k} steps");
+    assert!(!pr.set_down_early());
+    // An unknown load altitude waits as a low one; a hold freezes the wait.
+    let mut pr = climbing(p);
+    run(&mut pr, |_| 1.0, false, (p.transport_z_m / p.climb_vz_mps / 0.02) as usize + 10);
+    assert_eq!(pr.phase(), Phase::Climb);
+    for _ in 0..2_000 {
+        pr.step(0.02, None, false, true);
+    }
+    assert_eq!(pr.phase(), Phase::Climb);
+}
+
+#[test]
+fn a_load_that_cannot_climb_to_the_transport_altitude_is_set_down() {
+    let p = params();
+    let mut pr = climbing(p);
+    let ramp_s = (p.transport_z_m - pr.load_altitude_ref_m()) / p.climb_vz_mps;
+    let low = p.transport_z_m - CLIMB_ARRIVE_M - 0.05;
+    let k = run(&mut pr, |_| low, false, 100_000);
+    assert_eq!(pr.phase(), Phase::Descent);
+    assert!(pr.set_down_early(), "a set-down, not a delivery");
+    assert!((k as f32 * 0.02 - (ramp_s + CLIMB_ARRIVE_TIMEOUT_S)).abs() < 0.1, "set down after {k} steps");
+    run(&mut pr, |z| z.max(0.3), false, 100_000);
+    assert_eq!(pr.phase(), Phase::Slack);
+}
+
 #[test]
 fn a_set_down_in_transport_descends_at_once_and_only_from_transport() {
     let mut pr = PhaseProfile::ground(params()).unwrap();
