@@ -522,7 +522,7 @@ impl PhaseProfile {
                 // A load still short of it [`CLIMB_ARRIVE_TIMEOUT_S`] after the ramp is set
                 // down, as a team that cannot hold the tube.
                 if self.z_ref_m >= p.transport_z_m {
-                    if load_z.map_or(false, |z| z >= p.transport_z_m - CLIMB_ARRIVE_M) {
+                    if load_z.is_some_and(|z| z >= p.transport_z_m - CLIMB_ARRIVE_M) {
                         self.phase = Phase::Transport;
                         self.timer_s = 0.0;
                     } else {
