@@ -13,7 +13,7 @@
 //! | take-off | `z_g - slack` | own horizontal position held; climb to `slack` below taut |
 //! | tension | (not used) | climb at `v_t` until the own cable carries [`PhaseParams::pretension_n`] (tension loop on the observer's estimate); the survey in its last `settle_s` |
 //! | lift | `z_g + v_lift t` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when the ramp passes `lift_clear_m + lift_extra_m` first |
-//! | climb | `+ v_climb t` up to `z_t` | as lift; ends when the load is within [`CLIMB_ARRIVE_M`] of `z_t`, set down when it is not [`CLIMB_ARRIVE_TIMEOUT_S`] after the ramp |
+//! | climb | `+ v_climb t` up to `z_t` | as lift; ends when the load is within [`CLIMB_ARRIVE_M`] of `z_t`, set down from where it hangs when it stops rising short of it ([`CLIMB_ARRIVE_TIMEOUT_S`]) |
 //! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`HoldWatch`]) descends at once |
 //! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off, load sharing on the tensions alone ([`crate::vertical::Sharing::Tension`]) |
 //! | slack | down to `z_g - slack` at `v_lift` | passing off, load sharing off |
@@ -44,8 +44,11 @@ pub const SET_DOWN_PAST_END_M: f32 = 1.0;
 /// (issue 27: at 19.8 kg on the 20 N clamp the load climbs at the team's last newtons and was
 /// 2.4 m below when the ramp ended; the transport is judged on the load's altitude).
 pub const CLIMB_ARRIVE_M: f32 = 0.5;
-/// ... and a load that has not come within it this long after the ramp is set down, s.
+/// ... and a load short of it that has not risen [`CLIMB_PROGRESS_M`] for this long, the ramp
+/// up, is set down, s ...
 pub const CLIMB_ARRIVE_TIMEOUT_S: f32 = 10.0;
+/// ... m.
+pub const CLIMB_PROGRESS_M: f32 = 0.1;
 
 /// Horizontal speed limit of the formation while a delivered load descends and the cables
 /// slacken, m/s (phases `Descent` and `Slack` after arrival; not a set-down, which must keep the
@@ -336,6 +339,8 @@ pub struct PhaseProfile {
     descend_at_end: bool,
     /// How long the team has held before its arming, s.
     held_s: f32,
+    /// The highest load altitude the climb has seen since its last [`CLIMB_PROGRESS_M`], m.
+    climb_best_m: f32,
 }
 
 impl PhaseProfile {
@@ -345,7 +350,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0 })
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0, climb_best_m: p.ground_z_m })
     }
 
     /// An air start (the paper's): in transport from the start at `z_t`, hovering at the end
@@ -357,7 +362,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn air(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0 })
+        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0, climb_best_m: p.ground_z_m })
     }
 
     /// The parameters.
@@ -519,18 +524,24 @@ impl PhaseProfile {
                 // The transport starts with the load at its altitude, not the ramp: a load
                 // the team lifts with little to spare climbs behind its reference
                 // (docs/design.md, "The climb ends with the load up").
-                // A load still short of it [`CLIMB_ARRIVE_TIMEOUT_S`] after the ramp is set
-                // down, as a team that cannot hold the tube.
+                // A load that stops rising short of it (no [`CLIMB_PROGRESS_M`] in
+                // [`CLIMB_ARRIVE_TIMEOUT_S`] once the ramp is up) is set down from where it
+                // hangs, as by a team that cannot hold the tube.
                 if self.z_ref_m >= p.transport_z_m {
                     if load_z.is_some_and(|z| z >= p.transport_z_m - CLIMB_ARRIVE_M) {
                         self.phase = Phase::Transport;
                         self.timer_s = 0.0;
                     } else {
                         self.timer_s += dt;
+                        if let Some(z) = load_z.filter(|&z| z >= self.climb_best_m + CLIMB_PROGRESS_M) {
+                            self.climb_best_m = z;
+                            self.timer_s = 0.0;
+                        }
                         if self.timer_s >= CLIMB_ARRIVE_TIMEOUT_S {
                             self.phase = Phase::Descent;
                             self.timer_s = 0.0;
                             self.set_down_early = true;
+                            self.z_ref_m = self.climb_best_m.min(self.z_ref_m);
                         }
                     }
                 }

@@ -238,8 +238,17 @@ fn a_load_that_cannot_climb_to_the_transport_altitude_is_set_down() {
     assert_eq!(pr.phase(), Phase::Descent);
     assert!(pr.set_down_early(), "a set-down, not a delivery");
     assert!((k as f32 * 0.02 - (ramp_s + CLIMB_ARRIVE_TIMEOUT_S)).abs() < 0.1, "set down after {k} steps");
+    assert!((pr.load_altitude_ref_m() - low).abs() < 0.05, "set down from where the load hangs: {}", pr.load_altitude_ref_m());
     run(&mut pr, |z| z.max(0.3), false, 100_000);
     assert_eq!(pr.phase(), Phase::Slack);
+    // A load still rising, if slowly (0.1 m every 5 s), is waited for.
+    let mut pr = climbing(p);
+    let mut z = 1.0;
+    while pr.phase() == Phase::Climb {
+        z += 0.02 * 0.02;
+        pr.step(0.02, Some(z), false, false);
+    }
+    assert_eq!(pr.phase(), Phase::Transport, "the slow load arrived at {z}");
 }
 
 #[test]
