@@ -145,6 +145,26 @@ pub struct CapacityPlan {
     pub weight_n: f32,
 }
 
+/// Capacity margin `rho` from which a team flies its full speed `v_max` (extension, issue 27;
+/// docs/design.md, "A team near its capacity flies slower").
+pub const SPEED_FULL_MARGIN: f32 = 0.03;
+/// The smallest fraction of `v_max` a team near its capacity flies at.
+pub const SPEED_MIN_FRACTION: f32 = 0.5;
+
+/// The fraction of `v_max` a team with capacity margin `margin` (`rho`,
+/// [`CapacityPlan::margin`]) flies at: 1 from [`SPEED_FULL_MARGIN`] (and without a declared
+/// load), `rho / SPEED_FULL_MARGIN` below it, never under [`SPEED_MIN_FRACTION`] (a margin of
+/// zero or less, or not a number, flies the slowest).
+pub fn speed_fraction(margin: f32) -> f32 {
+    if margin >= SPEED_FULL_MARGIN {
+        1.0
+    } else if margin > 0.0 {
+        vt_fpu::max(SPEED_MIN_FRACTION, margin / SPEED_FULL_MARGIN)
+    } else {
+        SPEED_MIN_FRACTION
+    }
+}
+
 impl CapacityPlan {
     /// The plan that keeps the formation as designed (`lambda_min = lambda* = 1`).
     pub const NEUTRAL: Self = Self { scale_min: 1.0, scale: 1.0, lean_cos_min: 1.0, capacity_n: 0.0, weight_n: 0.0 };
@@ -502,6 +522,26 @@ mod tests {
         assert_relative_eq!(p.capacity_n, 200.0 / (1.09f32).sqrt(), epsilon = 0.05);
         assert_relative_eq!(p.lean_cos_min, 1.0 / (1.09f32).sqrt(), epsilon = 1e-5);
         assert!(p.margin() > 0.08);
+    }
+
+    /// A team near its capacity flies slower: full speed from a 3 % margin and without a
+    /// declared load, in proportion below, half speed at the least, and at the least for a
+    /// margin that is none, negative or not a number.
+    #[test]
+    fn a_team_near_its_capacity_flies_slower() {
+        for m in [f32::INFINITY, 1.0, 0.086, SPEED_FULL_MARGIN] {
+            assert_eq!(speed_fraction(m), 1.0, "{m}");
+        }
+        assert_relative_eq!(speed_fraction(0.0225), 0.75, epsilon = 1e-6);
+        for m in [0.015, 0.0044, 0.0, -0.1, f32::NEG_INFINITY, f32::NAN] {
+            assert_eq!(speed_fraction(m), SPEED_MIN_FRACTION, "{m}");
+        }
+        let mut last = 0.0;
+        for k in 0..=400 {
+            let f = speed_fraction(k as f32 * 1e-4);
+            assert!(f >= last && (SPEED_MIN_FRACTION..=1.0).contains(&f), "monotone and bounded at {k}: {f}");
+            last = f;
+        }
     }
 
     /// The stadium's bound (the load alone) lies below the law's need (the load and its margin)
