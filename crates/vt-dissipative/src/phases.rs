@@ -417,10 +417,15 @@ impl PhaseProfile {
     /// UAV shares): the transport ends here, the descent and the set-down start at once.
     pub fn set_down_now(&mut self) {
         if self.phase == Phase::Transport {
-            self.phase = Phase::Descent;
-            self.timer_s = 0.0;
-            self.set_down_early = true;
+            self.enter_set_down();
         }
+    }
+
+    /// The descent at once, as a set-down ([`Self::set_down_now`], a climb that stops short).
+    fn enter_set_down(&mut self) {
+        self.phase = Phase::Descent;
+        self.timer_s = 0.0;
+        self.set_down_early = true;
     }
 
     /// True when the transport was cut short by a set-down ([`Self::set_down_now`]).
@@ -538,9 +543,7 @@ impl PhaseProfile {
                             self.timer_s = 0.0;
                         }
                         if self.timer_s >= CLIMB_ARRIVE_TIMEOUT_S {
-                            self.phase = Phase::Descent;
-                            self.timer_s = 0.0;
-                            self.set_down_early = true;
+                            self.enter_set_down();
                             self.z_ref_m = self.climb_best_m.min(self.z_ref_m);
                         }
                     }
