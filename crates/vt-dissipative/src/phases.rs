@@ -12,7 +12,7 @@
 //! |---|---|---|
 //! | take-off | `z_g - slack` | own horizontal position held; climb to `slack` below taut |
 //! | tension | (not used) | climb at `v_t` until the own cable carries [`PhaseParams::pretension_n`] (tension loop on the observer's estimate); the survey in its last `settle_s` |
-//! | lift | `z_g + v_lift t` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when the ramp passes `lift_clear_m + lift_extra_m` first |
+//! | lift | `z_g + v_lift t` up to `lift_clear_m + lift_extra_m` | the armed controller, passing off; ends when the load is `lift_clear_m` up, refused when it has not risen [`LIFT_PROGRESS_M`] for [`LIFT_PROGRESS_TIMEOUT_S`] with the ramp at its top |
 //! | climb | `+ v_climb t` up to `z_t` | as lift; ends when the load is within [`CLIMB_ARRIVE_M`] of `z_t`, set down from where it hangs when it stops rising short of it ([`CLIMB_ARRIVE_TIMEOUT_S`]) |
 //! | transport | `z_t` | the paper's controller; arrival latched, `settle_s` later: descent (a ground start; an air start hovers at the end); a set-down ([`HoldWatch`]) descends at once |
 //! | descent | down at `v_climb`, `v_lift` in the last `touchdown_band_m` | passing off, load sharing on the tensions alone ([`crate::vertical::Sharing::Tension`]) |
@@ -49,6 +49,15 @@ pub const CLIMB_ARRIVE_M: f32 = 0.5;
 pub const CLIMB_ARRIVE_TIMEOUT_S: f32 = 10.0;
 /// ... m.
 pub const CLIMB_PROGRESS_M: f32 = 0.1;
+
+/// The lift is refused once its ramp is at its top (`lift_clear_m + lift_extra_m` above the
+/// ground, where it stops) and the load has not risen [`LIFT_PROGRESS_M`] for this long, s
+/// (issue 27: at 19.8 kg on the 20 N clamp the load leaves the ground at the team's last newtons,
+/// 0.06 m/s, and was 1 cm short of `lift_clear_m` when the ramp passed its top; docs/design.md,
+/// "The lift ends with the load off the ground") ...
+pub const LIFT_PROGRESS_TIMEOUT_S: f32 = 5.0;
+/// ... m (above the RTK load tracker's centimetres).
+pub const LIFT_PROGRESS_M: f32 = 0.05;
 
 /// Horizontal speed limit of the formation while a delivered load descends and the cables
 /// slacken, m/s (phases `Descent` and `Slack` after arrival; not a set-down, which must keep the
@@ -339,8 +348,9 @@ pub struct PhaseProfile {
     descend_at_end: bool,
     /// How long the team has held before its arming, s.
     held_s: f32,
-    /// The highest load altitude the climb has seen since its last [`CLIMB_PROGRESS_M`], m.
-    climb_best_m: f32,
+    /// The highest load altitude the lift or the climb has seen since its last progress
+    /// ([`LIFT_PROGRESS_M`], [`CLIMB_PROGRESS_M`]), m.
+    best_load_m: f32,
 }
 
 impl PhaseProfile {
@@ -350,7 +360,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0, climb_best_m: p.ground_z_m })
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0, best_load_m: p.ground_z_m })
     }
 
     /// An air start (the paper's): in transport from the start at `z_t`, hovering at the end
@@ -362,7 +372,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn air(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0, climb_best_m: p.ground_z_m })
+        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0, best_load_m: p.ground_z_m })
     }
 
     /// The parameters.
@@ -410,6 +420,7 @@ impl PhaseProfile {
             self.phase = Phase::Lift;
             self.timer_s = 0.0;
             self.z_ref_m = if load_z_m.is_finite() { load_z_m } else { self.p.ground_z_m };
+            self.best_load_m = self.z_ref_m;
         }
     }
 
@@ -482,8 +493,8 @@ impl PhaseProfile {
         // than `LIFT_HOLD_ABORT_S` is abandoned: a UAV that refused its arming holds its team.
         if hold && !matches!(self.phase, Phase::Slack | Phase::Released) {
             if self.phase == Phase::Lift {
-                self.timer_s += dt;
-                if self.timer_s > LIFT_HOLD_ABORT_S {
+                self.held_s += dt;
+                if self.held_s > LIFT_HOLD_ABORT_S {
                     self.abort = Some(Abort::LiftFailed);
                     self.enter_slack(self.z_ref_m);
                 }
@@ -499,9 +510,6 @@ impl PhaseProfile {
             return self.z_ref_m;
         }
         self.held_s = 0.0;
-        if self.phase == Phase::Lift {
-            self.timer_s = 0.0;
-        }
         let p = self.p;
         let load_z = load_z_m.filter(|z| z.is_finite());
         match self.phase {
@@ -515,12 +523,23 @@ impl PhaseProfile {
             Phase::Tension => self.timer_s += dt,
             Phase::Lift => {
                 if let Some(z) = load_z {
-                    self.z_ref_m += p.lift_vz_mps * dt;
+                    // The ramp stops at its top; a load still rising there is being lifted at
+                    // the team's last newtons, one that has stopped is refused.
+                    let top = p.ground_z_m + p.lift_clear_m + p.lift_extra_m;
+                    self.z_ref_m = (self.z_ref_m + p.lift_vz_mps * dt).min(top);
                     if z >= p.ground_z_m + p.lift_clear_m {
                         self.phase = Phase::Climb;
-                    } else if self.z_ref_m > p.ground_z_m + p.lift_clear_m + p.lift_extra_m {
-                        self.abort = Some(Abort::LiftFailed);
-                        self.enter_slack(self.z_ref_m);
+                        self.timer_s = 0.0;
+                    } else if self.z_ref_m >= top {
+                        self.timer_s += dt;
+                        if z >= self.best_load_m + LIFT_PROGRESS_M {
+                            self.best_load_m = z;
+                            self.timer_s = 0.0;
+                        }
+                        if self.timer_s >= LIFT_PROGRESS_TIMEOUT_S {
+                            self.abort = Some(Abort::LiftFailed);
+                            self.enter_slack(self.z_ref_m);
+                        }
                     }
                 }
             }
@@ -538,13 +557,13 @@ impl PhaseProfile {
                         self.timer_s = 0.0;
                     } else {
                         self.timer_s += dt;
-                        if let Some(z) = load_z.filter(|&z| z >= self.climb_best_m + CLIMB_PROGRESS_M) {
-                            self.climb_best_m = z;
+                        if let Some(z) = load_z.filter(|&z| z >= self.best_load_m + CLIMB_PROGRESS_M) {
+                            self.best_load_m = z;
                             self.timer_s = 0.0;
                         }
                         if self.timer_s >= CLIMB_ARRIVE_TIMEOUT_S {
                             self.enter_set_down();
-                            self.z_ref_m = self.climb_best_m.min(self.z_ref_m);
+                            self.z_ref_m = self.best_load_m.min(self.z_ref_m);
                         }
                     }
                 }

@@ -174,14 +174,82 @@ fn a_load_that_stays_on_the_ground_abandons_the_lift() {
         pr.step(0.02, Some(0.3), false, false);
     }
     pr.armed(0.3);
-    let k = run(&mut pr, |_| 0.3, false, 100_000);
+    let top = p.ground_z_m + p.lift_clear_m + p.lift_extra_m;
+    let mut k = 0;
+    while pr.phase() == Phase::Lift && k < 100_000 {
+        // The ramp stops at its top; a load that does not rise is refused there.
+        assert!(pr.step(0.02, Some(0.3), false, false) <= top + 1e-6 || pr.phase() != Phase::Lift);
+        k += 1;
+    }
     assert_eq!(pr.phase(), Phase::Slack);
     assert_eq!(pr.abort(), Some(Abort::LiftFailed));
-    let expected = (p.lift_clear_m + p.lift_extra_m) / p.lift_vz_mps;
-    assert!((k as f32 * 0.02 - expected).abs() < 0.05, "abandoned after {k} steps");
+    let expected = (p.lift_clear_m + p.lift_extra_m) / p.lift_vz_mps + LIFT_PROGRESS_TIMEOUT_S;
+    assert!((k as f32 * 0.02 - expected).abs() < 0.05, "abandoned after {k} steps, {expected} s expected");
     assert!(pr.load_altitude_ref_m() <= p.ground_z_m);
     run(&mut pr, |_| 0.3, false, 100_000);
     assert_eq!(pr.phase(), Phase::Released);
+}
+
+/// Issue 27 at 19.8 kg on the 20 N clamp (seed 7119): the load leaves the ground at the team's
+/// last newtons, slower than the ramp. The ramp waits at its top while the load still rises
+/// ([`LIFT_PROGRESS_M`] within [`LIFT_PROGRESS_TIMEOUT_S`]) and the lift ends as any other; a
+/// load that rises and then stops short is refused one timeout after its last progress; a hold
+/// at the top freezes the wait.
+#[test]
+fn a_load_that_leaves_the_ground_slowly_is_lifted() {
+    let p = params();
+    let start = |pr: &mut PhaseProfile| {
+        run(pr, |_| 0.3, false, 10_000);
+        while !pr.ready_to_arm() {
+            pr.step(0.02, Some(0.3), false, false);
+        }
+        pr.armed(0.3);
+    };
+    let top = p.ground_z_m + p.lift_clear_m + p.lift_extra_m;
+    let ramp_s = (p.lift_clear_m + p.lift_extra_m) / p.lift_vz_mps;
+    // Rising at 0.02 m/s from when the ramp is at its top: 10 s to clear, twice the timeout.
+    let mut pr = PhaseProfile::ground(p).unwrap();
+    start(&mut pr);
+    let mut t = 0.0f32;
+    while pr.phase() == Phase::Lift && t < 100.0 {
+        let z = 0.3 + 0.02 * (t - ramp_s).max(0.0);
+        assert!(pr.step(0.02, Some(z), false, false) <= top + 1e-6);
+        t += 0.02;
+    }
+    assert_eq!(pr.phase(), Phase::Climb, "lifted after {t} s");
+    assert_eq!(pr.abort(), None);
+    assert!((t - (ramp_s + p.lift_clear_m / 0.02)).abs() < 0.1, "lifted after {t} s");
+    // Rising 0.12 m at the top, then stuck: refused one timeout after its last 5 cm (its
+    // second, at 0.1 m).
+    let mut pr = PhaseProfile::ground(p).unwrap();
+    start(&mut pr);
+    let mut t = 0.0f32;
+    while pr.phase() == Phase::Lift && t < 100.0 {
+        let z = 0.3 + (0.02 * (t - ramp_s).max(0.0)).min(0.12);
+        pr.step(0.02, Some(z), false, false);
+        t += 0.02;
+    }
+    assert_eq!(pr.abort(), Some(Abort::LiftFailed));
+    let last_progress_s = ramp_s + 0.1 / 0.02;
+    assert!((t - (last_progress_s + LIFT_PROGRESS_TIMEOUT_S)).abs() < 0.2, "refused after {t} s");
+    // A hold at the top freezes the wait (and is itself bounded by LIFT_HOLD_ABORT_S).
+    let mut pr = PhaseProfile::ground(p).unwrap();
+    start(&mut pr);
+    for _ in 0..((ramp_s + LIFT_PROGRESS_TIMEOUT_S - 1.0) / 0.02) as usize {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    for _ in 0..((LIFT_HOLD_ABORT_S - 0.5) / 0.02) as usize {
+        pr.step(0.02, Some(0.3), false, true);
+    }
+    assert_eq!(pr.phase(), Phase::Lift, "a short hold neither refuses nor advances the wait");
+    for _ in 0..(0.9 / 0.02) as usize {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    assert_eq!(pr.phase(), Phase::Lift);
+    for _ in 0..(0.2 / 0.02) as usize {
+        pr.step(0.02, Some(0.3), false, false);
+    }
+    assert_eq!(pr.abort(), Some(Abort::LiftFailed));
 }
 
 /// A profile in climb, the load just off the ground.
