@@ -346,7 +346,7 @@ pub struct PhaseProfile {
     /// Arrival ends the transport with the descent (a ground start); an air start hovers at the
     /// end and descends only in a set-down.
     descend_at_end: bool,
-    /// How long the team has held before its arming, s.
+    /// How long the team has held, before its arming or in the lift, s.
     held_s: f32,
     /// The highest load altitude the lift or the climb has seen since its last progress
     /// ([`LIFT_PROGRESS_M`], [`CLIMB_PROGRESS_M`]), m.
