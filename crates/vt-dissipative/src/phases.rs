@@ -439,6 +439,19 @@ impl PhaseProfile {
         self.set_down_early = true;
     }
 
+    /// One step of `dt_s` of the watch on a load that must keep rising (the lift's and the
+    /// climb's, the ramp at its top): a load `step_m` above the best seen becomes the best and
+    /// restarts the timer, else the timer runs (an unknown altitude counts as no progress). True
+    /// once it has run `timeout_s`.
+    fn stalled(&mut self, load_z_m: Option<f32>, step_m: f32, timeout_s: f32, dt_s: f32) -> bool {
+        self.timer_s += dt_s;
+        if let Some(z) = load_z_m.filter(|&z| z >= self.best_load_m + step_m) {
+            self.best_load_m = z;
+            self.timer_s = 0.0;
+        }
+        self.timer_s >= timeout_s
+    }
+
     /// True when the transport was cut short by a set-down ([`Self::set_down_now`]).
     pub fn set_down_early(&self) -> bool {
         self.set_down_early
@@ -530,16 +543,9 @@ impl PhaseProfile {
                     if z >= p.ground_z_m + p.lift_clear_m {
                         self.phase = Phase::Climb;
                         self.timer_s = 0.0;
-                    } else if self.z_ref_m >= top {
-                        self.timer_s += dt;
-                        if z >= self.best_load_m + LIFT_PROGRESS_M {
-                            self.best_load_m = z;
-                            self.timer_s = 0.0;
-                        }
-                        if self.timer_s >= LIFT_PROGRESS_TIMEOUT_S {
-                            self.abort = Some(Abort::LiftFailed);
-                            self.enter_slack(self.z_ref_m);
-                        }
+                    } else if self.z_ref_m >= top && self.stalled(load_z, LIFT_PROGRESS_M, LIFT_PROGRESS_TIMEOUT_S, dt) {
+                        self.abort = Some(Abort::LiftFailed);
+                        self.enter_slack(self.z_ref_m);
                     }
                 }
             }
@@ -555,16 +561,9 @@ impl PhaseProfile {
                     if load_z.is_some_and(|z| z >= p.transport_z_m - CLIMB_ARRIVE_M) {
                         self.phase = Phase::Transport;
                         self.timer_s = 0.0;
-                    } else {
-                        self.timer_s += dt;
-                        if let Some(z) = load_z.filter(|&z| z >= self.best_load_m + CLIMB_PROGRESS_M) {
-                            self.best_load_m = z;
-                            self.timer_s = 0.0;
-                        }
-                        if self.timer_s >= CLIMB_ARRIVE_TIMEOUT_S {
-                            self.enter_set_down();
-                            self.z_ref_m = self.best_load_m.min(self.z_ref_m);
-                        }
+                    } else if self.stalled(load_z, CLIMB_PROGRESS_M, CLIMB_ARRIVE_TIMEOUT_S, dt) {
+                        self.enter_set_down();
+                        self.z_ref_m = self.best_load_m.min(self.z_ref_m);
                     }
                 }
             }

@@ -109,12 +109,9 @@ impl fmt::Display for WindError {
             Self::InvalidParameter(name) => write!(f, "invalid wind parameter `{name}`"),
             Self::TooStrong { wind_mps, capacity_mps, limit } => write!(
                 f,
-                "the team cannot hold the tube in this wind: wind {wind_mps:.1} m/s ({}), capacity {capacity_mps:.1} m/s ({} limit)",
-                match limit {
-                    WindLimit::Cable => "steady",
-                    WindLimit::Tilt | WindLimit::Thrust => "with gust margin",
-                },
-                match limit {
+                "the team cannot hold the tube in this wind: wind {wind_mps:.1} m/s ({held}), capacity {capacity_mps:.1} m/s ({name} limit)",
+                held = if limit == WindLimit::Cable { "steady" } else { "with gust margin" },
+                name = match limit {
                     WindLimit::Tilt => "tilt",
                     WindLimit::Thrust => "thrust",
                     WindLimit::Cable => "cable",
@@ -313,6 +310,15 @@ impl GustSurvey {
     }
 }
 
+impl WindCapacity {
+    /// The largest steady wind plus gust margin [`check`] accepts with the gust margin
+    /// `gust_margin_mps`, m/s: the rotors' capacity, or the cables' plus the margin (they hold
+    /// the steady wind), whichever is lower.
+    pub fn with_gust_max_mps(&self, gust_margin_mps: f32) -> f32 {
+        vt_fpu::min(self.rotor_wind_max_mps, self.cable_wind_max_mps + gust_margin_mps)
+    }
+}
+
 /// The pre-flight wind check (docs/design.md, "The gust margin is the rotors'"): the steady
 /// wind `wind_mps` plus the gust margin `gust_margin_mps` against what the rotors hold, and the
 /// steady wind alone against what the cables' rating passes. A gust the rotors cannot hold blows
@@ -492,6 +498,10 @@ mod tests {
                 assert_eq!((wind_mps, capacity_mps, limit), (4.5, c.cable_wind_max_mps, WindLimit::Cable));
             }
             other => panic!("{other:?}"),
+        }
+        // The forecast's capacity is what the check accepts, at every wind and margin.
+        for (w, g) in [(3.3, 1.8), (4.2, 0.0), (4.4, 0.0), (4.0, 3.0), (3.0, 12.0), (3.0, 14.0), (0.0, 16.0)] {
+            assert_eq!(check(&p, w, g).is_ok(), w + g <= c.with_gust_max_mps(g), "{w} + {g}");
         }
         let gust = c.rotor_wind_max_mps - 3.0 + 0.1;
         match check(&p, 3.0, gust) {

@@ -282,9 +282,9 @@ pub struct RunClass {
     pub equal_cables: bool,
     /// Draws that failed validation before this one.
     pub redraws: u32,
-    /// The team's capacity against the forecast's mean plus its gust margin
-    /// (`vt_dissipative::wind::check`): the rotors' steady capacity, or the cables' plus the
-    /// gust margin (the rating is held against the mean wind), whichever is lower, m/s.
+    /// The team's capacity against the forecast's mean plus its gust margin, m/s
+    /// (`vt_dissipative::wind::WindCapacity::with_gust_max_mps`: what the companions' check
+    /// accepts).
     #[serde(default, deserialize_with = "crate::summary::f64_or_nan")]
     pub wind_capacity_mps: f64,
     /// The wind the run flies in, as a forecast would declare it: mean plus two gust standard
@@ -299,7 +299,7 @@ impl RunClass {
         let d = &g.drawn;
         let s = &g.loaded.scenario;
         let (mean, gust) = forecast_mps(s);
-        let cap = sim::wind_check(s, s.cables.rated_n, 0.0, 0.0).map_or(f64::NAN, |c| f64::from(c.rotor_wind_max_mps.min(c.cable_wind_max_mps + gust as f32)));
+        let cap = sim::wind_check(s, s.cables.rated_n, 0.0, 0.0).map_or(f64::NAN, |c| f64::from(c.with_gust_max_mps(gust as f32)));
         Self {
             tube: d.tube.name().into(),
             n_uavs: d.n_uavs,
