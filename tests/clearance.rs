@@ -130,7 +130,10 @@ fn bad_envelopes_exit_2_naming_file_line_and_field() {
 /// passage (seed 1017: the front pair 1-9 entering it, 0.13 m; seed 1164: the rear pair leaving
 /// it, 0.14 m; the paper's tube barrier on one node of the pair alone). Seed 1030 was the first
 /// example until session 56's softer springs while the load heaves changed its flight: it now
-/// keeps 0.29 m without the team keeping. With the team keeping (the default with
+/// keeps 0.29 m without the team keeping. Seed 1164 kept 0.208 m without it once session 59's
+/// contact barrier acted inside the floor; seed 1050 (0.302 m with the team keeping, 0.163 m
+/// without) took its place, one of the 15 seeds of 1000-1199 the team keeping alone wins
+/// (198 against 183 of 200, measured that session). With the team keeping (the default with
 /// the shape) both keep the 0.2 m floor; with each node keeping the tube on its own, as the
 /// paper, both lose it.
 #[test]
@@ -148,10 +151,28 @@ fn the_team_keeping_keeps_apart_the_pair_the_tube_pressed_together() {
         println!("seed {seed}, team keeping {}: UAV-UAV clearance {:.3} m, {:?}", c.levels[0].1.scenario.controller.shape.team_keeping, s.min_uav_uav_clearance_m, s.failures);
         (s.success, s.min_uav_uav_clearance_m)
     };
-    for seed in [1017, 1164] {
+    for seed in [1017, 1050] {
         let (ok, kept) = clearance(&on, seed);
         assert!(ok && kept >= 0.2, "seed {seed}: {kept:.3} m with the team keeping");
         let (_, lost) = clearance(&off, seed);
         assert!(lost < 0.2, "seed {seed}: {lost:.3} m without it");
     }
+}
+
+/// The contact barrier (extension, `vt_dissipative::separation::separation_pole_band`; docs/
+/// design.md, "The contact barrier"): generated seed 5190 (twenty-one 2 kg UAVs, a light load on
+/// a straight tube, the real-aircraft world at 1x) lost two bodies into each other in the
+/// descent's last metre (-0.27 m between surfaces) with the separation barrier off beside the
+/// shaped formation. With the barrier's pole at contact and its band the 0.2 m floor, on the 3-D
+/// distance, the pair comes to 0.17 m and no closer: still under the floor (the run fails it),
+/// but no contact.
+#[test]
+fn a_shaped_team_s_bodies_do_not_touch() {
+    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
+    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
+    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), 5190).expect("the seed draws");
+    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (21, "paper-2kg-50N"), "the draw this test was written on");
+    let (s, _) = fly(&g.text);
+    println!("seed 5190: UAV-UAV clearance {:.3} m, {:?}", s.min_uav_uav_clearance_m, s.failures);
+    assert!(s.min_uav_uav_clearance_m > 0.05, "bodies within {:.3} m of each other", s.min_uav_uav_clearance_m);
 }

@@ -374,6 +374,7 @@ impl Params {
     /// The crate's [`ControlError`] naming the field.
     pub fn dissipative(&self, cal: &Calibration) -> Result<DissipativeParams, ControlError> {
         let g = |p| self.get(p);
+        let sep = self.separation_barrier_m();
         let params = DissipativeParams {
             k1: g(Param::K1),
             // An airframe slower than the paper's flies a softer formation (`lag_spring_scale`).
@@ -383,7 +384,9 @@ impl Params {
             v_max_mps: g(Param::VMax),
             r_safe_m: self.r_safe_m(),
             r_active_m: g(Param::RActive),
-            separation_m: self.separation_barrier_m(),
+            separation_m: sep.pole_m,
+            separation_band_m: sep.band_m,
+            separation_3d: sep.three_d,
             tray: self.tray(),
             vertical: VerticalParams {
                 load_altitude_ref_m: g(Param::LoadZRef),
@@ -574,14 +577,15 @@ impl Params {
         if sep > 0.0 { sep + vt_dissipative::separation::FORMATION_GUARD_M } else { 0.0 }
     }
 
-    /// Pole of the separation barrier flown, m: [`Self::separation_m`], or 0 (off) with the
-    /// formation shaped to the tube (`VT_SHAPE` 1). Measured on the paper mission with 0.445 m
-    /// bodies (docs/design.md, "A formation shaped to the tube"): the barrier against the shaped
-    /// formation's neighbours, 1.2-1.5 m apart inside its 0.3 m band, slows the team to a crawl
-    /// (arrival 115.8 s against 33.7 s) and leaves pairs closer (0.090 m of clearance against
-    /// 0.189 m).
-    pub fn separation_barrier_m(&self) -> f32 {
-        if self.get_u32(Param::Shape) == 1 { 0.0 } else { self.separation_m() }
+    /// The separation barrier flown ([`vt_dissipative::separation::separation_pole_band`]): its
+    /// pole at [`Self::separation_m`] with a 0.3 m band, or with the formation shaped to the tube
+    /// (`VT_SHAPE` 1) the contact barrier, its pole at contact (`2 VT_BODY_R`), its band
+    /// `VT_CLR_MIN`, on the 3-D distance. The full barrier against the
+    /// shaped formation's neighbours, 1.2-1.5 m apart inside its band, slowed the paper mission
+    /// to a crawl (docs/design.md, "A formation shaped to the tube"); the contact barrier is
+    /// zero while a pair keeps the floor (docs/design.md, "The contact barrier").
+    pub fn separation_barrier_m(&self) -> vt_dissipative::separation::SeparationShape {
+        vt_dissipative::separation::separation_pole_band(self.get(Param::BodyR), self.get(Param::ClrMin), self.get_u32(Param::Shape) == 1)
     }
 
     /// The tube barrier's safety radius flown, m: `VT_R_SAFE`, raised to

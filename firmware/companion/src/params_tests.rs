@@ -18,18 +18,25 @@ fn a_body_derives_the_separation_and_the_safety_radius() {
     assert!((p.capacity().unwrap().separation_m - 1.39).abs() < 1e-6, "raised from VT_SEP_MIN 0.9");
     p.set(Param::RSafe, 0.8).unwrap();
     assert_eq!(p.r_safe_m(), 0.8, "a larger VT_R_SAFE is kept");
-    assert_eq!(p.separation_barrier_m(), p.separation_m());
+    let sep = p.separation_barrier_m();
+    assert_eq!((sep.pole_m, sep.band_m, sep.three_d), (p.separation_m(), vt_dissipative::separation::SEPARATION_BAND_M, false));
 }
 
 #[test]
-fn the_shaped_formation_flies_without_the_separation_barrier() {
+fn the_shaped_formation_flies_the_contact_barrier() {
     let mut p = Params::default();
     assert!(p.shape().is_none(), "the paper's ring by default");
     p.set(Param::BodyR, 0.445).unwrap();
     p.set(Param::Shape, 1.0).unwrap();
     p.set(Param::ShapeMrg, 0.3).unwrap();
     assert_eq!(p.shape(), Some(ShapeParams { margin_m: 0.3, ahead_m: 6.0 }));
-    assert_eq!(p.separation_barrier_m(), 0.0);
+    // The contact barrier: its pole at the bodies' contact, its band the 0.2 m floor.
+    let sep = p.separation_barrier_m();
+    let (pole, band) = (sep.pole_m, sep.band_m);
+    assert!((pole - 0.89).abs() < 1e-6 && (band - 0.2).abs() < 1e-6 && sep.three_d, "{sep:?}");
+    let cal = vt_dissipative::Calibration { cable_length_m: 8.0, stretch_m: 0.02, tension_share_n: 10.0, cos_lean: 0.95, distance_m: 8.02 };
+    let d = p.dissipative(&cal).map(|d| (d.separation_m, d.separation_band_m, d.separation_3d));
+    assert_eq!(d, Ok((pole, band, true)));
     assert!((p.separation_m() - 1.09).abs() < 1e-6, "the floor keeps the body's separation");
     assert!((p.capacity().unwrap().separation_m - 1.39).abs() < 1e-6, "and the formation its guard above it");
     assert!((p.r_safe_m() - 0.645).abs() < 1e-6, "and the tube barrier its radius");

@@ -23,6 +23,12 @@ pub struct DissipativeParams {
     /// Horizontal centre distance the separation barrier keeps between UAVs, m (0: off, the
     /// paper's controller; extension, [`crate::separation`]).
     pub separation_m: f32,
+    /// Width of the separation barrier's band beyond its pole, m
+    /// ([`crate::separation::separation_pole_band`]).
+    pub separation_band_m: f32,
+    /// The separation barrier measures the pairs' 3-D distance (the contact barrier), not the
+    /// horizontal one.
+    pub separation_3d: bool,
     /// Share of `k2` the springs fly while the load's altitude is being changed (lift, climb,
     /// descent: [`crate::DissipativeController::set_heaving`]), in (0, 1] (1: the paper's springs;
     /// extension, [`crate::springs::heave_spring_share`]).
@@ -45,6 +51,8 @@ impl Default for DissipativeParams {
             r_safe_m: 0.5,
             r_active_m: 1.5,
             separation_m: 0.0,
+            separation_band_m: crate::separation::SEPARATION_BAND_M,
+            separation_3d: false,
             heave_spring_share: 1.0,
             tray: TrayParams::default(),
             vertical: VerticalParams::default(),
@@ -66,6 +74,9 @@ impl DissipativeParams {
         validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
         if !(self.separation_m.is_finite() && self.separation_m >= 0.0) {
             return Err(ControlError::InvalidParameter("separation_m"));
+        }
+        if !(self.separation_band_m.is_finite() && self.separation_band_m > 0.0) {
+            return Err(ControlError::InvalidParameter("separation_band_m"));
         }
         if !(self.heave_spring_share > 0.0 && self.heave_spring_share <= 1.0) {
             return Err(ControlError::InvalidParameter("heave_spring_share"));
