@@ -59,7 +59,7 @@ pub fn separation_barrier(k3: f32, separation_m: f32, band_m: f32) -> Option<Bar
 /// The separation barrier a team flies: its pole and band, m, and whether it measures the
 /// pairs' distance in 3-D ([`separation_pole_band`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SeparationShape {
+pub struct SeparationSpec {
     /// Pole: the centre distance the barrier keeps, m (0: off).
     pub pole_m: f32,
     /// Band beyond the pole where it acts, m.
@@ -81,14 +81,14 @@ pub struct SeparationShape {
 ///   pair apart before the bodies touch. Off without a positive floor.
 ///
 /// Off (a zero pole) without a body.
-pub fn separation_pole_band(body_r_m: f32, floor_m: f32, shaped: bool) -> SeparationShape {
-    let off = SeparationShape { pole_m: 0.0, band_m: SEPARATION_BAND_M, three_d: false };
+pub fn separation_pole_band(body_r_m: f32, floor_m: f32, shaped: bool) -> SeparationSpec {
+    let off = SeparationSpec { pole_m: 0.0, band_m: SEPARATION_BAND_M, three_d: false };
     if !(body_r_m > 0.0) {
         off
     } else if shaped {
-        if floor_m > 0.0 { SeparationShape { pole_m: 2.0 * body_r_m, band_m: floor_m, three_d: true } } else { off }
+        if floor_m > 0.0 { SeparationSpec { pole_m: 2.0 * body_r_m, band_m: floor_m, three_d: true } } else { off }
     } else {
-        SeparationShape { pole_m: 2.0 * body_r_m + vt_fpu::max(floor_m, 0.0), ..off }
+        SeparationSpec { pole_m: 2.0 * body_r_m + vt_fpu::max(floor_m, 0.0), ..off }
     }
 }
 

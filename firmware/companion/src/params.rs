@@ -374,7 +374,7 @@ impl Params {
     /// The crate's [`ControlError`] naming the field.
     pub fn dissipative(&self, cal: &Calibration) -> Result<DissipativeParams, ControlError> {
         let g = |p| self.get(p);
-        let sep = self.separation_barrier_m();
+        let sep = self.separation_spec();
         let params = DissipativeParams {
             k1: g(Param::K1),
             // An airframe slower than the paper's flies a softer formation (`lag_spring_scale`).
@@ -584,7 +584,7 @@ impl Params {
     /// shaped formation's neighbours, 1.2-1.5 m apart inside its band, slowed the paper mission
     /// to a crawl (docs/design.md, "A formation shaped to the tube"); the contact barrier is
     /// zero while a pair keeps the floor (docs/design.md, "The contact barrier").
-    pub fn separation_barrier_m(&self) -> vt_dissipative::separation::SeparationShape {
+    pub fn separation_spec(&self) -> vt_dissipative::separation::SeparationSpec {
         vt_dissipative::separation::separation_pole_band(self.get(Param::BodyR), self.get(Param::ClrMin), self.get_u32(Param::Shape) == 1)
     }
 

@@ -18,7 +18,7 @@ fn a_body_derives_the_separation_and_the_safety_radius() {
     assert!((p.capacity().unwrap().separation_m - 1.39).abs() < 1e-6, "raised from VT_SEP_MIN 0.9");
     p.set(Param::RSafe, 0.8).unwrap();
     assert_eq!(p.r_safe_m(), 0.8, "a larger VT_R_SAFE is kept");
-    let sep = p.separation_barrier_m();
+    let sep = p.separation_spec();
     assert_eq!((sep.pole_m, sep.band_m, sep.three_d), (p.separation_m(), vt_dissipative::separation::SEPARATION_BAND_M, false));
 }
 
@@ -31,7 +31,7 @@ fn the_shaped_formation_flies_the_contact_barrier() {
     p.set(Param::ShapeMrg, 0.3).unwrap();
     assert_eq!(p.shape(), Some(ShapeParams { margin_m: 0.3, ahead_m: 6.0 }));
     // The contact barrier: its pole at the bodies' contact, its band the 0.2 m floor.
-    let sep = p.separation_barrier_m();
+    let sep = p.separation_spec();
     let (pole, band) = (sep.pole_m, sep.band_m);
     assert!((pole - 0.89).abs() < 1e-6 && (band - 0.2).abs() < 1e-6 && sep.three_d, "{sep:?}");
     let cal = vt_dissipative::Calibration { cable_length_m: 8.0, stretch_m: 0.02, tension_share_n: 10.0, cos_lean: 0.95, distance_m: 8.02 };
