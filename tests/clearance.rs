@@ -168,11 +168,7 @@ fn the_team_keeping_keeps_apart_the_pair_the_tube_pressed_together() {
 /// but no contact.
 #[test]
 fn a_shaped_team_s_bodies_do_not_touch() {
-    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
-    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
-    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), 5190).expect("the seed draws");
-    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (21, "paper-2kg-50N"), "the draw this test was written on");
-    let (s, _) = fly(&g.text);
+    let (s, _) = fly(&common::generated(5190, 21, "paper-2kg-50N"));
     println!("seed 5190: UAV-UAV clearance {:.3} m, {:?}", s.min_uav_uav_clearance_m, s.failures);
     assert!(s.min_uav_uav_clearance_m > 0.05, "bodies within {:.3} m of each other", s.min_uav_uav_clearance_m);
 }

@@ -4,6 +4,9 @@
 //! Plant: the default rigid-body quadrotors behind the PX4-style autopilot on elastic cables,
 //! the load on the ground with Coulomb friction (docs/plant.md, "Ground contact").
 
+mod common;
+
+use common::generated;
 use host_sim::scenario::{parse, PAPER_10UAV};
 use host_sim::sim::{self, RunOptions};
 use host_sim::summary::Summary;
@@ -22,16 +25,6 @@ fn fly(text: &str) -> (Summary, host_sim::record::RunRecord) {
     let ls = parse(text, "ground.toml").expect("valid scenario");
     let out = sim::run(&ls, &RunOptions { record: true, ..RunOptions::default() }).expect("flies");
     (out.summary, out.record)
-}
-
-/// The generated campaign's 1x mission of `seed`, checked to be the draw (team size, airframe)
-/// the test was written on.
-fn generated(seed: u64, n_uavs: usize, airframe: &str) -> String {
-    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
-    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
-    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), seed).expect("the seed draws");
-    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (n_uavs, airframe), "the draw this test was written on");
-    g.text
 }
 
 fn names(s: &Summary) -> Vec<&str> {

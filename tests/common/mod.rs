@@ -1,5 +1,6 @@
 //! Test helpers shared by the backend comparisons (`tests/backends.rs`, `tests/failsafe.rs`),
-//! the scenario error checks (`tests/wind.rs`, `tests/clearance.rs`) and the QEMU tests
+//! the scenario error checks (`tests/wind.rs`, `tests/clearance.rs`), the generated missions
+//! (`tests/ground_start.rs`, `tests/clearance.rs`) and the QEMU tests
 //! (`tests/pil.rs`, `tests/perception_mcu.rs`).
 #![allow(dead_code)] // each test target uses its own part
 
@@ -108,4 +109,14 @@ pub fn qemu_present(qemu: &str, what: &str) -> bool {
     );
     eprintln!("SKIPPED: {qemu} not found (apt-get install -y qemu-system-arm); {what} did not run");
     false
+}
+
+/// The generated campaign's 1x mission of `seed` (`scenarios/campaigns/generated.toml`, the
+/// real-aircraft world), checked to be the draw (team size, airframe) the test was written on.
+pub fn generated(seed: u64, n_uavs: usize, airframe: &str) -> String {
+    let base = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/generated.toml");
+    let c = host_sim::campaign::load(Some(&base)).expect("the generated campaign");
+    let g = host_sim::scenario::generate::generate(c.tables.first().expect("a level"), seed).expect("the seed draws");
+    assert_eq!((g.drawn.n_uavs, g.drawn.airframe.name), (n_uavs, airframe), "the draw this test was written on");
+    g.text
 }

@@ -203,7 +203,7 @@ impl<const N: usize> DissipativeController<N> {
             n,
             params,
             barrier: params.tube_barrier(),
-            separation: separation_barrier(params.k3, params.separation_m, params.separation_band_m),
+            separation: separation_barrier(params.k3, &params.separation),
             rest,
             rest_scale: 1.0,
             last_ref_m: f32::INFINITY,
@@ -597,7 +597,7 @@ impl<const N: usize> DissipativeController<N> {
         // saturated command with up to twice its authority, then saturated again: at its cap
         // it always turns the command away from the neighbour.
         if let Some(b) = &self.separation {
-            let (v_sep, c) = separation_velocity(self.id, &m.own_pos_m, m.neighbours_m.get(..self.n).unwrap_or(m.neighbours_m), b, self.params.separation_3d);
+            let (v_sep, c) = separation_velocity(self.id, &m.own_pos_m, m.neighbours_m.get(..self.n).unwrap_or(m.neighbours_m), b, self.params.separation.three_d);
             status.coincident_nodes |= c;
             v_xy = sat(v_xy + sat(v_sep, SEPARATION_AUTHORITY * v_max), v_max);
         }

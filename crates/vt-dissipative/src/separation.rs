@@ -48,12 +48,13 @@ const PAIR_CAP_MPS: f32 = 1.0e3;
 /// (at most `v_m`), a capped separation velocity still turns it away from the neighbour.
 pub const SEPARATION_AUTHORITY: f32 = 2.0;
 
-/// The separation barrier with gain `k3` (m^2/s), pole `separation_m` (m) and band `band_m`
-/// (m, [`SEPARATION_BAND_M`] or, with the formation shaped to the tube, the clearance floor:
-/// [`separation_pole_band`]); `None` when `separation_m` or `band_m` is not positive (off: the
+/// The separation barrier `spec` with gain `k3` (m^2/s): pole `spec.pole_m`, band
+/// `spec.band_m` ([`SEPARATION_BAND_M`] or, with the formation shaped to the tube, the clearance
+/// floor: [`separation_pole_band`]); `None` when the pole or the band is not positive (off: the
 /// paper's controller).
-pub fn separation_barrier(k3: f32, separation_m: f32, band_m: f32) -> Option<BarrierParams> {
-    (separation_m > 0.0 && band_m > 0.0).then(|| BarrierParams::tube(k3, separation_m, separation_m + band_m))
+pub fn separation_barrier(k3: f32, spec: &SeparationSpec) -> Option<BarrierParams> {
+    let (pole, band) = (spec.pole_m, spec.band_m);
+    (pole > 0.0 && band > 0.0).then(|| BarrierParams::tube(k3, pole, pole + band))
 }
 
 /// The separation barrier a team flies: its pole and band, m, and whether it measures the
@@ -66,6 +67,11 @@ pub struct SeparationSpec {
     pub band_m: f32,
     /// The distance is the centres' 3-D distance (the contact barrier), not the horizontal one.
     pub three_d: bool,
+}
+
+impl SeparationSpec {
+    /// No separation barrier (the paper's controller).
+    pub const OFF: Self = Self { pole_m: 0.0, band_m: SEPARATION_BAND_M, three_d: false };
 }
 
 /// The separation barrier flown by bodies of radius `body_r_m` kept `floor_m` apart between
@@ -82,7 +88,7 @@ pub struct SeparationSpec {
 ///
 /// Off (a zero pole) without a body.
 pub fn separation_pole_band(body_r_m: f32, floor_m: f32, shaped: bool) -> SeparationSpec {
-    let off = SeparationSpec { pole_m: 0.0, band_m: SEPARATION_BAND_M, three_d: false };
+    let off = SeparationSpec::OFF;
     if !(body_r_m > 0.0) {
         off
     } else if shaped {
@@ -135,9 +141,9 @@ mod tests {
 
     #[test]
     fn off_at_zero_and_silent_beyond_the_band() {
-        assert!(separation_barrier(1.0, 0.0, SEPARATION_BAND_M).is_none());
-        assert!(separation_barrier(1.0, 1.1, 0.0).is_none());
-        let b = separation_barrier(1.0, 1.1, SEPARATION_BAND_M).unwrap();
+        assert!(separation_barrier(1.0, &SeparationSpec::OFF).is_none());
+        assert!(separation_barrier(1.0, &SeparationSpec { pole_m: 1.1, band_m: 0.0, three_d: false }).is_none());
+        let b = separation_barrier(1.0, &SeparationSpec { pole_m: 1.1, ..SeparationSpec::OFF }).unwrap();
         assert_eq!((b.r_safe_m, b.r_active_m), (1.1, 1.1 + SEPARATION_BAND_M));
         let n = [Some(Vec3::new(1.6, 0.0, 0.0)), None];
         assert_eq!(separation_velocity(1, &Vec3::zeros(), &n, &B, false).0, Vec2::zeros());
@@ -175,9 +181,9 @@ mod tests {
         assert_eq!((contact.pole_m, contact.band_m, contact.three_d), (2.0 * r, c, true));
         for (body, floor, shaped) in [(0.0, c, true), (0.0, c, false), (f32::NAN, c, true), (r, 0.0, true), (r, f32::NAN, true)] {
             let sh = separation_pole_band(body, floor, shaped);
-            assert!(separation_barrier(1.0, sh.pole_m, sh.band_m).is_none(), "off: {body} {floor} {shaped}");
+            assert!(separation_barrier(1.0, &sh).is_none(), "off: {body} {floor} {shaped}");
         }
-        let b = separation_barrier(1.0, contact.pole_m, contact.band_m).unwrap();
+        let b = separation_barrier(1.0, &contact).unwrap();
         let own = Vec3::new(0.0, 0.0, 10.0);
         let push = |d: f32, dz: f32| separation_velocity(0, &own, &[None, Some(Vec3::new(d, 0.0, 10.0 + dz))], &b, true).0;
         // Silent at the floor and beyond: at the shaped formation's 1.2-1.5 m, at 1.09 m, and
@@ -192,7 +198,7 @@ mod tests {
         assert!(bb.x < a.x && cc.x < bb.x, "{a:?} {bb:?} {cc:?}");
         assert!(push(0.9, 0.3).x < 0.0 && push(0.9, 0.3).x > cc.x);
         // Horizontally the same pair 0.8 m apart is inside the full barrier's reach.
-        let fb = separation_barrier(1.0, full.pole_m, full.band_m).unwrap();
+        let fb = separation_barrier(1.0, &full).unwrap();
         let n = [None, Some(Vec3::new(0.8, 0.0, 10.8))];
         assert!(separation_velocity(0, &own, &n, &fb, false).0.x < 0.0);
         assert!(separation_velocity(0, &own, &[None, Some(Vec3::new(1.3, 0.0, 10.0))], &fb, false).0.x < 0.0);

@@ -374,7 +374,6 @@ impl Params {
     /// The crate's [`ControlError`] naming the field.
     pub fn dissipative(&self, cal: &Calibration) -> Result<DissipativeParams, ControlError> {
         let g = |p| self.get(p);
-        let sep = self.separation_spec();
         let params = DissipativeParams {
             k1: g(Param::K1),
             // An airframe slower than the paper's flies a softer formation (`lag_spring_scale`).
@@ -384,9 +383,7 @@ impl Params {
             v_max_mps: g(Param::VMax),
             r_safe_m: self.r_safe_m(),
             r_active_m: g(Param::RActive),
-            separation_m: sep.pole_m,
-            separation_band_m: sep.band_m,
-            separation_3d: sep.three_d,
+            separation: self.separation_spec(),
             tray: self.tray(),
             vertical: VerticalParams {
                 load_altitude_ref_m: g(Param::LoadZRef),
@@ -565,8 +562,7 @@ impl Params {
     /// `2 VT_BODY_R + VT_CLR_MIN`, so that the bodies keep `VT_CLR_MIN` between their surfaces;
     /// 0 (off, the paper's controller) when `VT_BODY_R` is 0.
     pub fn separation_m(&self) -> f32 {
-        let body = self.get(Param::BodyR);
-        if body > 0.0 { 2.0 * body + self.get(Param::ClrMin) } else { 0.0 }
+        vt_dissipative::separation::separation_pole_band(self.get(Param::BodyR), self.get(Param::ClrMin), false).pole_m
     }
 
     /// The capacity-aware formation's separation floor from the body, m: [`Self::separation_m`]

@@ -2,6 +2,7 @@
 
 use crate::tray::TrayParams;
 use crate::vertical::VerticalParams;
+use crate::separation::SeparationSpec;
 use crate::ControlError;
 use vt_tube::BarrierParams;
 
@@ -20,15 +21,9 @@ pub struct DissipativeParams {
     pub r_safe_m: f32,
     /// Tube barrier activation radius `r_a`, m.
     pub r_active_m: f32,
-    /// Horizontal centre distance the separation barrier keeps between UAVs, m (0: off, the
-    /// paper's controller; extension, [`crate::separation`]).
-    pub separation_m: f32,
-    /// Width of the separation barrier's band beyond its pole, m
-    /// ([`crate::separation::separation_pole_band`]).
-    pub separation_band_m: f32,
-    /// The separation barrier measures the pairs' 3-D distance (the contact barrier), not the
-    /// horizontal one.
-    pub separation_3d: bool,
+    /// The separation barrier between UAVs (extension, [`crate::separation`]): its pole (0: off,
+    /// the paper's controller), band and distance ([`crate::separation::separation_pole_band`]).
+    pub separation: SeparationSpec,
     /// Share of `k2` the springs fly while the load's altitude is being changed (lift, climb,
     /// descent: [`crate::DissipativeController::set_heaving`]), in (0, 1] (1: the paper's springs;
     /// extension, [`crate::springs::heave_spring_share`]).
@@ -50,9 +45,7 @@ impl Default for DissipativeParams {
             v_max_mps: 1.5,
             r_safe_m: 0.5,
             r_active_m: 1.5,
-            separation_m: 0.0,
-            separation_band_m: crate::separation::SEPARATION_BAND_M,
-            separation_3d: false,
+            separation: SeparationSpec::OFF,
             heave_spring_share: 1.0,
             tray: TrayParams::default(),
             vertical: VerticalParams::default(),
@@ -72,11 +65,11 @@ impl DissipativeParams {
     /// [`ControlError::InvalidParameter`] naming the bad field.
     pub fn validate(&self) -> Result<(), ControlError> {
         validate_gains([self.k1, self.k2, self.k3], self.v_max_mps, self.r_safe_m, self.r_active_m)?;
-        if !(self.separation_m.is_finite() && self.separation_m >= 0.0) {
-            return Err(ControlError::InvalidParameter("separation_m"));
+        if !(self.separation.pole_m.is_finite() && self.separation.pole_m >= 0.0) {
+            return Err(ControlError::InvalidParameter("separation.pole_m"));
         }
-        if !(self.separation_band_m.is_finite() && self.separation_band_m > 0.0) {
-            return Err(ControlError::InvalidParameter("separation_band_m"));
+        if !(self.separation.band_m.is_finite() && self.separation.band_m > 0.0) {
+            return Err(ControlError::InvalidParameter("separation.band_m"));
         }
         if !(self.heave_spring_share > 0.0 && self.heave_spring_share <= 1.0) {
             return Err(ControlError::InvalidParameter("heave_spring_share"));
