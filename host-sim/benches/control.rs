@@ -144,9 +144,11 @@ impl<const N: usize> Team<N> {
 fn measurements(own_m: Vector3<f32>, load_m: Vector3<f32>, neighbours_m: &[Option<Vector3<f32>>], f_hat_n: Vector3<f32>) -> Measurements<'_> {
     Measurements {
         own_pos_m: own_m,
+        own_vel_mps: Vector3::zeros(),
         load_pos_m: load_m,
         load_vel_mps: Vector3::new(0.8, 0.1, 0.0),
         neighbours_m,
+        neighbours_vel_mps: &[],
         own_cable_force_n: Some(f_hat_n),
     }
 }

@@ -158,7 +158,7 @@ mod tests {
     }
 
     fn m<'a>(own: Vec3, nb: &'a [Option<Vec3>]) -> Measurements<'a> {
-        Measurements { own_pos_m: own, load_pos_m: Vec3::new(own.x, own.y, 0.0), load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: None }
+        Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: Vec3::new(own.x, own.y, 0.0), load_vel_mps: Vec3::zeros(), neighbours_m: nb, neighbours_vel_mps: &[], own_cable_force_n: None }
     }
 
     #[test]

@@ -151,6 +151,18 @@ pub const SPEED_FULL_MARGIN: f32 = 0.03;
 /// The smallest fraction of `v_max` a team near its capacity flies at.
 pub const SPEED_MIN_FRACTION: f32 = 0.5;
 
+/// Gain of the dashpot beside each UAV-UAV spring a team near its capacity flies
+/// ([`dashpot_gain`], [`crate::springs::dashpot_velocity`]), dimensionless.
+pub const NEAR_CAPACITY_DASHPOT: f32 = 0.1;
+
+/// The dashpot gain a team with capacity margin `margin` (`rho`, [`CapacityPlan::margin`])
+/// flies beside its springs: [`NEAR_CAPACITY_DASHPOT`] where it flies slower
+/// ([`speed_fraction`] below 1), else 0 (extension; docs/design.md, "A dashpot beside the
+/// springs of a team near its capacity").
+pub fn dashpot_gain(margin: f32) -> f32 {
+    if speed_fraction(margin) < 1.0 { NEAR_CAPACITY_DASHPOT } else { 0.0 }
+}
+
 /// The fraction of `v_max` a team with capacity margin `margin` (`rho`,
 /// [`CapacityPlan::margin`]) flies at: 1 from [`SPEED_FULL_MARGIN`] (and without a declared
 /// load), `rho / SPEED_FULL_MARGIN` below it, never under [`SPEED_MIN_FRACTION`] (a margin of

@@ -17,7 +17,7 @@ use crate::passing::{formation_faded, passing_velocity};
 use crate::separation::{separation_barrier, separation_velocity, SEPARATION_AUTHORITY};
 use crate::shape::{min_quantum, narrowest_half_width_m, next_quantum, quantum, ramped_half_width_m, ShapeParams, QUANTA, RAMP_BEHIND_M, RAMP_LEAD_M};
 use crate::keeping::{keeping_velocity, team_keeping_velocity, team_mean_keeping, TEAM_KEEPING_EVERY};
-use crate::springs::{spring_velocity, team_spring_gain, Formation, NodeId};
+use crate::springs::{dashpot_velocity, spring_velocity, team_spring_gain, Formation, NodeId};
 use crate::vertical::{VerticalLoop, VerticalParams};
 use crate::{ControlError, Status, Vec2, Vec3};
 use vt_tube::{sat, BarrierParams, Tube};
@@ -43,12 +43,17 @@ pub const HOLD_POSITION_GAIN_PER_S: f32 = 1.0;
 pub struct Measurements<'a> {
     /// Own position, m.
     pub own_pos_m: Vec3,
+    /// Own velocity, m/s (the dashpots beside the springs, [`DissipativeParams::dashpot`]).
+    pub own_vel_mps: Vec3,
     /// Load position, m.
     pub load_pos_m: Vec3,
     /// Load velocity, m/s.
     pub load_vel_mps: Vec3,
     /// Neighbours' positions by UAV id (own slot ignored); `None` = missing or stale.
     pub neighbours_m: &'a [Option<Vec3>],
+    /// Neighbours' horizontal velocities by UAV id, m/s, read where `neighbours_m` holds a
+    /// position (may be empty: no dashpot, [`DissipativeParams::dashpot`]).
+    pub neighbours_vel_mps: &'a [Vec2],
     /// The velocity loop's estimate of the cable force on this UAV (`f_hat`, REFERENCE §4), N;
     /// `None` when unavailable (load sharing then holds its offset).
     pub own_cable_force_n: Option<Vec3>,
@@ -590,7 +595,16 @@ impl<const N: usize> DissipativeController<N> {
                 (anchor - m.own_pos_m.xy()) * HOLD_POSITION_GAIN_PER_S
                     + self.params.tray.node_velocity_to_uav(&v_t, m.own_pos_m.z, &m.load_pos_m, &Vec3::zeros())
             }
-            None => self.params.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps),
+            None => {
+                let v = self.params.tray.node_velocity_to_uav(&vbar, m.own_pos_m.z, &m.load_pos_m, &m.load_vel_mps);
+                // The dashpots beside the springs (extension, springs.rs): a team near its
+                // capacity, outside the load's heave (whose springs fly softer already).
+                if self.params.dashpot > 0.0 && !self.heaving {
+                    v + dashpot_velocity(self.id, &m.own_pos_m, &m.own_vel_mps, m.neighbours_m.get(..self.n).unwrap_or(m.neighbours_m), m.neighbours_vel_mps, self.params.dashpot)
+                } else {
+                    v
+                }
+            }
         };
         let mut v_xy = sat(v_xy, v_max);
         // Separation barrier on the UAVs' own positions (extension, separation.rs), added to the

@@ -322,7 +322,7 @@ fn a_ring_turned_before_the_first_look_keeps_its_places_on_the_stadium() {
     for _ in 0..(5.0 * DRIFT_AVERAGE_S / DT_S) as usize {
         for (i, x) in ctl.iter_mut().enumerate() {
             x.set_team_hold(true);
-            let m = Measurements { own_pos_m: turned[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+            let m = Measurements { own_pos_m: turned[i], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
             x.update(&t, &m, DT_S);
         }
     }
@@ -375,7 +375,7 @@ fn a_separated_stadium_flies_its_passage_slower() {
     let nb = neighbours(&uavs);
     // The team off its rest places and the load moving: commands at the limit.
     let own = uavs[0] + Vec3::new(-1.5, 0.8, 0.0);
-    let m = Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::new(1.4, 0.0, 0.0), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::new(1.4, 0.0, 0.0), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let v_max = params().v_max_mps;
     let slow = v_max * crate::shape::PASSAGE_SPEED_FRACTION;
     let mut plain = team(n, &uavs, &load).remove(0);

@@ -70,7 +70,7 @@ fn nan_inputs_give_hold_and_are_flagged() {
         (uavs[0], Vec3::new(0.0, f32::INFINITY, 5.0)),
         (Vec3::repeat(f32::NAN), load),
     ] {
-        let m = Measurements { own_pos_m: own, load_pos_m: l, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+        let m = Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: l, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
         let c = ctl[0].update(&t, &m, DT_S);
         assert!(c.status.invalid_input);
         assert_eq!(c.vel_mps.xy(), Vec2::zeros());
@@ -83,7 +83,7 @@ fn nan_and_missing_neighbours_are_dropped_and_counted() {
     let (uavs, load) = takeoff(4, 5.0);
     let mut ctl = team(4, &uavs, &load);
     let nb = [Some(uavs[0]), None, Some(Vec3::new(f32::NAN, 0.0, 1.0)), Some(uavs[3])];
-    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: uavs[0], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let c = ctl[0].update(&tube(), &m, DT_S);
     assert_eq!(c.status.neighbours_dropped, 2);
     assert!(!c.status.invalid_input);
@@ -100,7 +100,7 @@ fn coincident_uavs_get_finite_separating_commands() {
     uavs[1] = uavs[0];
     let nb = neighbours(&uavs);
     let t = tube();
-    let mk = |own| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let mk = |own| Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let c0 = ctl[0].update(&t, &mk(uavs[0]), DT_S);
     let c1 = ctl[1].update(&t, &mk(uavs[1]), DT_S);
     assert!(c0.status.coincident_nodes && c1.status.coincident_nodes);
@@ -114,7 +114,7 @@ fn uav_below_the_load_is_floored_finite_and_limited() {
     let mut ctl = team(4, &uavs, &load);
     uavs[0].z = LOAD_Z_M - 3.0;
     let nb = neighbours(&uavs);
-    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: uavs[0], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let c = ctl[0].update(&tube(), &m, DT_S);
     assert!(c.status.projection_floored);
     assert!(c.vel_mps.xy().norm() <= params().v_max_mps);
@@ -127,7 +127,7 @@ fn uav_exactly_at_the_tray_plane_is_nominal() {
     let mut ctl = team(4, &uavs, &load);
     uavs[2].z = LOAD_Z_M + params().tray.height_above_load_m;
     let nb = neighbours(&uavs);
-    let m = Measurements { own_pos_m: uavs[2], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: uavs[2], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let c = ctl[2].update(&tube(), &m, DT_S);
     assert!(!c.status.projection_floored);
     assert_relative_eq!(c.node_m, uavs[2].xy(), epsilon = 1e-5);
@@ -145,7 +145,7 @@ fn symmetric_formation_on_a_straight_tube_moves_rigidly() {
         .iter_mut()
         .zip(uavs.iter())
         .map(|(c, u)| {
-            c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S)
+            c.update(&t, &Measurements { own_pos_m: *u, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None }, DT_S)
         })
         .collect();
     for c in &cmds {
@@ -165,7 +165,7 @@ fn tray_center_replicas_agree() {
     let t = tube();
     for _ in 0..50 {
         for (c, u) in ctl.iter_mut().zip(uavs.iter()) {
-            c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S);
+            c.update(&t, &Measurements { own_pos_m: *u, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None }, DT_S);
         }
     }
     for c in &ctl {
@@ -214,7 +214,7 @@ fn fly_team(n: usize, steps: usize, hold: core::ops::Range<usize>, shaped: bool)
             .iter_mut()
             .zip(uavs.iter())
             .map(|(c, u)| {
-                let m = Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+                let m = Measurements { own_pos_m: *u, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
                 let cmd = c.update(&t, &m, DT_S);
                 assert!(cmd.status.neighbours_dropped == 0 && !cmd.status.invalid_input);
                 min_dt = min_dt.min(cmd.boundary_distance_m);
@@ -249,7 +249,7 @@ fn a_heaving_load_scales_exactly_the_springs() {
     uavs[0].y += 0.7;
     let nb = neighbours(&uavs);
     let t = tube();
-    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: uavs[0], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     plain.set_team_hold(true);
     plain.update(&t, &m, DT_S);
     let mut heaving = plain.clone();
@@ -275,7 +275,7 @@ fn team_hold_removes_exactly_the_passing_term() {
     uavs[0].y += 0.7; // off its rest position: the springs act on UAV 0
     let nb = neighbours(&uavs);
     let t = tube();
-    let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: uavs[0], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     // Transport first: the replica leads the formation along the tube.
     for _ in 0..50 {
         go.update(&t, &m, DT_S);
@@ -319,7 +319,7 @@ fn in_team_hold_a_missing_neighbour_anchors_the_uav_where_it_was() {
     let mut c = team(4, &uavs, &load).swap_remove(0);
     c.set_team_hold(true);
     let all = neighbours(&uavs);
-    let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, own_cable_force_n: None };
+    let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let at_rest = c.update(&t, &m(uavs[0], &all, Vec3::zeros()), DT_S).vel_mps;
     assert!(at_rest.xy().norm() < 1e-4, "formation at rest, all neighbours: {at_rest:?}");
     let partial = [Some(uavs[0]), Some(uavs[1]), None, Some(uavs[3])];
@@ -353,7 +353,7 @@ fn an_anchored_team_hold_holds_the_uav_where_it_was_with_every_neighbour_fresh()
     let (uavs, load) = takeoff(4, 8.0);
     let t = tube();
     let all = neighbours(&uavs);
-    let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, own_cable_force_n: None };
+    let m = |own: Vec3, nb, vl: Vec3| Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: vl, neighbours_m: nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let squeezed = uavs[0] + Vec3::new(0.3, 0.0, 0.0);
     let mut nb = all.clone();
     nb[0] = Some(squeezed);
@@ -429,14 +429,14 @@ fn uav_above_the_tray_is_kept_by_its_own_position() {
     let own = Vec3::new(10.0, 2.8, low_load.z + 15.0); // 0.2 m from the boundary, node at y = 1.87
     let mut nb = neighbours(&uavs);
     nb[0] = Some(own);
-    let m = Measurements { own_pos_m: own, load_pos_m: low_load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: low_load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     let c = ctl[0].update(&t, &m, DT_S);
     assert_relative_eq!(c.boundary_distance_m, 0.2, epsilon = 1e-3);
     assert!(c.vel_mps.y < -0.5, "UAV 0.2 m from the boundary must be pushed inwards: {:?}", c.vel_mps);
     // Below the tray plane the node's distance is the one kept (the paper's law).
     let own = Vec3::new(10.0, 2.0, load.z + 8.0);
     nb[0] = Some(own);
-    let m = Measurements { own_pos_m: own, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+    let m = Measurements { own_pos_m: own, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
     assert_relative_eq!(ctl[0].update(&t, &m, DT_S).boundary_distance_m, 3.0 - 2.5, epsilon = 1e-3);
 }
 
@@ -463,7 +463,7 @@ fn formation_settles_at_the_capacity_scale() {
         let nb = neighbours(&uavs);
         let mut vel = Vec::new();
         for i in 0..6 {
-            let m = Measurements { own_pos_m: uavs[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+            let m = Measurements { own_pos_m: uavs[i], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
             let a = plain[i].update(&t, &m, DT_S);
             assert_eq!(a, off[i].update(&t, &m, DT_S), "the law without a declared load must be the paper's");
             vel.push(ctl[i].update(&t, &m, DT_S).vel_mps);
@@ -494,7 +494,7 @@ proptest! {
         if poison < 3 { uavs[(k + 1) % 4].x = special[poison]; }
         let load = Vec3::new(lx, ly, lz);
         let nb = neighbours(&uavs);
-        let m = Measurements { own_pos_m: uavs[0], load_pos_m: load, load_vel_mps: Vec3::new(vl, -vl, 0.0), neighbours_m: &nb, own_cable_force_n: None };
+        let m = Measurements { own_pos_m: uavs[0], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::new(vl, -vl, 0.0), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
         let c = ctl[0].update(&tube(), &m, DT_S);
         prop_assert!(c.vel_mps.iter().all(|x| x.is_finite()));
         prop_assert!(c.vel_mps.xy().norm() <= params().v_max_mps);
@@ -534,7 +534,7 @@ fn a_uav_outside_a_new_tube_joins_it_widened_and_the_widening_only_shrinks() {
             .iter_mut()
             .enumerate()
             .map(|(i, c)| {
-                let m = Measurements { own_pos_m: uavs[i], load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+                let m = Measurements { own_pos_m: uavs[i], own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
                 let cmd = c.update(&new, &m, DT_S);
                 assert!(cmd.vel_mps.iter().all(|v| v.is_finite()) && !cmd.status.invalid_input);
                 assert!(!cmd.status.outside_tube, "UAV {i} outside at step {k}");
@@ -581,7 +581,7 @@ fn the_climb_s_lag_is_no_overload() {
             // The load 0.6 m below the reference: past `sag_start`, towards `sag_full`.
             let z_ref = if rising { LOAD_Z_M + 0.01 * k as f32 } else { LOAD_Z_M };
             c.set_load_altitude_ref(z_ref, crate::vertical::Sharing::Full);
-            let m = Measurements { own_pos_m: uavs[0], load_pos_m: Vec3::new(load.x, load.y, z_ref - 0.6), load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None };
+            let m = Measurements { own_pos_m: uavs[0], own_vel_mps: Vec3::zeros(), load_pos_m: Vec3::new(load.x, load.y, z_ref - 0.6), load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None };
             c.update(&t, &m, DT_S);
         }
         c.formation_scale()
@@ -617,7 +617,7 @@ fn the_formation_stops_as_one_at_the_end_terminal() {
         let vel: Vec<Vec3> = ctl
             .iter_mut()
             .zip(uavs.iter())
-            .map(|(c, u)| c.update(&t, &Measurements { own_pos_m: *u, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, own_cable_force_n: None }, DT_S).vel_mps)
+            .map(|(c, u)| c.update(&t, &Measurements { own_pos_m: *u, own_vel_mps: Vec3::zeros(), load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &[], own_cable_force_n: None }, DT_S).vel_mps)
             .collect();
         for (u, v) in uavs.iter_mut().zip(vel.iter()) {
             *u += v * DT_S;

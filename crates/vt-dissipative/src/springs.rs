@@ -110,6 +110,43 @@ pub fn spring_velocity(q_i: &Vec2, q_j: &Vec2, rest_m: f32, k2: f32, i_first: bo
     }
 }
 
+/// Velocity of UAV `id` at `own_m`, moving at `own_vel_mps`, from the dashpots beside its
+/// springs to the neighbours at `neighbours_m` (by UAV id; `None`: not seen) moving at
+/// `neighbours_vel_mps` (horizontal, by UAV id), gain `c` (dimensionless), m/s (extension;
+/// docs/design.md, "A dashpot beside the springs of a team near its capacity"):
+/// `-c sum_j ((v_i - v_j) . u_ij) u_ij`, `u_ij` the horizontal unit vector from UAV `j` to
+/// UAV `i`.
+///
+/// Each dashpot acts along its pair's line, as its spring does, and on the pair's relative
+/// velocity alone: a team moving as one feels nothing. Prop. 1's storage function still
+/// decreases: for UAVs that follow their commands the dashpots make eq:2-16
+/// `(I + c L_u) v = -grad V`, with `L_u = sum_pairs (e_i - e_j)(e_i - e_j)^T (x) u_ij u_ij^T`
+/// positive semi-definite, so `dV/dt = -v^T (I + c L_u) v <= 0`. A pair closer than
+/// [`COINCIDENT_M`] horizontally (no line), a neighbour without a velocity and a non-finite
+/// velocity add nothing.
+pub fn dashpot_velocity(id: usize, own_m: &Vec3, own_vel_mps: &Vec3, neighbours_m: &[Option<Vec3>], neighbours_vel_mps: &[Vec2], c: f32) -> Vec2 {
+    let own_xy = own_m.xy();
+    let own_vel = own_vel_mps.xy();
+    let mut v = Vec2::zeros();
+    for (j, (p_j, v_j)) in neighbours_m.iter().zip(neighbours_vel_mps.iter()).enumerate() {
+        let Some(p_j) = p_j else { continue };
+        if j == id {
+            continue;
+        }
+        let d = own_xy - p_j.xy();
+        let l2 = d.norm_squared();
+        if l2 >= COINCIDENT_M * COINCIDENT_M {
+            let rel = own_vel - v_j;
+            // `((v_i - v_j) . d) d / |d|^2`: one division, no root.
+            let push = d * (-c * rel.dot(&d) / l2);
+            if vt_fpu::all_finite(&push) {
+                v += push;
+            }
+        }
+    }
+    v
+}
+
 /// The take-off formation: node positions that define the rest lengths (eq:2-7).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Formation<const N: usize> {

@@ -89,6 +89,10 @@ pub struct Sources {
     pub load: Option<Stamped<State>>,
     /// Neighbours' positions by UAV index (own slot unused).
     pub neighbours: [Option<Stamped<Vec3>>; MAX_UAVS],
+    /// Neighbours' horizontal velocities by UAV index, m/s, from the same reports as
+    /// `neighbours` (own slot unused; zero until the first): the dashpots beside the springs
+    /// read them where the position is fresh (`vt_dissipative::springs::dashpot_velocity`).
+    pub neighbour_vel_mps: [Vector2<f32>; MAX_UAVS],
     /// Bit `j` set: neighbour `j`'s last broadcast mode was [`TeamMode::Hold`] (own bit never
     /// set); it counts while the neighbour's position is fresh.
     pub neighbour_hold: MemberBits,
@@ -168,7 +172,7 @@ impl Sources {
 
     /// Nothing received yet.
     pub const fn new() -> Self {
-        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_hold: MemberBits::EMPTY, neighbour_released: MemberBits::EMPTY, survey: TakeoffSurvey::new(1) }
+        Self { own: None, load: None, neighbours: [None; MAX_UAVS], neighbour_vel_mps: [Vector2::new(0.0, 0.0); MAX_UAVS], neighbour_hold: MemberBits::EMPTY, neighbour_released: MemberBits::EMPTY, survey: TakeoffSurvey::new(1) }
     }
 }
 
@@ -479,9 +483,11 @@ impl Flight {
             let load_age_s = age_s(now_ms, load.sample_ms);
             let m = Measurements {
                 own_pos_m,
+                own_vel_mps: own.vel_mps,
                 load_pos_m: extrapolate_constant_velocity(load.pos_m, load.vel_mps, load_age_s),
                 load_vel_mps: load.vel_mps,
                 neighbours_m: view.get(..self.n).unwrap_or(&[]),
+                neighbours_vel_mps: src.neighbour_vel_mps.get(..self.n).unwrap_or(&[]),
                 own_cable_force_n: Some(self.f_hat_n),
             };
             let cmd = high.update(tube, &m, self.hl_dt_s);

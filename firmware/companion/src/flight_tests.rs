@@ -56,7 +56,7 @@ fn reference(p: &Params) -> DissipativeController<MAX_UAVS> {
 }
 
 fn measurements(nb: &[Option<Vec3>]) -> Measurements<'_> {
-    Measurements { own_pos_m: uav_pos(0), load_pos_m: load_pos(), load_vel_mps: Vec3::zeros(), neighbours_m: nb, own_cable_force_n: Some(Vec3::zeros()) }
+    Measurements { own_pos_m: uav_pos(0), own_vel_mps: Vec3::zeros(), load_pos_m: load_pos(), load_vel_mps: Vec3::zeros(), neighbours_m: nb, neighbours_vel_mps: &[], own_cable_force_n: Some(Vec3::zeros()) }
 }
 
 /// Five quiet high-level steps after the last alarm (`FS_RESUME` = 0.1 s): team hold, flown

@@ -384,6 +384,8 @@ impl Params {
             r_safe_m: self.r_safe_m(),
             r_active_m: g(Param::RActive),
             separation: self.separation_spec(),
+            // Set at the arming from the capacity plan (flight::arming, capacity::dashpot_gain).
+            dashpot: 0.0,
             tray: self.tray(),
             vertical: VerticalParams {
                 load_altitude_ref_m: g(Param::LoadZRef),

@@ -177,8 +177,9 @@ pub struct TickFrames<'a> {
     pub system_id: u8,
     /// Load state (position, velocity), ENU, when the high level is due.
     pub load: Option<(V3f, V3f)>,
-    /// Neighbours' positions by UAV index (`None`: not delivered), when the high level is due.
-    pub neighbours: &'a [Option<V3f>],
+    /// Neighbours' positions and velocities by UAV index (`None`: not delivered), when the high
+    /// level is due.
+    pub neighbours: &'a [Option<(V3f, V3f)>],
     /// Own position and velocity, ENU.
     pub own: (V3f, V3f),
     /// Sample times of the own and the load state, ms (`time_boot_ms`; older than `time_ms`
@@ -239,9 +240,9 @@ impl TickFrames<'_> {
         if let Some((p, v)) = &self.load {
             out.extend(tracker.frame(self.system_id, LOAD_COMPONENT_ID, &local_position(load_sample_ms, p, v)));
             for (j, nb) in self.neighbours.iter().enumerate() {
-                if let (Some(p), true) = (nb, j != self.id) {
+                if let (Some((p, v)), true) = (nb, j != self.id) {
                     let sys = SYSID_BASE + j as u8;
-                    out.extend(network.frame(sys, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, p, &V3f::zeros())));
+                    out.extend(network.frame(sys, AUTOPILOT_COMPONENT_ID, &local_position(self.time_ms, p, v)));
                 }
             }
         }

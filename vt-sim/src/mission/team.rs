@@ -48,9 +48,9 @@ pub struct Tick<'a> {
     pub own_stalled: &'a [bool],
     /// The load's measured state (from the load tracker; valid when `high_level`).
     pub load: Meas,
-    /// Per UAV, the team's positions as its link delivered them (`None`: not delivered; own
-    /// slot: its own position; valid when `high_level`).
-    pub views: &'a [Vec<Option<V3f>>],
+    /// Per UAV, the team's positions and velocities as its link delivered them (`None`: not
+    /// delivered; own slot: its own; valid when `high_level`).
+    pub views: &'a [Vec<Option<(V3f, V3f)>>],
     /// Per UAV, the team mode and phase each other UAV broadcast with the position in `views`
     /// (`None` with it; docs/design.md, "Team failsafe"; valid when `high_level`).
     pub modes: &'a [Vec<Option<Beacon>>],
@@ -276,8 +276,8 @@ impl CompanionTeam {
         if tick.high_level {
             c.position(Source::Load, tick.load.pos_m, tick.load.vel_mps, tick.load.sample_ms, io);
             for (j, p) in tick.views.get(i).into_iter().flatten().enumerate() {
-                if let (Some(p), true) = (p, j != i) {
-                    c.position(Source::Member(j), *p, V3f::zeros(), tick.time_ms, io);
+                if let (Some((p, v)), true) = (p, j != i) {
+                    c.position(Source::Member(j), *p, *v, tick.time_ms, io);
                 }
             }
         }

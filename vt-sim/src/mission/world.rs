@@ -28,6 +28,8 @@ fn v3f(v: &V3) -> V3f {
 #[derive(Debug, Clone, Copy)]
 struct TeamMsg {
     pos_m: V3f,
+    /// The sender's own velocity as its autopilot reports it (its last own sample), m/s.
+    vel_mps: V3f,
     mode: Beacon,
 }
 
@@ -53,11 +55,11 @@ pub struct World<'a> {
     formation: Option<Formation<SIM_MAX_UAVS>>,
     start_own: Vec<Meas>,
     start_load: Meas,
-    start_views: Vec<Vec<Option<V3f>>>,
+    start_views: Vec<Vec<Option<(V3f, V3f)>>>,
     start_modes: Vec<Vec<Option<Beacon>>>,
     own: Vec<Meas>,
     load: Meas,
-    views: Vec<Vec<Option<V3f>>>,
+    views: Vec<Vec<Option<(V3f, V3f)>>>,
     /// Per receiver, per sender: the team mode that came with the position in `views`.
     modes: Vec<Vec<Option<Beacon>>>,
     link_msg: Vec<TeamMsg>,
@@ -228,7 +230,7 @@ impl<'a> World<'a> {
             start_own,
             start_load,
             start_views,
-            link_msg: vec![TeamMsg { pos_m: V3f::zeros(), mode: Beacon::START }; n],
+            link_msg: vec![TeamMsg { pos_m: V3f::zeros(), vel_mps: V3f::zeros(), mode: Beacon::START }; n],
             view_buf: Vec::with_capacity(n),
             team_mode: vec![TeamMode::Transport; n],
             stall_until: vec![None; n],
@@ -313,7 +315,7 @@ impl<'a> World<'a> {
                 .map_err(|e| SimError(format!("formation: {e}")))?,
         );
         let n = own_pos.len();
-        self.start_views = vec![own_pos.iter().copied().map(Some).collect::<Vec<_>>(); n];
+        self.start_views = vec![own_pos.iter().map(|p| Some((*p, V3f::zeros()))).collect::<Vec<_>>(); n];
         self.views = self.start_views.clone();
         self.modes = vec![vec![Some(Beacon::START); n]; n];
         self.own = start_own.clone();
@@ -440,8 +442,8 @@ impl<'a> World<'a> {
             let snap = &self.snap_scratch;
             // The mode as the team set it for this tick, the phase as its last step reported
             // it: both what the companion's last HEARTBEAT said.
-            for (i, (((msg, x), mode), phase)) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.team_mode).zip(&self.phase_codes).enumerate() {
-                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), x)), mode: Beacon { mode: *mode, phase: *phase } };
+            for (i, ((((msg, x), own), mode), phase)) in self.link_msg.iter_mut().zip(&snap.uav_pos_m).zip(&self.own).zip(&self.team_mode).zip(&self.phase_codes).enumerate() {
+                *msg = TeamMsg { pos_m: v3f(&self.sensors.position(Receiver::Uav(i), x)), vel_mps: own.vel_mps, mode: Beacon { mode: *mode, phase: *phase } };
             }
             self.load = Meas {
                 pos_m: v3f(&self.sensors.position(Receiver::Load, &snap.load_pos_m)),
@@ -456,10 +458,10 @@ impl<'a> World<'a> {
                 sc.measure(hl_step, &self.uav_pos_scratch, &measured);
             }
             for (i, (view, modes)) in self.views.iter_mut().zip(self.modes.iter_mut()).enumerate() {
-                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), mode: Beacon::START });
+                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), vel_mps: V3f::zeros(), mode: Beacon::START });
                 self.link.view(i, hl_step, own, &mut self.view_buf);
                 view.clear();
-                view.extend(self.view_buf.iter().map(|m| m.map(|m| m.pos_m)));
+                view.extend(self.view_buf.iter().map(|m| m.map(|m| (m.pos_m, m.vel_mps))));
                 modes.clear();
                 modes.extend(self.view_buf.iter().map(|m| m.map(|m| m.mode)));
             }

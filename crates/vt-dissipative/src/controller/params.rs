@@ -28,6 +28,10 @@ pub struct DissipativeParams {
     /// descent: [`crate::DissipativeController::set_heaving`]), in (0, 1] (1: the paper's springs;
     /// extension, [`crate::springs::heave_spring_share`]).
     pub heave_spring_share: f32,
+    /// Gain of the dashpot beside each UAV-UAV spring, on the pair's relative horizontal velocity
+    /// along it (extension, [`crate::springs::dashpot_velocity`]), dimensionless; 0: off (the
+    /// paper's springs).
+    pub dashpot: f32,
     /// Virtual tray geometry.
     pub tray: TrayParams,
     /// Altitude law.
@@ -47,6 +51,7 @@ impl Default for DissipativeParams {
             r_active_m: 1.5,
             separation: SeparationSpec::OFF,
             heave_spring_share: 1.0,
+            dashpot: 0.0,
             tray: TrayParams::default(),
             vertical: VerticalParams::default(),
         }
@@ -73,6 +78,9 @@ impl DissipativeParams {
         }
         if !(self.heave_spring_share > 0.0 && self.heave_spring_share <= 1.0) {
             return Err(ControlError::InvalidParameter("heave_spring_share"));
+        }
+        if !(self.dashpot.is_finite() && self.dashpot >= 0.0) {
+            return Err(ControlError::InvalidParameter("dashpot"));
         }
         self.tray.validate()?;
         self.vertical.validate()

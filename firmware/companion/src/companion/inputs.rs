@@ -90,6 +90,9 @@ impl Core<'_> {
                 match self.sources.neighbours.get_mut(j) {
                     Some(slot) if j < n => {
                         *slot = Some(Stamped { value: pos, stamp_ms });
+                        if let Some(v) = self.sources.neighbour_vel_mps.get_mut(j) {
+                            *v = vel.xy();
+                        }
                         #[cfg(feature = "perception")]
                         self.note_team_data();
                         if surveying {

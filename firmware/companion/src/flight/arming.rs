@@ -95,9 +95,12 @@ pub(super) fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_p
         HighLevel::Baseline(BaselineController::new(id, n, baseline).map_err(StartError::Controller)?)
     } else {
         // A team near its capacity flies slower (docs/design.md, "A team near its capacity flies
-        // slower"): every UAV from the same plan.
+        // slower"): every UAV from the same plan ...
         let mut dissipative = dissipative;
         dissipative.v_max_mps *= capacity::speed_fraction(plan.margin());
+        // ... with a dashpot beside each spring (docs/design.md, "A dashpot beside the springs
+        // of a team near its capacity").
+        dissipative.dashpot = capacity::dashpot_gain(plan.margin());
         let mut high = DissipativeController::new(id, dissipative, &formation).map_err(StartError::Controller)?;
         high.set_capacity(FormationScale::new(&plan, &cap));
         if let Some(shape) = params.shape() {
