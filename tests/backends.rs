@@ -141,3 +141,21 @@ fn crates_and_twin_report_a_refusal_on_the_ground_in_the_same_words() {
     // The declared 30 m/s plus the scenario's gust margin, against the team's capacity.
     assert!(first.contains("wind 30.") && first.contains("m/s > cap ") && first.contains("(tilt)"), "the numbers: {first}");
 }
+
+/// A team near its capacity flies dashpots beside its springs on its neighbours' velocities
+/// (docs/design.md, "A dashpot beside the springs of a team near its capacity"): SIL hands the
+/// companions the velocities the link delivered, the twin sends them in the members'
+/// `LOCAL_POSITION_NED` (`vx`, `vy`, `vz`). `payload-packed` at 19.8 kg on the 20 N clamp, in the
+/// real-aircraft world (its capacity margin 0.4 %: the dashpots on), seed 7105, flies command
+/// for command on both. Before the dashpots this seed lost a pair at 0.19 m.
+#[test]
+fn crates_and_twin_fly_the_dashpots_of_a_team_near_its_capacity_identically() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/campaigns/payload-packed.toml");
+    let c = host_sim::campaign::load_in(Some(&p), Some(host_sim::campaign::World::RealAircraft)).expect("campaign is valid");
+    let l = c.levels.iter().position(|(l, _)| *l == Some(19.8)).expect("19.8 kg is a level");
+    let (ls, _, _) = host_sim::campaign::scenario_of(&c, l, 7105).expect("the level's scenario");
+    let mut ls = ls.into_owned();
+    ls.scenario.seed = 7105;
+    let s = assert_same_flight(&ls, "payload-packed.toml (19.8 kg, seed 7105)", UavModel::RigidBody, CableModel::PaperClamp, true);
+    assert!(s.min_uav_uav_clearance_m >= 0.2, "pairs apart: {} m", s.min_uav_uav_clearance_m);
+}

@@ -536,6 +536,19 @@ mod tests {
         assert!(p.margin() > 0.08);
     }
 
+    /// A team flies the dashpots beside its springs where it flies slower (below a 3 % margin,
+    /// and for a margin that is none or not a number), and none from the full speed's margin on
+    /// or without a declared load.
+    #[test]
+    fn a_team_near_its_capacity_flies_dashpots_beside_its_springs() {
+        for m in [f32::INFINITY, 1.0, 0.086, SPEED_FULL_MARGIN] {
+            assert_eq!(dashpot_gain(m), 0.0, "{m}");
+        }
+        for m in [0.0299, 0.0225, 0.0044, 0.0, -0.1, f32::NAN] {
+            assert_eq!(dashpot_gain(m), NEAR_CAPACITY_DASHPOT, "{m}");
+        }
+    }
+
     /// A team near its capacity flies slower: full speed from a 3 % margin and without a
     /// declared load, in proportion below, half speed at the least, and at the least for a
     /// margin that is none, negative or not a number.

@@ -267,6 +267,42 @@ fn a_heaving_load_scales_exactly_the_springs() {
 }
 
 #[test]
+fn the_dashpots_add_exactly_their_velocity_outside_the_heave() {
+    // Two controllers, one with the dashpots (`dashpot` 0.1), on the same measurements with
+    // the team in relative motion: they differ by `springs::dashpot_velocity` alone, and not
+    // while the load heaves (the springs fly softer then) or in an anchored hold.
+    let (mut uavs, load) = takeoff(4, 8.0);
+    let f = Formation::<N>::from_takeoff(&uavs, &load, &params().tray).unwrap();
+    let mut plain = DissipativeController::new(0, params(), &f).unwrap();
+    let mut damped = DissipativeController::new(0, DissipativeParams { dashpot: 0.1, ..params() }, &f).unwrap();
+    uavs[0].y += 0.7;
+    let nb = neighbours(&uavs);
+    let vel = [Vec2::new(0.3, -0.2), Vec2::new(-0.4, 0.1), Vec2::new(0.0, 0.5), Vec2::new(0.2, 0.2)];
+    let own_vel = Vec3::new(vel[0].x, vel[0].y, 0.1);
+    let t = tube();
+    let m = Measurements { own_pos_m: uavs[0], own_vel_mps: own_vel, load_pos_m: load, load_vel_mps: Vec3::zeros(), neighbours_m: &nb, neighbours_vel_mps: &vel, own_cable_force_n: None };
+    plain.set_team_hold(true);
+    damped.set_team_hold(true);
+    let (a, b) = (plain.update(&t, &m, DT_S), damped.update(&t, &m, DT_S));
+    let dash = crate::springs::dashpot_velocity(0, &uavs[0], &own_vel, &nb, &vel, 0.1);
+    assert!(dash.norm() > 0.02, "{dash:?}");
+    assert!(b.vel_mps.xy().norm() < params().v_max_mps, "not saturated: {:?}", b.vel_mps);
+    assert_relative_eq!(b.vel_mps.xy(), a.vel_mps.xy() + dash, epsilon = 1e-6);
+    assert_eq!(a.vel_mps.z, b.vel_mps.z);
+    // Without the velocities (or without motion) the two agree.
+    let still = Measurements { neighbours_vel_mps: &[], ..m };
+    assert_eq!(plain.clone().update(&t, &still, DT_S).vel_mps, damped.clone().update(&t, &still, DT_S).vel_mps);
+    // Heaving: none.
+    plain.set_heaving(true);
+    damped.set_heaving(true);
+    assert_eq!(plain.update(&t, &m, DT_S).vel_mps, damped.update(&t, &m, DT_S).vel_mps);
+    for bad in [-0.1, f32::NAN, f32::INFINITY] {
+        let p = DissipativeParams { dashpot: bad, ..params() };
+        assert!(DissipativeController::<N>::new(0, p, &f).is_err(), "{bad}");
+    }
+}
+
+#[test]
 fn team_hold_removes_exactly_the_passing_term() {
     // Same controller twice, one in team hold: the commands differ by the passing term
     // eq:2-13 of the own node mapped by eq:2-20 (load at rest: factor (z_i - z_l)/H).

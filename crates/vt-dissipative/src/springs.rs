@@ -256,6 +256,46 @@ mod tests {
     use approx::assert_relative_eq;
     use proptest::prelude::*;
 
+    /// The dashpots act on relative motion along each pair's line alone: nothing for a team
+    /// moving as one or for motion across the line; against a pair closing or opening along it,
+    /// by `c` times that speed; equal and opposite on the pair's two UAVs; never adding energy
+    /// (`(v_i - v_j) . push <= 0`); nothing for a neighbour unseen, coincident or with a velocity
+    /// that is not a number, or with no velocities at all.
+    #[test]
+    fn the_dashpots_damp_a_pair_s_relative_motion_along_its_line_alone() {
+        let c = 0.1;
+        let a = Vec3::new(0.0, 0.0, 5.0);
+        let b = Vec3::new(2.0, 0.0, 6.0);
+        let nb = [Some(a), Some(b)];
+        let dash = |id: usize, own: &Vec3, v_own: Vec2, v: [Vec2; 2]| dashpot_velocity(id, own, &Vec3::new(v_own.x, v_own.y, 0.0), &nb, &v, c);
+        // As one: nothing.
+        let v = Vec2::new(0.7, -0.4);
+        assert_eq!(dash(0, &a, v, [v, v]), Vec2::zeros());
+        // Across the line (y): nothing.
+        assert_relative_eq!(dash(0, &a, Vec2::new(0.0, 0.5), [Vec2::new(0.0, 0.5), Vec2::new(0.0, -0.5)]), Vec2::zeros(), epsilon = 1e-7);
+        // UAV 0 closing on UAV 1 at 0.5 m/s along the line: pushed back by c * 0.5; UAV 1, at
+        // rest, pulled towards it by as much: equal and opposite.
+        let v_a = Vec2::new(0.5, 0.0);
+        let on_a = dash(0, &a, v_a, [v_a, Vec2::zeros()]);
+        let on_b = dash(1, &b, Vec2::zeros(), [v_a, Vec2::zeros()]);
+        assert_relative_eq!(on_a, Vec2::new(-0.05, 0.0), epsilon = 1e-7);
+        assert_relative_eq!(on_b, -on_a, epsilon = 1e-7);
+        // Dissipative for any velocities.
+        for k in 0..50 {
+            let t = k as f32 * 0.37;
+            let (va, vb) = (Vec2::new(t.cos(), (2.0 * t).sin()), Vec2::new((3.0 * t).sin(), t.cos() * 0.5));
+            let push = dash(0, &a, va, [va, vb]);
+            assert!((va - vb).dot(&push) <= 0.0, "{k}");
+        }
+        // Degenerate inputs add nothing.
+        let zero = Vec2::zeros();
+        assert_eq!(dashpot_velocity(0, &a, &Vec3::new(0.5, 0.0, 0.0), &[Some(a), None], &[zero, zero], c), zero);
+        assert_eq!(dashpot_velocity(0, &a, &Vec3::new(0.5, 0.0, 0.0), &[Some(a), Some(Vec3::new(0.0, 0.0, 7.0))], &[zero, zero], c), zero);
+        assert_eq!(dashpot_velocity(0, &a, &Vec3::new(0.5, 0.0, 0.0), &nb, &[zero, Vec2::new(f32::NAN, 0.0)], c), zero);
+        assert_eq!(dashpot_velocity(0, &a, &Vec3::new(0.5, 0.0, 0.0), &nb, &[], c), zero);
+        assert_eq!(dashpot_velocity(0, &a, &Vec3::new(0.5, 0.0, 0.0), &nb, &[zero, zero], 0.0), zero);
+    }
+
     const K2: f32 = 1.0;
 
     #[test]
