@@ -62,10 +62,10 @@ fn uav0_config(ls: &LoadedScenario, lockstep: bool) -> (UavConfig, pil::TeamSetu
     (setup.configs[0].clone(), setup)
 }
 
-/// Take-off state of the team (own, load, neighbours), ENU f32.
-fn takeoff_state(setup: &pil::TeamSetup) -> (Vec<Option<V3f>>, (V3f, V3f)) {
+/// Take-off state of the team (own and neighbours: position, velocity; load), ENU f32, at rest.
+fn takeoff_state(setup: &pil::TeamSetup) -> (Vec<Option<host_sim::mission::Report>>, (V3f, V3f)) {
     let f = |v: &Vector3<f64>| V3f::new(v.x as f32, v.y as f32, v.z as f32);
-    let all = setup.takeoff.uav_pos_m.iter().map(|p| Some(f(p))).collect();
+    let all = setup.takeoff.uav_pos_m.iter().map(|p| Some((f(p), V3f::zeros()))).collect();
     (all, (f(&setup.takeoff.load_pos_m), V3f::zeros()))
 }
 
@@ -73,7 +73,7 @@ fn takeoff_state(setup: &pil::TeamSetup) -> (Vec<Option<V3f>>, (V3f, V3f)) {
 fn configure_and_start<P: Port>(port: &mut P, cfg: &UavConfig, setup: &pil::TeamSetup, enc: &mut Encoders) {
     pil::configure(port, cfg, &mut enc.gcs).unwrap();
     let (all, load) = takeoff_state(setup);
-    let own = (all[0].unwrap(), V3f::zeros());
+    let own = all[0].unwrap();
     let tick = TickFrames { time_ms: 0, system_id: cfg.system_id, load: Some(load), neighbours: &all, own, sample_ms: (0, 0), id: 0 };
     port.send(&tick.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
     assert_eq!(pil::start_mission(port, cfg.system_id, &mut enc.gcs).unwrap(), ACCEPTED);
@@ -91,7 +91,7 @@ struct TickReply {
 /// and the neighbours when the high level is due.
 fn tick<P: Port>(port: &mut P, enc: &mut Encoders, setup: &pil::TeamSetup, time_ms: u32, hl_due: bool, with_team: bool) -> TickReply {
     let (all, load) = takeoff_state(setup);
-    let own = (all[0].unwrap(), V3f::zeros());
+    let own = all[0].unwrap();
     let send_team = hl_due && with_team;
     let t = TickFrames {
         time_ms,
@@ -548,7 +548,7 @@ fn the_replans_search_runs_below_the_control_loop_on_the_wall_clock() {
     // What UAV 0's LiDAR sees of the re-route's rocks from its take-off place: a map with
     // obstacles makes the searches longer than the empty map's.
     let (all, _) = takeoff_state(&setup);
-    let own = all[0].unwrap();
+    let own = all[0].unwrap().0;
     let at = nalgebra::Vector2::new(f64::from(own.x), f64::from(own.y));
     let spec = ls.scenario.sensors.lidar.clone().expect("the scenario's LiDAR");
     let scan = host_sim::lidar::Lidar::new(spec, 1).scan(&host_sim::obstacles::Obstacles::of(&ls), at, at);
@@ -706,7 +706,7 @@ fn overweight_is_refused_then_right_load_starts<P: Port>(q: &mut P, enc: &mut En
         params.set(k, v).unwrap();
     }
     let (all, (load, _)) = takeoff_state(&setup);
-    let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap()).collect();
+    let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap().0).collect();
     let cal_params = params.calibration();
     assert_eq!(cal_params.load_mass_kg, 6.0);
     let cal = vt_dissipative::calibrate(0, &uavs, &load, &cal_params).unwrap();
@@ -786,7 +786,7 @@ fn windy_start_is_refused_then_calm_starts<P: Port>(q: &mut P, enc: &mut Encoder
         params.set(k, v).unwrap();
     }
     let (all, (load, _)) = takeoff_state(&setup);
-    let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap()).collect();
+    let uavs: Vec<V3f> = all.iter().map(|p| p.unwrap().0).collect();
     let cal = vt_dissipative::calibrate(0, &uavs, &load, &params.calibration()).unwrap();
     let err = vt_dissipative::wind::check(&params.wind(cal.cos_lean), 9.0, 3.0).unwrap_err();
     let (head, detail) = vt_companion::flight::StartError::Wind(err).lines();
@@ -1077,7 +1077,7 @@ proptest::proptest! {
         twin.send(&[0u8; 300]).unwrap();
         let t = 3_600_000u32;
         let (all, _) = takeoff_state(&setup);
-        let own = (all[0].unwrap(), V3f::zeros());
+        let own = all[0].unwrap();
         let tick = TickFrames { time_ms: t, system_id: cfg.system_id, load: None, neighbours: &[], own, sample_ms: (t, t), id: 0 };
         twin.send(&tick.encode(&mut enc.autopilot, &mut enc.tracker, &mut enc.network)).unwrap();
         let mut answered = false;

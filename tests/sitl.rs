@@ -126,7 +126,7 @@ fn feeder(ports: Vec<UdpPort>, setup: pil::TeamSetup, stop: Arc<AtomicBool>) -> 
     std::thread::spawn(move || {
         let mut ports = ports;
         let f = |v: &Vector3<f64>| V3f::new(v.x as f32, v.y as f32, v.z as f32);
-        let all: Vec<Option<V3f>> = setup.takeoff.uav_pos_m.iter().map(|p| Some(f(p))).collect();
+        let all: Vec<Option<host_sim::mission::Report>> = setup.takeoff.uav_pos_m.iter().map(|p| Some((f(p), V3f::zeros()))).collect();
         let load = f(&setup.takeoff.load_pos_m);
         let mut enc: Vec<Encoders> = (0..ports.len()).map(|_| Encoders::default()).collect();
         let t0 = Instant::now();
@@ -138,7 +138,7 @@ fn feeder(ports: Vec<UdpPort>, setup: pil::TeamSetup, stop: Arc<AtomicBool>) -> 
                     system_id: setup.configs[i].system_id,
                     load: Some((load, V3f::zeros())),
                     neighbours: &all,
-                    own: (all[i].unwrap(), V3f::zeros()),
+                    own: all[i].unwrap(),
                     sample_ms: (time_ms, time_ms),
                     id: i,
                 };

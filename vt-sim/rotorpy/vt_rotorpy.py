@@ -373,9 +373,11 @@ class Flight:
                         link.queue(hb, self.ids[j], COMPANION_COMPONENT)
                 lx, lv = held["load"]
                 link.queue(mavlink.MAVLink_local_position_ned_message(held["ms"], *ned(lx), *ned(lv)), sys_i, self.load_comp)
-                for j, (x, _) in enumerate(held["uav"]):
+                for j, (x, v) in enumerate(held["uav"]):
                     if j != i:
-                        link.queue(mavlink.MAVLink_local_position_ned_message(now["ms"], *ned(x), 0.0, 0.0, 0.0), self.ids[j], AUTOPILOT_COMPONENT)
+                        # The member's velocity too: the dashpots of a team near its capacity
+                        # read it (docs/design.md).
+                        link.queue(mavlink.MAVLink_local_position_ned_message(now["ms"], *ned(x), *ned(v)), self.ids[j], AUTOPILOT_COMPONENT)
             x, v = now["uav"][i]
             link.queue(mavlink.MAVLink_local_position_ned_message(now["ms"], *ned(x), *ned(v)), sys_i, AUTOPILOT_COMPONENT)
             link.flush()

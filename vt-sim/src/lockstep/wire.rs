@@ -179,7 +179,7 @@ pub struct TickFrames<'a> {
     pub load: Option<(V3f, V3f)>,
     /// Neighbours' positions and velocities by UAV index (`None`: not delivered), when the high
     /// level is due.
-    pub neighbours: &'a [Option<(V3f, V3f)>],
+    pub neighbours: &'a [Option<crate::mission::Report>],
     /// Own position and velocity, ENU.
     pub own: (V3f, V3f),
     /// Sample times of the own and the load state, ms (`time_boot_ms`; older than `time_ms`

@@ -11,7 +11,7 @@ pub mod scans;
 pub mod team;
 pub mod world;
 
-pub use team::{holding_of, phase_of, Beacon, refusal_of, refusal_text_of, team_mode_of, CompanionTeam, Meas, Setpoint, Team, TeamStart, Tick};
+pub use team::{holding_of, phase_of, Beacon, refusal_of, refusal_text_of, team_mode_of, CompanionTeam, Meas, Report, Setpoint, Team, TeamStart, Tick};
 pub use world::World;
 
 use crate::record::RunRecord;

@@ -19,6 +19,10 @@ pub use vt_companion::flight::Setpoint;
 
 type V3f = Vector3<f32>;
 
+/// A team member's state as the team link delivers it: position, m, and velocity, m/s (ENU;
+/// the member's own autopilot's, as its `LOCAL_POSITION_NED` carries them).
+pub type Report = (V3f, V3f);
+
 /// One measured state: position (m) and velocity (m/s), world ENU, `f32` as on the wire, and
 /// when it was sampled.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -50,7 +54,7 @@ pub struct Tick<'a> {
     pub load: Meas,
     /// Per UAV, the team's positions and velocities as its link delivered them (`None`: not
     /// delivered; own slot: its own; valid when `high_level`).
-    pub views: &'a [Vec<Option<(V3f, V3f)>>],
+    pub views: &'a [Vec<Option<Report>>],
     /// Per UAV, the team mode and phase each other UAV broadcast with the position in `views`
     /// (`None` with it; docs/design.md, "Team failsafe"; valid when `high_level`).
     pub modes: &'a [Vec<Option<Beacon>>],

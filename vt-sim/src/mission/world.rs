@@ -2,7 +2,7 @@
 //! the wind, the team link, the faults, the metrics and the recorder. It steps under the
 //! setpoints a [`super::Team`] sends and produces the [`Tick`]s the team reads.
 
-use super::team::{Beacon, Meas, Setpoint, TeamStart, Tick};
+use super::team::{Beacon, Meas, Report, Setpoint, TeamStart, Tick};
 use crate::disturbance::{ParameterDraw, Sensors, Wind};
 use crate::link::Link;
 use crate::metrics::{formation_error, FlightEnd, Metrics, TubeHints};
@@ -55,11 +55,11 @@ pub struct World<'a> {
     formation: Option<Formation<SIM_MAX_UAVS>>,
     start_own: Vec<Meas>,
     start_load: Meas,
-    start_views: Vec<Vec<Option<(V3f, V3f)>>>,
+    start_views: Vec<Vec<Option<Report>>>,
     start_modes: Vec<Vec<Option<Beacon>>>,
     own: Vec<Meas>,
     load: Meas,
-    views: Vec<Vec<Option<(V3f, V3f)>>>,
+    views: Vec<Vec<Option<Report>>>,
     /// Per receiver, per sender: the team mode that came with the position in `views`.
     modes: Vec<Vec<Option<Beacon>>>,
     link_msg: Vec<TeamMsg>,
