@@ -292,6 +292,13 @@ fn the_dashpots_add_exactly_their_velocity_outside_the_heave() {
     // Without the velocities (or without motion) the two agree.
     let still = Measurements { neighbours_vel_mps: &[], ..m };
     assert_eq!(plain.clone().update(&t, &still, DT_S).vel_mps, damped.clone().update(&t, &still, DT_S).vel_mps);
+    // An anchored hold (a hold for an obstacle, anchored from its next step): none.
+    let (mut pa, mut da) = (plain.clone(), damped.clone());
+    pa.anchor_team_hold();
+    da.anchor_team_hold();
+    for _ in 0..2 {
+        assert_eq!(pa.update(&t, &m, DT_S).vel_mps, da.update(&t, &m, DT_S).vel_mps);
+    }
     // Heaving: none.
     plain.set_heaving(true);
     damped.set_heaving(true);
