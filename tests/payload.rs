@@ -236,8 +236,9 @@ fn a_gust_margin_is_held_by_the_rotors_not_the_cables_rating() {
 /// A team near its capacity flies slower (docs/design.md, "A team near its capacity flies
 /// slower"): at 19.7 and 19.8 kg on the 20 N clamp the packed team's capacity margin is 0.9 and
 /// 0.4 %, and it flies half its `v_max`. On seed 7100 both loads are carried with every pair of
-/// bodies 0.2 m apart (0.27 and 0.23 m); at full speed the patch's tip and its neighbour came
-/// to 0.12 and 0.07 m in the passages, and the loads arrived in 83-84 s instead of 132-136 s.
+/// bodies 0.2 m apart (0.34 and 0.27 m with session 60's dashpots, 0.27 and 0.23 m before); at
+/// full speed the patch's tip and its neighbour came to 0.12 and 0.07 m in the passages, and the
+/// loads arrived in 83-84 s instead of 132-136 s (125 s with the dashpots).
 #[test]
 fn a_packed_team_near_its_capacity_flies_slower_and_keeps_its_pairs_apart() {
     for s in &fly_loads_from("payload-packed.toml", &[19.7, 19.8], Some(7100)) {
