@@ -264,6 +264,21 @@ fn the_dashpots_keep_the_packed_patch_s_tip_apart_at_19_8_kg() {
     }
 }
 
+/// A team near its capacity descends as fast as it can brake (docs/design.md, "A team near its
+/// capacity descends as fast as it can brake"): at 19.8 kg its spare capacity (0.4 %) brakes the
+/// load at about 0.04 m/s^2, so it descends at 0.30 m/s instead of 0.5 m/s. The seeds whose load
+/// touched down at 0.47 and 0.50 m/s (7108, 7216: the descent never slowed) touch down under
+/// 0.3 m/s.
+#[test]
+fn a_team_at_its_last_newtons_sets_its_load_down_gently() {
+    for seed in [7108, 7216] {
+        let s = &fly_loads_from("payload-packed.toml", &[19.8], Some(seed))[0];
+        println!("19.8 kg packed, seed {seed}: outcome {}, touchdown {:?} m/s, {}", s.outcome, s.touchdown_speed_mps, describe(s));
+        assert!(s.success && s.outcome == "flown", "seed {seed}: {}", describe(s));
+        assert!(s.touchdown_speed_mps.is_some_and(|v| v < 0.3), "seed {seed}: touchdown {:?} m/s", s.touchdown_speed_mps);
+    }
+}
+
 /// The new scenario fields are validated like the others: file, line and field, exit code 2.
 #[test]
 fn bad_payload_fields_name_the_file_line_and_field() {

@@ -163,6 +163,17 @@ pub fn dashpot_gain(margin: f32) -> f32 {
     if speed_fraction(margin) < 1.0 { NEAR_CAPACITY_DASHPOT } else { 0.0 }
 }
 
+/// The fastest descent, m/s, from which a team with capacity margin `margin` (`rho`,
+/// [`CapacityPlan::margin`]) can still brake its load to `touchdown_mps` (m/s) within `band_m`
+/// (m) above the ground: `sqrt(touchdown^2 + 2 rho g band)` (extension; docs/design.md, "A team
+/// near its capacity descends as fast as it can brake"). The cables' spare vertical capacity is
+/// `C - W = rho W`, so the load decelerates at `rho g` at the most. A margin of zero or less, or
+/// not a number, gives `touchdown_mps`.
+pub fn braking_descent_mps(margin: f32, touchdown_mps: f32, band_m: f32) -> f32 {
+    let spare = if margin > 0.0 { margin } else { 0.0 };
+    vt_fpu::sqrt(touchdown_mps * touchdown_mps + 2.0 * spare * crate::calibration::GRAVITY_MPS2 * band_m)
+}
+
 /// The fraction of `v_max` a team with capacity margin `margin` (`rho`,
 /// [`CapacityPlan::margin`]) flies at: 1 from [`SPEED_FULL_MARGIN`] (and without a declared
 /// load), `rho / SPEED_FULL_MARGIN` below it, never under [`SPEED_MIN_FRACTION`] (a margin of
@@ -534,6 +545,25 @@ mod tests {
         assert_relative_eq!(p.capacity_n, 200.0 / (1.09f32).sqrt(), epsilon = 0.05);
         assert_relative_eq!(p.lean_cos_min, 1.0 / (1.09f32).sqrt(), epsilon = 1e-5);
         assert!(p.margin() > 0.08);
+    }
+
+    /// The braking descent: `v_touch` with no margin (or none known), growing with the margin
+    /// as `sqrt(v_touch^2 + 2 rho g band)` (0.30 m/s at the packed team's 0.4 % over a 1 m band
+    /// from 0.1 m/s; the ground start's 0.5 m/s from a 1.22 % margin on), monotone.
+    #[test]
+    fn a_team_descends_as_fast_as_its_capacity_can_brake() {
+        for m in [0.0, -0.2, f32::NAN, f32::NEG_INFINITY] {
+            assert_relative_eq!(braking_descent_mps(m, 0.1, 1.0), 0.1, epsilon = 1e-7);
+        }
+        assert_relative_eq!(braking_descent_mps(0.004, 0.1, 1.0), (0.01f32 + 2.0 * 0.004 * 9.81).sqrt(), epsilon = 1e-6);
+        assert!((braking_descent_mps(0.004, 0.1, 1.0) - 0.297).abs() < 0.001);
+        assert!((braking_descent_mps(0.0122, 0.1, 1.0) - 0.5).abs() < 0.002);
+        let mut last = 0.0;
+        for k in 0..=100 {
+            let v = braking_descent_mps(k as f32 * 1e-3, 0.1, 1.0);
+            assert!(v >= last, "{k}");
+            last = v;
+        }
     }
 
     /// A team flies the dashpots beside its springs where it flies slower (below a 3 % margin,

@@ -351,6 +351,9 @@ pub struct PhaseProfile {
     /// The highest load altitude the lift or the climb has seen since its last progress
     /// ([`LIFT_PROGRESS_M`], [`CLIMB_PROGRESS_M`]), m.
     best_load_m: f32,
+    /// The descent's speed above the touchdown band, m/s: `v_climb` unless the team's capacity
+    /// brakes less ([`Self::limit_descent`]).
+    descent_vz_mps: f32,
 }
 
 impl PhaseProfile {
@@ -360,7 +363,7 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn ground(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0, best_load_m: p.ground_z_m })
+        Ok(Self { p, phase: Phase::Takeoff, z_ref_m: p.ground_z_m - p.slack_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: true, held_s: 0.0, best_load_m: p.ground_z_m, descent_vz_mps: p.climb_vz_mps })
     }
 
     /// An air start (the paper's): in transport from the start at `z_t`, hovering at the end
@@ -372,7 +375,21 @@ impl PhaseProfile {
     /// [`ControlError::InvalidParameter`].
     pub fn air(p: PhaseParams) -> Result<Self, ControlError> {
         p.validate()?;
-        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0, best_load_m: p.ground_z_m })
+        Ok(Self { p, phase: Phase::Transport, z_ref_m: p.transport_z_m, timer_s: 0.0, arrived: false, abort: None, set_down_early: false, descend_at_end: false, held_s: 0.0, best_load_m: p.ground_z_m, descent_vz_mps: p.climb_vz_mps })
+    }
+
+    /// Limits the descent's speed above the touchdown band to `v_mps` (m/s; the team's braking
+    /// descent, `crate::capacity::braking_descent_mps`), never below `v_lift` nor above
+    /// `v_climb`; a value that is not a positive number changes nothing.
+    pub fn limit_descent(&mut self, v_mps: f32) {
+        if v_mps > 0.0 && vt_fpu::is_finite(v_mps) {
+            self.descent_vz_mps = vt_fpu::min(self.p.climb_vz_mps, vt_fpu::max(v_mps, self.p.lift_vz_mps));
+        }
+    }
+
+    /// The descent's speed above the touchdown band, m/s.
+    pub fn descent_vz_mps(&self) -> f32 {
+        self.descent_vz_mps
     }
 
     /// The parameters.
@@ -584,7 +601,7 @@ impl PhaseProfile {
                 // band, and touches down as gently.
                 let delivery = self.descend_at_end && self.arrived;
                 let band = if self.set_down_early && !delivery { SET_DOWN_TOUCHDOWN_BAND_M.min(p.touchdown_band_m) } else { p.touchdown_band_m };
-                let v = if self.z_ref_m > p.ground_z_m + band { p.climb_vz_mps } else { p.lift_vz_mps };
+                let v = if self.z_ref_m > p.ground_z_m + band { self.descent_vz_mps } else { p.lift_vz_mps };
                 self.z_ref_m = (self.z_ref_m - v * dt).max(p.ground_z_m);
                 if self.z_ref_m <= p.ground_z_m {
                     self.enter_slack(p.ground_z_m);

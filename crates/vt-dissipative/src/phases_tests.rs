@@ -533,3 +533,38 @@ fn a_delivery_set_down_after_arrival_keeps_the_delivery_band() {
         assert!((band_entry(pr) - band).abs() < 0.011, "ground {ground}: set down after arrival");
     }
 }
+
+/// A team near its capacity descends as fast as it can brake (`limit_descent`): the descent's
+/// reference falls at the limited speed above the touchdown band and at `v_lift` inside it; the
+/// limit stays within `[v_lift, v_climb]`, and a value that is not a positive number changes
+/// nothing.
+#[test]
+fn a_limited_descent_falls_at_its_limit_above_the_band() {
+    let p = params();
+    let descending = |limit: Option<f32>| {
+        let mut pr = PhaseProfile::air(p).unwrap();
+        if let Some(v) = limit {
+            pr.limit_descent(v);
+        }
+        pr.set_down_now();
+        assert_eq!(pr.phase(), Phase::Descent);
+        pr
+    };
+    // The fall of the reference in one step of 0.02 s, at 2 m above the ground and inside the band.
+    let fall = |mut pr: PhaseProfile, above_m: f32| {
+        while pr.load_altitude_ref_m() > p.ground_z_m + above_m {
+            let z = pr.load_altitude_ref_m();
+            pr.step(0.02, Some(z), false, false);
+        }
+        let before = pr.load_altitude_ref_m();
+        (before - pr.step(0.02, Some(before), false, false)) / 0.02
+    };
+    assert!((fall(descending(None), 2.0) - p.climb_vz_mps).abs() < 1e-4);
+    assert!((fall(descending(Some(0.3)), 2.0) - 0.3).abs() < 1e-4);
+    assert!((fall(descending(Some(0.3)), 0.2) - p.lift_vz_mps).abs() < 1e-4, "the band keeps v_lift");
+    assert_eq!(descending(Some(0.01)).descent_vz_mps(), p.lift_vz_mps);
+    assert_eq!(descending(Some(2.0)).descent_vz_mps(), p.climb_vz_mps);
+    for bad in [0.0, -0.3, f32::NAN, f32::INFINITY] {
+        assert_eq!(descending(Some(bad)).descent_vz_mps(), p.climb_vz_mps, "{bad}");
+    }
+}

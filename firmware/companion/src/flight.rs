@@ -336,13 +336,14 @@ impl Flight {
             let pending = Pending { params: params.clone(), hold_xy_m: own_pos_m.xy(), vertical: params.nominal_vertical(), survey: TakeoffSurvey::new(u32::MAX), gusts: GustSurvey::default() };
             (None, Some(profile), Some(pending))
         } else {
-            let high = arm(params, id, n, takeoff, &load_pos_m, None)?;
+            let (high, margin) = arm(params, id, n, takeoff, &load_pos_m, None)?;
             // Warm start with the declared load's share (bumpless transfer; capacity.rs).
             if let Some(f) = params.capacity().ok().and_then(|cap| capacity::takeoff_cable_force_n(&own_pos_m, &load_pos_m, cap.load_mass_kg, n)) {
                 low.preload(f);
             }
             // In transport from the start; the phases only for a set-down (issue 29).
-            let profile = PhaseProfile::air(params.phases(params.get(Param::LoadGz)).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
+            let mut profile = PhaseProfile::air(params.phases(params.get(Param::LoadGz)).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
+            profile.limit_descent(phases::braking_descent(params, margin));
             (Some(high), Some(profile), None)
         };
         Ok(Self {

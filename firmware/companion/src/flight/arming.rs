@@ -61,7 +61,7 @@ impl HighLevel {
 /// (eq:2-7), then the high-level law (`VT_CTRL`). `seen_wind_mps`: a ground start's hover's
 /// mean wind and gust margin (m/s, `vt_dissipative::wind::GustSurvey`).
 #[inline(never)] // its frame is large: it must not merge into the high-level step's
-pub(super) fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3, seen_wind_mps: Option<(f32, f32)>) -> Result<HighLevel, StartError> {
+pub(super) fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_pos_m: &Vec3, seen_wind_mps: Option<(f32, f32)>) -> Result<(HighLevel, f32), StartError> {
     let cal = vt_dissipative::calibrate(id, takeoff, load_pos_m, &params.calibration()).map_err(StartError::Calibration)?;
     vt_dissipative::feasibility::check(&params.feasibility(cal.cos_lean)).map_err(StartError::Infeasible)?;
     // The declared wind and gust margin, and those a ground start's hover saw: the larger of
@@ -81,7 +81,7 @@ pub(super) fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_p
     // Capacity-aware formation (issue 15): every UAV plans from the same take-off measurement.
     let cap = params.capacity().map_err(StartError::Controller)?;
     let plan = capacity::plan_from_takeoff(takeoff, load_pos_m, &tray, &cap).map_err(StartError::Controller)?;
-    Ok(if params.get_u32(Param::Ctrl) == 1 {
+    let high = if params.get_u32(Param::Ctrl) == 1 {
         let baseline = BaselineParams {
             k1: dissipative.k1,
             k2: dissipative.k2,
@@ -113,7 +113,8 @@ pub(super) fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_p
             high.set_team_keeping(params.team_keeping());
         }
         HighLevel::Dissipative(high)
-    })
+    };
+    Ok((high, plan.margin()))
 }
 
 /// Issue 28 and 27 §1: the narrowest tube half-width the formation UAV `PR`/`VT_ID` of `params`
@@ -127,7 +128,7 @@ pub(super) fn arm(params: &Params, id: usize, n: usize, takeoff: &[Vec3], load_p
 pub fn shaped_need_at_arming_m(params: &Params, takeoff: &[Vec3], load_pos_m: &Vec3, tangent_xy: vt_tube::Vec2) -> Option<f32> {
     let n = params.get_u32(Param::NUavs) as usize;
     let id = params.get_u32(Param::Id) as usize;
-    match arm(params, id, n, takeoff.get(..n)?, load_pos_m, None).ok()? {
+    match arm(params, id, n, takeoff.get(..n)?, load_pos_m, None).ok()?.0 {
         HighLevel::Dissipative(c) => c.shaped_need_half_width_m(&tangent_xy),
         HighLevel::Baseline(_) => None,
     }

@@ -132,9 +132,10 @@ impl Flight {
                 let seen_wind = pending.gusts.mean_mps().map(|w| (w, pending.gusts.margin_mps().unwrap_or(0.0)));
                 let armed = if complete { arm(&pending.params, self.id, self.n, takeoff.get(..self.n).unwrap_or(&[]), &ground_load, seen_wind) } else { Err(StartError::StaleData) };
                 match armed {
-                    Ok(high) => {
+                    Ok((high, margin)) => {
                         self.high = Some(high);
                         profile.armed(ground_load.z);
+                        profile.limit_descent(braking_descent(&pending.params, margin));
                     }
                     Err(e) => {
                         self.refusal = Some(e);
@@ -218,6 +219,15 @@ impl Flight {
     pub fn load_altitude_ref_m(&self) -> Option<f32> {
         self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m)
     }
+}
+
+/// The descent's speed above the touchdown band a team armed with capacity margin `margin`
+/// flies, m/s: as fast as its spare capacity can brake the load to `VT_LIFT_VZ` within the band
+/// (`vt_dissipative::capacity::braking_descent_mps`; docs/design.md, "A team near its capacity
+/// descends as fast as it can brake"); `PhaseProfile::limit_descent` keeps it within
+/// `[VT_LIFT_VZ, v_climb]`.
+pub(super) fn braking_descent(params: &Params, margin: f32) -> f32 {
+    vt_dissipative::capacity::braking_descent_mps(margin, params.get(Param::LiftVz), crate::params::TOUCHDOWN_BAND_M)
 }
 
 /// The own cable's tension as the observer estimates it: `f_hat` along the unit vector from the
