@@ -387,6 +387,14 @@ impl PhaseProfile {
         }
     }
 
+    /// Limits the descent to what a team with capacity margin `margin` (`rho`) can brake to
+    /// `v_lift` within the touchdown band ([`crate::capacity::braking_descent_mps`] of this
+    /// profile's own `v_lift` and band; docs/design.md, "A team near its capacity descends as
+    /// fast as it can brake"), through [`Self::limit_descent`].
+    pub fn brake_descent(&mut self, margin: f32) {
+        self.limit_descent(crate::capacity::braking_descent_mps(margin, self.p.lift_vz_mps, self.p.touchdown_band_m));
+    }
+
     /// The descent's speed above the touchdown band, m/s.
     pub fn descent_vz_mps(&self) -> f32 {
         self.descent_vz_mps

@@ -567,4 +567,13 @@ fn a_limited_descent_falls_at_its_limit_above_the_band() {
     for bad in [0.0, -0.3, f32::NAN, f32::INFINITY] {
         assert_eq!(descending(Some(bad)).descent_vz_mps(), p.climb_vz_mps, "{bad}");
     }
+    // From a capacity margin, with the profile's own `v_lift` and band: 0.4 % brakes from
+    // 0.297 m/s; no declared load (an infinite margin) keeps `v_climb`.
+    let mut pr = PhaseProfile::air(p).unwrap();
+    pr.brake_descent(0.004);
+    assert_eq!(pr.descent_vz_mps(), crate::capacity::braking_descent_mps(0.004, p.lift_vz_mps, p.touchdown_band_m));
+    assert!((pr.descent_vz_mps() - 0.297).abs() < 0.001);
+    let mut pr = PhaseProfile::air(p).unwrap();
+    pr.brake_descent(f32::INFINITY);
+    assert_eq!(pr.descent_vz_mps(), p.climb_vz_mps);
 }

@@ -343,7 +343,7 @@ impl Flight {
             }
             // In transport from the start; the phases only for a set-down (issue 29).
             let mut profile = PhaseProfile::air(params.phases(params.get(Param::LoadGz)).map_err(StartError::Controller)?).map_err(StartError::Controller)?;
-            profile.limit_descent(phases::braking_descent(params, margin));
+            profile.brake_descent(margin);
             (Some(high), Some(profile), None)
         };
         Ok(Self {

@@ -33,6 +33,11 @@ struct TeamMsg {
     mode: Beacon,
 }
 
+impl TeamMsg {
+    /// Before the first high-level step: nothing measured, the start's beacon.
+    const START: Self = Self { pos_m: V3f::new(0.0, 0.0, 0.0), vel_mps: V3f::new(0.0, 0.0, 0.0), mode: Beacon::START };
+}
+
 /// The simulated world of one mission.
 pub struct World<'a> {
     ls: &'a LoadedScenario,
@@ -230,7 +235,7 @@ impl<'a> World<'a> {
             start_own,
             start_load,
             start_views,
-            link_msg: vec![TeamMsg { pos_m: V3f::zeros(), vel_mps: V3f::zeros(), mode: Beacon::START }; n],
+            link_msg: vec![TeamMsg::START; n],
             view_buf: Vec::with_capacity(n),
             team_mode: vec![TeamMode::Transport; n],
             stall_until: vec![None; n],
@@ -458,7 +463,7 @@ impl<'a> World<'a> {
                 sc.measure(hl_step, &self.uav_pos_scratch, &measured);
             }
             for (i, (view, modes)) in self.views.iter_mut().zip(self.modes.iter_mut()).enumerate() {
-                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg { pos_m: V3f::zeros(), vel_mps: V3f::zeros(), mode: Beacon::START });
+                let own = self.link_msg.get(i).copied().unwrap_or(TeamMsg::START);
                 self.link.view(i, hl_step, own, &mut self.view_buf);
                 view.clear();
                 view.extend(self.view_buf.iter().map(|m| m.map(|m| (m.pos_m, m.vel_mps))));

@@ -135,7 +135,7 @@ impl Flight {
                     Ok((high, margin)) => {
                         self.high = Some(high);
                         profile.armed(ground_load.z);
-                        profile.limit_descent(braking_descent(&pending.params, margin));
+                        profile.brake_descent(margin);
                     }
                     Err(e) => {
                         self.refusal = Some(e);
@@ -219,15 +219,6 @@ impl Flight {
     pub fn load_altitude_ref_m(&self) -> Option<f32> {
         self.profile.as_ref().map(PhaseProfile::load_altitude_ref_m)
     }
-}
-
-/// The descent's speed above the touchdown band a team armed with capacity margin `margin`
-/// flies, m/s: as fast as its spare capacity can brake the load to `VT_LIFT_VZ` within the band
-/// (`vt_dissipative::capacity::braking_descent_mps`; docs/design.md, "A team near its capacity
-/// descends as fast as it can brake"); `PhaseProfile::limit_descent` keeps it within
-/// `[VT_LIFT_VZ, v_climb]`.
-pub(super) fn braking_descent(params: &Params, margin: f32) -> f32 {
-    vt_dissipative::capacity::braking_descent_mps(margin, params.get(Param::LiftVz), crate::params::TOUCHDOWN_BAND_M)
 }
 
 /// The own cable's tension as the observer estimates it: `f_hat` along the unit vector from the
