@@ -48,7 +48,7 @@ pub use observer::{Cfo, CfoParams, MAX_BANDWIDTH_PERIOD};
 pub use prediction::{age_s, extrapolate_constant_velocity, Prediction, DELAY_CAPACITY_STEPS};
 pub use status::Status;
 pub use thrust::{attitude_to_thrust, thrust_to_attitude, AttitudeSetpoint, ThrustLimits};
-pub use velocity_loop::{PidGains, ThrustOutput, VelocityLoop, VelocityLoopParams, UNLOADED_BANDWIDTH_RAD_S};
+pub use velocity_loop::{loaded_bandwidth_cap, PidGains, ThrustOutput, VelocityLoop, VelocityLoopParams, FULL_SHARE_RATIO, LIGHT_SHARE_MIN_LAG_S, LIGHT_SHARE_RATIO, UNLOADED_BANDWIDTH_RAD_S};
 
 use nalgebra::Vector3;
 

@@ -33,6 +33,36 @@ pub const BLIND_HOLD_TAU_S: f32 = 3.0;
 /// (0.003 m/s), 10 rad/s leaves 0.05 m/s.
 pub const UNLOADED_BANDWIDTH_RAD_S: f32 = 5.0;
 
+/// Share ratio (the declared load's weight per UAV over the UAV's own, `m_L / (n m)`) up to
+/// which a taut cable damps the loop behind a stock-gains autopilot no more than a slack one:
+/// the observer flies [`UNLOADED_BANDWIDTH_RAD_S`] (docs/design.md, "The observer of a lightly
+/// loaded UAV"; measured: sixteen 2 kg UAVs at 0.38 ring at 1.4 Hz at 15 rad/s, not at 7).
+pub const LIGHT_SHARE_RATIO: f32 = 0.4;
+
+/// Share ratio from which a taut cable damps the loop as the paper team's (0.9) does: the
+/// observer flies its configured `mu` ([`loaded_bandwidth_cap`]).
+pub const FULL_SHARE_RATIO: f32 = 0.85;
+
+/// Actuation lag from which a light share caps the observer, s: the paper airframe's behind
+/// PX4's stock rate gains. The tuned loop (0.05 s) was measured not to ring at a light share.
+pub const LIGHT_SHARE_MIN_LAG_S: f32 = 0.08;
+
+/// The observer's bandwidth cap while the cable carries a share `share_ratio` of the load
+/// (`m_L / (n m)`), rad/s, for a loop of bandwidth `mu_rad_s` behind the actuation lag
+/// `actuator_lag_s` (s): [`UNLOADED_BANDWIDTH_RAD_S`] up to [`LIGHT_SHARE_RATIO`], linear to
+/// `mu_rad_s` at [`FULL_SHARE_RATIO`], no cap (`f32::INFINITY`) from there, below
+/// [`LIGHT_SHARE_MIN_LAG_S`], for a `mu_rad_s` not above the unloaded cap, or for any input
+/// that is not a number (extension; docs/design.md, "The observer of a lightly loaded UAV").
+#[must_use]
+pub fn loaded_bandwidth_cap(share_ratio: f32, actuator_lag_s: f32, mu_rad_s: f32) -> f32 {
+    // Negated comparisons: a NaN fails each and leaves the loop uncapped, as before the rule.
+    if !(actuator_lag_s >= LIGHT_SHARE_MIN_LAG_S) || !(share_ratio < FULL_SHARE_RATIO) || !(mu_rad_s > UNLOADED_BANDWIDTH_RAD_S) || !vt_fpu::is_finite(mu_rad_s) {
+        return f32::INFINITY;
+    }
+    let x = vt_fpu::max((share_ratio - LIGHT_SHARE_RATIO) / (FULL_SHARE_RATIO - LIGHT_SHARE_RATIO), 0.0);
+    UNLOADED_BANDWIDTH_RAD_S + (mu_rad_s - UNLOADED_BANDWIDTH_RAD_S) * x
+}
+
 /// Diagonal PID gains of eq:2-3, per axis (x east, y north, z up).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {

@@ -281,6 +281,41 @@ fn bandwidth_cap_lowers_the_observer_and_lifting_it_restores_the_schedule() {
     }
 }
 
+/// The observer of a lightly loaded UAV: a share up to `LIGHT_SHARE_RATIO` caps the loop as a
+/// slack cable does, the cap rises linearly to `mu` at `FULL_SHARE_RATIO` and is lifted from
+/// there (the paper team's 0.9 flies as before), never for the tuned loop's lag, and every
+/// input that is not a number lifts it.
+#[test]
+fn a_light_share_caps_the_observer_between_the_free_and_the_full_bandwidth() {
+    let (lag, mu) = (0.08, 15.0);
+    assert_eq!(loaded_bandwidth_cap(0.0, lag, mu), UNLOADED_BANDWIDTH_RAD_S);
+    assert_eq!(loaded_bandwidth_cap(0.38, lag, mu), UNLOADED_BANDWIDTH_RAD_S, "sixteen 2 kg UAVs carrying 12.2 kg");
+    assert_eq!(loaded_bandwidth_cap(LIGHT_SHARE_RATIO, lag, mu), UNLOADED_BANDWIDTH_RAD_S);
+    let mid = 0.5 * (LIGHT_SHARE_RATIO + FULL_SHARE_RATIO);
+    assert_relative_eq!(loaded_bandwidth_cap(mid, lag, mu), 10.0, epsilon = 1e-5);
+    assert_relative_eq!(loaded_bandwidth_cap(0.69, 0.101, mu), 5.0 + 10.0 * 0.29 / 0.45, epsilon = 1e-5);
+    for full in [FULL_SHARE_RATIO, 0.9, 0.99, 5.0, f32::INFINITY] {
+        assert_eq!(loaded_bandwidth_cap(full, lag, mu), f32::INFINITY, "share {full}");
+    }
+    // Monotone in the share, and never above mu below the full share.
+    let mut last = 0.0;
+    for k in 0..=100 {
+        let c = loaded_bandwidth_cap(k as f32 * 0.0084, lag, mu);
+        assert!(c >= last && (c <= mu || c == f32::INFINITY), "{k}: {c}");
+        last = c;
+    }
+    // The tuned loop, a mu already at the free cap, and degenerate inputs: no cap.
+    assert_eq!(loaded_bandwidth_cap(0.38, 0.05, mu), f32::INFINITY);
+    assert_eq!(loaded_bandwidth_cap(0.38, lag, UNLOADED_BANDWIDTH_RAD_S), f32::INFINITY);
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        assert_eq!(loaded_bandwidth_cap(f32::NAN, lag, mu), f32::INFINITY);
+        assert_eq!(loaded_bandwidth_cap(0.38, f32::NAN, mu), f32::INFINITY);
+        let c = loaded_bandwidth_cap(0.38, lag, bad);
+        assert_eq!(c, f32::INFINITY, "mu {bad}");
+    }
+    assert_eq!(loaded_bandwidth_cap(-1.0, lag, mu), UNLOADED_BANDWIDTH_RAD_S, "a negative share is no share");
+}
+
 /// The capped observer converges more slowly to a constant force, at the rate its bandwidth
 /// says: after 0.3 s (1.5 / mu at 5 rad/s, 4.5 / mu at 15 rad/s) the capped estimate is about
 /// three times further off (0.34 against 0.12 N of 3 N).

@@ -234,6 +234,8 @@ pub struct Flight {
     heading: Unit<Vector2<f32>>,
     thrust_max_n: f32,
     hover_n: f32,
+    /// The observer's bandwidth cap while the cable is loaded, rad/s (`vt_cfo::loaded_bandwidth_cap`).
+    loaded_cap_rad_s: f32,
     hl_dt_s: f32,
     ll_dt_s: f32,
     low_per_high: u32,
@@ -354,6 +356,8 @@ impl Flight {
             heading: params.heading(),
             thrust_max_n: vl.limits().thrust_max_n(),
             hover_n: vl.hover_thrust_n(),
+            // The observer of a lightly loaded UAV: the declared load's share of each UAV's weight.
+            loaded_cap_rad_s: vt_cfo::loaded_bandwidth_cap(params.get(Param::LoadKg) / (n as f32 * params.get(Param::Mass)), vl.actuator_lag_s(), params.get(Param::CfoMu)),
             hl_dt_s: params.high_level_dt_s(),
             ll_dt_s: params.low_level_dt_s(),
             low_per_high,
@@ -437,9 +441,10 @@ impl Flight {
             let holding = self.team_mode.is_holding();
             self.advance_phases(tube, &own.pos_m, &load.pos_m, &view, holding, src.neighbour_released.any());
             let phase = self.phase();
-            // The observer of a free UAV (vt_cfo::UNLOADED_BANDWIDTH_RAD_S): one comparison
-            // while the phase keeps its cable loaded or unloaded.
-            self.low.set_bandwidth_cap(if phase.unloaded() { UNLOADED_BANDWIDTH_RAD_S } else { f32::INFINITY });
+            // The observer of a free UAV (vt_cfo::UNLOADED_BANDWIDTH_RAD_S) and of a lightly
+            // loaded one (`loaded_cap_rad_s`): one comparison while the phase keeps its cable
+            // loaded or unloaded.
+            self.low.set_bandwidth_cap(if phase.unloaded() { UNLOADED_BANDWIDTH_RAD_S } else { self.loaded_cap_rad_s });
             if phase == Phase::Released {
                 // The release (a delivery, a set-down, a refusal on the ground): land in place.
                 self.vel_cmd_mps = self.landing_command(tube, own.pos_m, view.get(..self.n).unwrap_or(&[]));
