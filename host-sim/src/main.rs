@@ -179,7 +179,8 @@ enum Cmd {
         /// The run's seed.
         seed: u64,
         /// Scenario or campaign whose gains, rates, link and disturbances are kept (default:
-        /// the built-in paper scenario); a campaign's first level.
+        /// the built-in paper scenario as written); over a campaign, its first level in its
+        /// world, so `run` of the file repeats the campaign's flight of SEED.
         #[arg(long)]
         base: Option<PathBuf>,
         /// Write it here (default: print it).
