@@ -356,8 +356,9 @@ impl Flight {
             heading: params.heading(),
             thrust_max_n: vl.limits().thrust_max_n(),
             hover_n: vl.hover_thrust_n(),
-            // The observer of a lightly loaded UAV: the declared load's share of each UAV's weight.
-            loaded_cap_rad_s: vt_cfo::loaded_bandwidth_cap(params.get(Param::LoadKg) / (n as f32 * params.get(Param::Mass)), vl.actuator_lag_s(), params.get(Param::CfoMu)),
+            // The observer of a lightly loaded UAV: the declared load's share of each UAV's
+            // weight, against the loop's own (validated) mass, lag and `mu`.
+            loaded_cap_rad_s: vt_cfo::loaded_bandwidth_cap(params.get(Param::LoadKg) / (n as f32 * vl.mass_kg()), vl.actuator_lag_s(), vl.cfo().bandwidth_rad_s()),
             hl_dt_s: params.high_level_dt_s(),
             ll_dt_s: params.low_level_dt_s(),
             low_per_high,
